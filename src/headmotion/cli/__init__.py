@@ -1,0 +1,43 @@
+"""Command-line interface: ``headmotion COMMAND ...`` (DESIGN.md "CLI")."""
+
+from __future__ import annotations
+
+import sys
+
+from ..errors import HeadMotionError
+from .app import app, err_console
+
+# each module attaches its commands to the app (imports are for their side effect)
+from . import io_cmds  # noqa: E402,F401  info, convert, features
+from . import corpus_cmds  # noqa: E402,F401  corpus check / import / from-video
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``headmotion`` console script."""
+    try:
+        app(args=argv, prog_name="headmotion", standalone_mode=False)
+    except HeadMotionError as exc:
+        err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        err_console.print("[bold red]interrupted[/]")
+        return 130
+    except SystemExit as exc:  # typer/click exits (e.g. --help)
+        return int(exc.code or 0)
+    except Exception as exc:  # click usage errors
+        import click
+
+        if isinstance(exc, click.exceptions.ClickException):
+            exc.show()
+            return exc.exit_code
+        if isinstance(exc, click.exceptions.Abort):
+            return 1
+        raise
+    return 0
+
+
+def run() -> None:
+    sys.exit(main())
+
+
+__all__ = ["app", "main", "run"]

@@ -1,0 +1,56 @@
+"""Write files atomically: to a temporary file beside the target, then rename.
+
+Used by every writer so that a failure half-way (bad input, a full disk, Ctrl-C) never leaves a
+half-written output file behind, and an existing file is replaced only by a complete one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+
+@contextlib.contextmanager
+def atomic_path(path, *, suffix: str | None = None):
+    """Yield a temporary path in the target's directory; rename it onto ``path`` on success.
+
+    The temporary file keeps the target's suffix (or ``suffix``) so that libraries choosing a
+    format by extension (soundfile, ffmpeg) still work.  On any exception it is deleted and the
+    target is left untouched.
+    """
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    sfx = target.suffix if suffix is None else suffix
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".part{sfx}", dir=target.parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        os.replace(tmp_path, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            tmp_path.unlink()
+        raise
+
+
+@contextlib.contextmanager
+def atomic_open(path, mode: str = "w", **kwargs):
+    """``open()`` a temporary file and rename it onto ``path`` when the block succeeds."""
+    with atomic_path(path) as tmp:
+        with open(tmp, mode, **kwargs) as fh:
+            yield fh
+
+
+def atomic_write_text(path, text: str, encoding: str = "utf-8") -> None:
+    with atomic_open(path, "w", encoding=encoding, newline="") as fh:
+        fh.write(text)
+
+
+def atomic_write_bytes(path, data: bytes) -> None:
+    with atomic_open(path, "wb") as fh:
+        fh.write(data)
+
+
+__all__ = ["atomic_path", "atomic_open", "atomic_write_text", "atomic_write_bytes"]

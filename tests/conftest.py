@@ -1,0 +1,35 @@
+"""Shared fixtures.
+
+``shared_data`` points at ``../shared/data`` (the real third-party files); tests that use it skip
+with a reason when it is absent, so the suite runs on any machine.  ``examples_dir`` holds the
+project's own small files, which are always present.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED_DATA = Path(os.environ.get("HEADMOTION_SHARED_DATA", ROOT.parent / "shared" / "data"))
+EXAMPLES = ROOT / "examples"
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    if not SHARED_DATA.is_dir():
+        pytest.skip(f"real data not available: {SHARED_DATA} is absent")
+    return SHARED_DATA
+
+
+@pytest.fixture(scope="session")
+def examples_dir() -> Path:
+    return EXAMPLES
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(12345)
