@@ -53,7 +53,7 @@ def _check_order(order: str) -> str:
 
 
 def _as_rotvec_array(rotvec) -> np.ndarray:
-    r = np.asarray(rotvec, dtype=np.float64)
+    r = np.array(rotvec, dtype=np.float64)  # a writable copy: scipy's Cython rejects read-only buffers
     if r.ndim == 1:
         r = r[None, :]
     if r.ndim != 2 or r.shape[1] != 3:
@@ -69,7 +69,7 @@ def rotvec_to_matrix(rotvec) -> np.ndarray:
 def matrix_to_rotvec(matrix) -> np.ndarray:
     """Rotation matrices ``(T, 3, 3)`` → rotation vectors ``(T, 3)``; the matrices are
     orthonormalised first (nearest rotation), so slightly noisy matrices are accepted."""
-    m = np.asarray(matrix, dtype=np.float64)
+    m = np.array(matrix, dtype=np.float64)
     if m.ndim == 2:
         m = m[None]
     if m.ndim != 3 or m.shape[1:] != (3, 3):
@@ -84,7 +84,7 @@ def rotvec_to_quat(rotvec, *, scalar_first: bool = True) -> np.ndarray:
 
 def quat_to_rotvec(quat, *, scalar_first: bool = True) -> np.ndarray:
     """Quaternions ``(T, 4)`` (``(w, x, y, z)`` by default) → rotation vectors ``(T, 3)``."""
-    q = np.asarray(quat, dtype=np.float64)
+    q = np.array(quat, dtype=np.float64)
     if q.ndim == 1:
         q = q[None]
     if q.ndim != 2 or q.shape[1] != 4:
@@ -104,7 +104,7 @@ def rotvec_to_euler(rotvec, order: str, *, degrees: bool = False) -> np.ndarray:
 
 def euler_to_rotvec(angles, order: str, *, degrees: bool = False) -> np.ndarray:
     """Euler angles ``(T, 3)`` about the axes in ``order`` → rotation vectors ``(T, 3)``."""
-    a = np.asarray(angles, dtype=np.float64)
+    a = np.array(angles, dtype=np.float64)
     if a.ndim == 1:
         a = a[None]
     if a.ndim != 2 or a.shape[1] != 3:

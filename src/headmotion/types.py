@@ -204,7 +204,7 @@ class Motion:
             rv = np.repeat(self.rotvec, n_new, axis=0)
             tr = None if self.translation is None else np.repeat(self.translation, n_new, axis=0)
         else:
-            rv = Slerp(t_old, Rotation.from_rotvec(self.rotvec))(t_new).as_rotvec()
+            rv = Slerp(t_old, Rotation.from_rotvec(np.array(self.rotvec)))(t_new).as_rotvec()
             tr = None
             if self.translation is not None:
                 tr = np.stack([np.interp(t_new, t_old, self.translation[:, k]) for k in range(3)], 1)

@@ -8,8 +8,31 @@ from ..errors import HeadMotionError
 from .app import app, err_console
 
 # each module attaches its commands to the app (imports are for their side effect)
-from . import io_cmds  # noqa: E402,F401  info, convert, features
-from . import corpus_cmds  # noqa: E402,F401  corpus check / import / from-video
+_COMMAND_MODULES = (
+    "io_cmds",         # info, convert
+    "features_cmds",   # features
+    "corpus_cmds",     # corpus check / import
+    "video_cmds",      # corpus from-video
+    "synth_cmds",      # train, synth, stream
+    "templates_cmds",  # templates encode-error / analyse
+    "eval_cmds",       # evaluate, stats
+    "render_cmds",     # render, view, plot
+    "listen_cmds",     # listen serve / analyze
+)
+
+
+def _attach_commands() -> None:
+    import importlib
+
+    for name in _COMMAND_MODULES:
+        try:
+            importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:  # during development a module may not exist yet
+            if exc.name != f"{__name__}.{name}":
+                raise
+
+
+_attach_commands()
 
 
 def main(argv: list[str] | None = None) -> int:

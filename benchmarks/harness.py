@@ -1,0 +1,98 @@
+"""Measurement helpers for ``benchmarks/run.py``: machine description, warm-up + median timing,
+peak memory of a child process, and the result table.
+
+Figures are ratios to real time (audio seconds ÷ compute seconds) wherever a duration of speech
+is involved, so that they compare across machines (issue 9).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Callable
+
+
+def machine() -> dict:
+    model = platform.processor() or "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"cores": os.cpu_count(), "cpu": model, "python": platform.python_version(),
+            "platform": platform.platform()}
+
+
+def time_median(fn: Callable[[], object], *, repeats: int = 3, warmup: int = 1) -> float:
+    """Median wall time of ``fn()`` in seconds after ``warmup`` untimed calls."""
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def peak_rss_of(code: str, *, timeout: float = 1800) -> tuple[float, str]:
+    """Run ``code`` in a fresh Python process; return (peak RSS in MB, its stdout)."""
+    wrapper = (
+        "import resource, sys\n"
+        f"exec(compile({code!r}, '<bench>', 'exec'))\n"
+        "print('__RSS__', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", wrapper], capture_output=True, text=True, timeout=timeout)
+    if out.returncode != 0:
+        raise RuntimeError(f"benchmark child failed:\n{out.stderr[-2000:]}")
+    rss = float(next(l for l in out.stdout.splitlines() if l.startswith("__RSS__")).split()[1])
+    return rss, out.stdout
+
+
+@dataclass
+class Row:
+    group: str
+    what: str
+    figure: float | None
+    unit: str
+    target: str = ""
+    passed: bool | None = None
+    note: str = ""
+
+    def cells(self) -> list[str]:
+        fig = "n/a" if self.figure is None else (f"{self.figure:,.1f}" if abs(self.figure) >= 10 else f"{self.figure:.3g}")
+        ok = {True: "PASS", False: "FAIL", None: "-"}[self.passed]
+        return [self.group, self.what, f"{fig} {self.unit}".strip(), self.target, ok, self.note]
+
+
+@dataclass
+class Results:
+    machine: dict = field(default_factory=machine)
+    rows: list[Row] = field(default_factory=list)
+
+    def add(self, row: Row) -> Row:
+        self.rows.append(row)
+        print("  " + " | ".join(row.cells()), flush=True)
+        return row
+
+    def table(self) -> str:
+        head = ["#", "measured", "figure", "target", "result", "note"]
+        body = [r.cells() for r in self.rows]
+        widths = [max(len(str(x)) for x in col) for col in zip(head, *body)]
+        fmt = lambda cells: "| " + " | ".join(str(c).ljust(w) for c, w in zip(cells, widths)) + " |"
+        lines = [f"machine: {self.machine['cores']} cores, {self.machine['cpu']}, Python {self.machine['python']}",
+                 fmt(head), "|" + "|".join("-" * (w + 2) for w in widths) + "|"]
+        lines += [fmt(c) for c in body]
+        return "\n".join(lines)
+
+    def save(self, path) -> None:
+        Path(path).write_text(json.dumps({"machine": self.machine, "rows": [asdict(r) for r in self.rows]}, indent=2))

@@ -1,0 +1,91 @@
+"""``headmotion evaluate`` and ``headmotion stats`` (thesis §4.3, §5.9, §3.5; paper §4.3).
+
+Thin wrappers over :func:`headmotion.evaluation.protocols.evaluate` / :mod:`.report` and
+:func:`headmotion.evaluation.corpus_stats.corpus_stats`; the heavy modules are imported inside
+the commands.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import ParameterError
+from .app import app, console, progress_bar
+
+
+@app.command("evaluate")
+def evaluate_cmd(
+    corpus_dir: Path = typer.Argument(..., help="corpus directory (with corpus.csv)"),
+    systems: str = typer.Option(..., "--systems", "-s",
+                                help="comma-separated systems and anchors, e.g. tws-hier,tws-basic,shaped-noise,desync"),
+    output: Path = typer.Option(..., "-o", "--output", help="report directory (metrics.csv, report.md, figures/)"),
+    protocol: str = typer.Option("loo", "--protocol", help="loo (leave one recording out, thesis §5.9) or split (paper §4.1)"),
+    features: str = typer.Option("f0e", "--features", help="feature set for Forced CCA"),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786"),
+    jobs: int = typer.Option(1, "--jobs", "-j", help="folds in parallel on this machine (-1 = all cores)"),
+    seed: int = typer.Option(0, "--seed", help="seed of everything random (same seed, same report)"),
+    shifts: int = typer.Option(200, "--shifts", help="circular shifts per chance level"),
+    window: float = typer.Option(3.0, "--window", help="local CCA window in seconds (3 s = 300 frames at 100 fps)"),
+    speaker: Optional[str] = typer.Option(None, "--speaker", help="evaluate only this speaker"),
+    feature_table: Optional[str] = typer.Option(
+        None, "--feature-table", help="comma-separated feature sets for the paper Table 1 (default: all; 'none' to skip)"),
+    no_figures: bool = typer.Option(False, "--no-figures", help="skip the PNG figures"),
+):
+    """Cross-validate systems on a corpus and write metrics.csv, report.md and figures."""
+    from ..corpus import Corpus
+    from ..evaluation.protocols import evaluate
+    from ..evaluation.report import write_report
+
+    names = [s.strip() for s in systems.split(",") if s.strip()]
+    if not names:
+        raise ParameterError("--systems needs at least one system name")
+    if protocol not in ("loo", "split"):
+        raise ParameterError(f"--protocol must be loo or split; got {protocol!r}")
+    corpus = Corpus.load(corpus_dir)
+    if speaker:
+        corpus = corpus.filter(speaker=speaker)
+    fsets = None
+    if feature_table is not None:
+        fsets = [] if feature_table.strip().lower() == "none" else [f.strip() for f in feature_table.split(",") if f.strip()]
+    with progress_bar("evaluating") as update:
+        result = evaluate(corpus, names, protocol=protocol, features=features, n_jobs=jobs, scheduler=scheduler,
+                          seed=seed, n_shifts=shifts, window_s=window, feature_sets=fsets,
+                          progress=lambda done, total, desc: update(done, total=total, description=desc))
+    out = write_report(result, output, figures=not no_figures, title=f"headmotion evaluation of {corpus_dir}")
+    console.print(f"{len(result.recordings)} held-out recordings, {result.config['folds']} folds, "
+                  f"{result.timings.get('total_wall', 0):.1f} s")
+    for s in result.systems:
+        console.print(f"  {s:16s} NMSE {result.mean(s, 'nmse'):6.3f}  local CCA {result.mean(s, 'cca_local'):5.3f} "
+                      f"(chance {result.mean(s, 'cca_local_null_mean'):5.3f})  FCCA {result.mean(s, 'fcca'):5.3f} "
+                      f"(chance {result.mean(s, 'fcca_null_mean'):5.3f})", highlight=False, soft_wrap=True)
+    for w in result.warnings:
+        console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
+    console.print(f"wrote {out['report']} and {out['metrics']}")
+
+
+@app.command("stats")
+def stats_cmd(
+    corpus_dir: Path = typer.Argument(..., help="corpus directory (with corpus.csv)"),
+    output: Path = typer.Option(..., "-o", "--output", help="report directory (stats.md, CSVs, figures/)"),
+    jobs: int = typer.Option(1, "--jobs", "-j", help="recordings analysed in parallel (-1 = all cores)"),
+    no_speaking_rate: bool = typer.Option(False, "--no-speaking-rate", help="skip syllable-nuclei speaking rates"),
+    seed: int = typer.Option(0, "--seed", help="seed of the iterative MDS"),
+    no_figures: bool = typer.Option(False, "--no-figures", help="skip the PNG figures"),
+):
+    """Thesis §3.5 corpus statistics: lengths, speaking rate, distributions, cross-entropy distances, MDS."""
+    from ..corpus import Corpus
+    from ..evaluation.corpus_stats import corpus_stats, write_stats
+
+    corpus = Corpus.load(corpus_dir)
+    with progress_bar("statistics", total=len(corpus) + 1) as update:
+        st = corpus_stats(corpus, speaking_rate=not no_speaking_rate, n_jobs=jobs, seed=seed,
+                          progress=lambda done, total, desc: update(done, total=total, description=desc))
+    out = write_stats(st, output, figures=not no_figures)
+    rows = {p["condition"]: p for p in st.pairs}
+    console.print(f"{len(st.recordings)} recordings; MDS stress-1 {st.stress1:.3f}; within-speaker distance "
+                  f"{rows['Within speaker']['mean']:.3f} vs between speakers {rows['Between speakers']['mean']:.3f}",
+                  highlight=False, soft_wrap=True)
+    console.print(f"wrote {out['report']}")

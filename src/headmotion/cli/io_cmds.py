@@ -1,0 +1,144 @@
+"""``headmotion info FILE`` and ``headmotion convert IN OUT`` (issue 2 item 8, issue 7 exports).
+
+``info`` describes a motion file (format, frames, rate, duration, joints / markers, head-rotation
+SD per axis) or an audio/video file (decoder, rate, channels, duration) via
+:func:`headmotion.io.motion.motion_info` and :func:`headmotion.io.audio.audio_info`.
+``convert`` reads any motion format and writes BVH, CSV, JSON, NPZ or Live Link Face CSV.
+Built on typer + rich like the rest of the CLI (click alone was considered; typer is the
+project's choice); reader warnings (long gaps, marker fallbacks) are printed as one line each.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+
+from ..errors import ParameterError
+from .app import app, console, err_console
+
+AUDIO_EXT = {".wav", ".flac", ".ogg", ".mp3", ".mp4", ".mkv", ".mpg", ".m4a", ".aac", ".opus", ".webm", ".aiff", ".aif"}
+
+
+def _audio_info(path: Path) -> dict:
+    try:
+        from ..io.audio import audio_info
+    except ImportError:
+        try:
+            import soundfile as sf
+        except ImportError:
+            raise ParameterError(f"{path}: audio support is not available in this installation") from None
+        i = sf.info(str(path))
+        return {"path": str(path), "decoder": "soundfile", "sample_rate": i.samplerate,
+                "channels": i.channels, "duration": i.duration, "format": f"{i.format} {i.subtype}"}
+    return audio_info(path)
+
+
+def _fmt_list(xs, limit=12) -> str:
+    xs = list(xs)
+    s = ", ".join(map(str, xs[:limit]))
+    return s + (f", … ({len(xs)} in all)" if len(xs) > limit else "")
+
+
+@app.command("info")
+def info(
+    file: Path = typer.Argument(..., help="a motion file (bvh, csv, json, npz, c3d) or an audio/video file"),
+    as_json: bool = typer.Option(False, "--json", help="print the information as JSON"),
+):
+    """What a motion or audio file holds: format, duration, rate, joints/markers, frames."""
+    if file.suffix.lower() in AUDIO_EXT:
+        d = _audio_info(file)
+        d = {"kind": "audio", **d}
+    else:
+        from ..io.motion import motion_info
+
+        d = {"kind": "motion", **motion_info(file)}
+    if as_json:
+        console.print_json(json.dumps(d, default=str))
+        return
+    console.print(f"[bold]{file}[/]  ({d['kind']}, {d.get('format', '?')})", highlight=False)
+    if d["kind"] == "audio":
+        dur = d.get("duration")
+        console.print(f"  duration   {dur:.3f} s" if dur is not None else "  duration   unknown")
+        console.print(f"  rate       {d.get('sample_rate')} Hz, {d.get('channels')} channel(s), decoder {d.get('decoder')}")
+        return
+    console.print(f"  frames     {d.get('n_frames')}")
+    console.print(f"  rate       {d.get('fps'):g} frames/s")
+    console.print(f"  duration   {d.get('duration'):.3f} s")
+    if d.get("joints"):
+        console.print(f"  joints     {len(d['joints'])}: {_fmt_list(d['joints'])}", highlight=False)
+    if d.get("rigid_bodies"):
+        console.print(f"  rigid bodies {_fmt_list(d['rigid_bodies'])}", highlight=False)
+    if d.get("markers"):
+        console.print(f"  markers    {len(d['markers'])}: {_fmt_list(d['markers'])}", highlight=False)
+    for key, label in (("head_joint", "head joint"), ("head", "head body"), ("relative_to", "relative to"),
+                       ("fallback", "note"), ("layout", "layout"), ("head_motion", "head motion")):
+        if d.get(key):
+            console.print(f"  {label:<10} {d[key]}", highlight=False)
+    if d.get("sd_deg"):
+        s = d["sd_deg"]
+        console.print(f"  SD (deg)   pitch {s['pitch']:.2f}  yaw {s['yaw']:.2f}  roll {s['roll']:.2f}")
+    if d.get("gaps"):
+        console.print(f"  gaps       {d['gaps']['filled_frames']} frames filled, {d['gaps']['long_gaps']} long gap(s)")
+
+
+def _parse_options(opts: list[str] | None) -> dict:
+    out = {}
+    for o in opts or []:
+        if "=" not in o:
+            raise ParameterError(f"--option must be KEY=VALUE; got {o!r}")
+        k, v = o.split("=", 1)
+        if "," in v:
+            out[k] = [x.strip() for x in v.split(",") if x.strip()]
+        else:
+            try:
+                out[k] = float(v) if any(c in v for c in ".e") else int(v)
+            except ValueError:
+                out[k] = v
+    return out
+
+
+@app.command("convert")
+def convert(
+    src: Path = typer.Argument(..., help="input motion file (bvh, csv, json, npz, c3d, Motive/OpenFace/Live Link csv)"),
+    dst: Path = typer.Argument(..., help="output file (.bvh, .csv, .json, .npz)"),
+    fmt: Optional[str] = typer.Option(None, "--format", "-f",
+                                      help="output format: bvh, csv, json, npz, livelink (default: from the extension)"),
+    in_format: Optional[str] = typer.Option(None, "--in-format", help="input format (default: detected)"),
+    degrees: bool = typer.Option(False, "--degrees", help="CSV/JSON: write degrees instead of radians"),
+    euler_order: Optional[str] = typer.Option(
+        None, "--euler-order",
+        help="CSV/JSON: write Euler angles in this order (e.g. YXZ) instead of rotation vectors; "
+             "BVH: channel order ZXY (default) or YXZ"),
+    fps: Optional[float] = typer.Option(None, "--fps", help="resample to this frame rate"),
+    option: Optional[List[str]] = typer.Option(None, "--option",
+                                               help="reader option KEY=VALUE (e.g. head=Head, head_markers=A,B,C)"),
+):
+    """Convert head motion between formats (BVH, CSV, JSON, NPZ, Live Link Face CSV)."""
+    import warnings
+
+    from ..io.motion import load_motion, save_motion
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        motion = load_motion(src, format=in_format, **_parse_options(option))
+    for w in caught:
+        err_console.print(f"[yellow]warning:[/] {w.message}", highlight=False, soft_wrap=True)
+    if fps is not None:
+        motion = motion.resample(fps)
+    out_fmt = (fmt or dst.suffix.lstrip(".")).lower()
+    opts: dict = {}
+    if out_fmt == "bvh":
+        if degrees:
+            raise ParameterError("--degrees does not apply to BVH (BVH angles are always degrees)")
+        if euler_order:
+            opts["channel_order"] = euler_order
+    elif out_fmt in ("csv", "json"):
+        opts = {"degrees": degrees, "euler_order": euler_order}
+    elif degrees or euler_order:
+        raise ParameterError(f"--degrees/--euler-order do not apply to the {out_fmt} format")
+    save_motion(motion, dst, format=fmt, **opts)
+    console.print(f"wrote {dst}: {len(motion)} frames at {motion.fps:g} fps ({motion.duration:.2f} s)",
+                  highlight=False)

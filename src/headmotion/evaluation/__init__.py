@@ -1,0 +1,28 @@
+"""Objective evaluation (thesis §4.3, ch. 3 statistics; paper §4.3).
+
+* :mod:`.metrics` — the one implementation of every metric (NMSE, global/local CCA, Forced CCA,
+  SD, jerk/acceleration, distribution statistics).
+* :mod:`.chance` — chance levels of CCA-type scores by circular shifts; the paper's chance score.
+* :mod:`.protocols` — cross-validation (leave-one-recording-out, the paper split) of systems.
+* :mod:`.report`, :mod:`.figures` — metrics.csv, report.md and PNG figures in the seeds' layouts.
+* :mod:`.corpus_stats` — thesis §3.5 dataset statistics (lengths, speaking rate, cross-entropy
+  distance, MDS, speaker/task dependency).
+
+Only :mod:`.metrics` is imported here; the rest is imported on use.
+"""
+
+from .metrics import (  # noqa: F401
+    CCAFit,
+    NMSE,
+    SDStats,
+    cca,
+    cca_fit,
+    deltas,
+    distribution_stats,
+    fcca,
+    global_cca,
+    jerk_accel,
+    local_cca,
+    nmse,
+    sd_stats,
+)

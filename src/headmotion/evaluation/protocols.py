@@ -1,0 +1,508 @@
+"""Cross-validation of synthesis systems: train per fold, synthesise held-out speech, score
+(thesis §5.9 leave-one-recording-out; paper §4.1 train / valid / test split, §4.3 metrics).
+
+:func:`evaluate` builds speaker-dependent folds, fits every system on the fold's training
+recordings, synthesises each held-out recording from its audio and scores the result against the
+recorded motion with :mod:`.metrics`, each CCA-type score with its circular-shift chance level
+from :mod:`.chance`.  It returns an :class:`EvaluationResult` whose ``rows`` are
+``{system, recording, metric, value}`` — what :mod:`.report` writes as ``metrics.csv``.
+
+Protocols
+---------
+``"loo"`` (thesis §5.9)
+    One fold per recording: the model is trained on the same speaker's other recordings.
+``"split"`` (paper §4.1)
+    One fold per speaker: train on ``train`` (and ``valid``, labelled, for systems that stop
+    early), test on ``test``; the split comes from the manifest or
+    :func:`headmotion.corpus.paper_split`.
+
+Conditions
+----------
+``ground-truth`` is the held-out recording's own motion (scored against itself: NMSE 0, and the
+reference values of FCCA, SD, jerk).  Other anchors (``desync``, ``other-speaker``,
+``shaped-noise``, ``still``; :mod:`headmotion.systems.anchors`) are fitted on the fold's training
+recordings like systems and make their motion with ``predict_for(recording, seed=)`` (a system
+without that method gets ``predict(audio, seed=)``); an anchor that needs *other* speakers' motion
+(class attribute ``training_data = "other-speakers"``, or the name ``other-speaker``) is fitted on
+the other speakers' recordings.
+
+Metrics per (system, recording) — names as in ``metrics.csv``
+--------------------------------------------------------------
+``nmse`` (+ ``nmse_rx|ry|rz``), ``cca_global`` and ``cca_local`` (predicted vs recorded motion,
+local over ``window_s`` = 3 s = 300 frames at 100 fps; paper Table 2), ``fcca`` and ``fcca_local`` (thesis eq 4.5
+with motion + Δ, since "in all cases we included the first derivative of the trajectory", §4.3.1;
+features = the ``features`` set), ``feat_cca_local`` (motion vs features), ``sd_rx..``,
+``sdvel_rx..`` (paper Fig 2, rad and rad/s), ``jerk``, ``accel``; every CCA-type score ``m`` also
+has ``m_null_mean``, ``m_null_p95``, ``m_p``, ``m_excess`` (score − null mean).  The ground truth
+additionally gets ``paper_chance`` (local CCA with another speaker's randomised motion),
+``featcca_local[<set>]`` for every feature set (paper Table 1), and per speaker the local/global
+CCA against window size (thesis Fig 4.8) as ``winlocal[<s>s]`` / ``winglobal[<s>s]``
+(recording ``speaker:<name>``).  A system with an ``embed(audio)`` method (CCCAE, AE) adds
+``embed_cca_local`` — its embedding's local CCA with the recorded motion (paper Table 1 Wav_AE /
+Wav_CCCAE rows).
+
+Parallelism and determinism
+---------------------------
+Folds run in parallel with joblib (``n_jobs``), or on a Dask cluster when ``scheduler`` is a
+scheduler address (``tcp://host:8786``) or a ``distributed.Client``.  Every random choice is
+seeded from ``(seed, recording, system)``, so a re-run, any ``n_jobs`` and Dask give identical
+numbers.
+
+Libraries considered: scikit-learn's ``cross_validate`` (estimators on arrays, no notion of
+recordings, speakers or time series) and ``LeaveOneGroupOut`` (the splits are one line here);
+joblib and dask.distributed run the folds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import time
+import zlib
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from ..corpus import Corpus, leave_one_out, paper_split
+from ..errors import LengthMismatchError, ParameterError
+from ..types import FeatureTrack, Motion
+from . import chance as C
+from . import metrics as M
+
+GROUND_TRUTH = "ground-truth"
+#: local CCA window (paper §4.3: 300 frames = 3 s at 100 fps)
+DEFAULT_WINDOW_S = 3.0
+#: window sizes (s) of thesis Fig 4.8 (2 s to 100 s)
+FIG48_WINDOWS_S = (2, 3, 5, 10, 15, 20, 30, 50, 75, 100)
+AXES = ("rx", "ry", "rz")
+
+
+# -- configuration ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FoldTask:
+    """Everything one fold needs (picklable: shipped to joblib / Dask workers)."""
+
+    fold: str
+    train: Corpus
+    test: Corpus
+    others: Corpus | None
+    systems: tuple
+    features: Any
+    seed: int
+    window_s: float
+    n_shifts: int
+    feature_sets: tuple
+    trajectory_recording: str | None
+    fig48: bool
+
+
+@dataclass
+class EvaluationResult:
+    """Rows ``{system, recording, metric, value}`` plus what the figures need."""
+
+    rows: list[dict]
+    config: dict
+    systems: list[str]
+    recordings: list[str]
+    trajectories: dict[str, np.ndarray] = field(default_factory=dict)
+    trajectory_recording: str | None = None
+    trajectory_fps: float = 100.0
+    timings: dict = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    speakers: dict[str, str] = field(default_factory=dict)
+
+    def values(self, system: str, metric: str) -> np.ndarray:
+        """All values of ``metric`` for ``system`` over recordings (NaNs kept)."""
+        return np.array([r["value"] for r in self.rows if r["system"] == system and r["metric"] == metric],
+                        dtype=float)
+
+    def mean(self, system: str, metric: str) -> float:
+        v = self.values(system, metric)
+        v = v[np.isfinite(v)]
+        return float(np.mean(v)) if len(v) else float("nan")
+
+    def metrics(self) -> list[str]:
+        seen: dict[str, None] = {}
+        for r in self.rows:
+            seen.setdefault(r["metric"], None)
+        return list(seen)
+
+
+def _sub_seed(*parts) -> int:
+    """A 32-bit seed from the global seed and names (stable across processes, unlike hash())."""
+    ints = [p if isinstance(p, int) else zlib.crc32(str(p).encode()) for p in parts]
+    return int(np.random.SeedSequence(ints).generate_state(1)[0])
+
+
+def _system_spec(s) -> tuple[str, Any]:
+    if isinstance(s, str):
+        return s, None
+    if isinstance(s, tuple) and len(s) == 2 and isinstance(s[0], str):
+        return s[0], s[1]
+    raise ParameterError(f"a system must be a registry name or a (name, factory) pair; got {s!r}")
+
+
+def _make_system(name: str, factory, seed: int):
+    from ..systems.base import create, system_class
+
+    if factory is None:
+        cls = system_class(name)
+        factory = cls
+    else:
+        cls = factory
+    params = {}
+    try:
+        sig = inspect.signature(factory)
+        for key in ("random_state", "seed"):
+            if key in sig.parameters:
+                params[key] = seed
+    except (TypeError, ValueError):
+        pass
+    return factory(**params), cls
+
+
+def _needs_other_speakers(name: str, cls) -> bool:
+    return getattr(cls, "training_data", None) == "other-speakers" or name == "other-speaker"
+
+
+def _extract(features, audio, fps: float, n_frames: int) -> FeatureTrack | np.ndarray:
+    if callable(features):
+        return features(audio, fps=fps, n_frames=n_frames)
+    from .. import features as F
+
+    return F.extract(features, audio, fps=fps, n_frames=n_frames)
+
+
+def _conform(pred: Motion, ref: Motion, system: str, rec_id: str) -> np.ndarray:
+    """The prediction as ``(T_ref, 3)`` at the reference rate (resampled, trimmed / edge-padded
+    within one frame + 50 ms)."""
+    if not isinstance(pred, Motion):
+        raise ParameterError(f"system {system!r} returned {type(pred).__name__}, expected a Motion")
+    if abs(pred.fps - ref.fps) > 1e-6:
+        pred = pred.resample(ref.fps)
+    a = pred.rotvec
+    T = len(ref)
+    tol = 1 + 0.05 * ref.fps
+    if abs(len(a) - T) > tol:
+        raise LengthMismatchError(
+            f"system {system!r} made {len(a)} frames for recording {rec_id!r}, whose motion has {T} "
+            f"(tolerance {tol:g} frames)")
+    if len(a) >= T:
+        return np.asarray(a[:T])
+    return np.vstack([a, np.repeat(a[-1:], T - len(a), axis=0)])
+
+
+# -- scoring ---------------------------------------------------------------------------------------
+def score_recording(ref: Motion, pred: np.ndarray, feats, *, window_s: float = DEFAULT_WINDOW_S,
+                    n_shifts: int = C.DEFAULT_SHIFTS, seed: int = 0) -> dict[str, float]:
+    """All per-recording metrics of one prediction (names in the module docstring).
+
+    Parameters
+    ----------
+    ref : Motion — recorded motion (T frames)
+    pred : array (T, 3) — predicted rotation vectors at ``ref.fps``
+    feats : array (T, D) | FeatureTrack — speech features of the recording's audio
+    window_s : float — local CCA window in seconds (3 s = the paper's 300 frames at 100 fps)
+    """
+    fps = float(ref.fps)
+    x = np.asarray(ref.rotvec, dtype=float)
+    p = np.asarray(pred, dtype=float)
+    f, _ = M.as_array(feats, name="features")
+    n = min(len(x), len(p), len(f))
+    x, p, f = x[:n], p[:n], f[:n]
+    out: dict[str, float] = {}
+    nm = M.nmse(x, p)
+    out["nmse"] = nm.mean
+    for ax, v in zip(AXES, nm.per_axis):
+        out[f"nmse_{ax}"] = float(v)
+    w = max(3, min(int(round(window_s * fps)), n))
+    ss = np.random.SeedSequence(seed).generate_state(4)
+    r = C.global_cca_null(p, x, n_shifts=n_shifts, seed=int(ss[0]))
+    out["cca_global"] = r.score
+    out.update(r.as_dict("cca_global_"))
+    r = C.local_cca_null(p, x, window=w, n_shifts=n_shifts, seed=int(ss[1]))
+    out["cca_local"] = r.score
+    out.update(r.as_dict("cca_local_"))
+    xd = np.hstack([x, M.deltas(x)])
+    pd = np.hstack([p, M.deltas(p)])
+    r = C.fcca_null(xd, f, pd, n_shifts=n_shifts, seed=int(ss[2]))
+    out["fcca"] = r.score
+    out.update(r.as_dict("fcca_"))
+    r = C.fcca_null(xd, f, pd, window=w, n_shifts=n_shifts, seed=int(ss[3]))
+    out["fcca_local"] = r.score
+    out.update(r.as_dict("fcca_local_"))
+    out["feat_cca_local"] = M.local_cca(p, f, window=w)
+    sd = M.sd_stats(p, fps=fps)
+    for ax, v, dv in zip(AXES, sd.sd, sd.sd_velocity):
+        out[f"sd_{ax}"] = float(v)
+        out[f"sdvel_{ax}"] = float(dv)
+    if n >= 4:
+        out["jerk"], out["accel"] = M.jerk_accel(p, fps=fps)
+    return out
+
+
+def _rows(system: str, recording: str, values: dict[str, float]) -> list[dict]:
+    return [{"system": system, "recording": recording, "metric": k, "value": float(v)} for k, v in values.items()]
+
+
+def run_fold(task: FoldTask) -> dict:
+    """Fit every system on ``task.train``, synthesise and score ``task.test``.
+
+    Returns ``{"rows", "trajectories", "gt" (recording → (motion, features, speaker)), "timings",
+    "warnings"}``."""
+    rows: list[dict] = []
+    traj: dict[str, np.ndarray] = {}
+    timings: dict[str, float] = {}
+    warns: list[str] = []
+    tests = list(task.test)
+    feats = {}
+    t0 = time.perf_counter()
+    for rec in tests:
+        feats[rec.id] = _extract(task.features, rec.audio, float(rec.motion.fps), len(rec.motion))
+    timings["features"] = time.perf_counter() - t0
+    gt_out = {}
+    for rec in tests:
+        rseed = _sub_seed(task.seed, rec.id, GROUND_TRUTH)
+        win = max(3, min(int(round(task.window_s * rec.motion.fps)), len(rec.motion)))
+        vals = score_recording(rec.motion, rec.motion.rotvec, feats[rec.id], window_s=task.window_s,
+                               n_shifts=task.n_shifts, seed=rseed)
+        if task.others is not None and len(task.others):
+            vals["paper_chance"] = C.paper_chance_score(rec.motion, [o.motion for o in task.others],
+                                                         window=win, seed=rseed)
+        for fs in task.feature_sets:
+            try:
+                ft = _extract(fs, rec.audio, float(rec.motion.fps), len(rec.motion))
+                vals[f"featcca_local[{fs}]"] = M.local_cca(rec.motion, ft, window=win)
+            except Exception as exc:  # a feature set that fails must not sink the evaluation
+                warns.append(f"feature set {fs!r} on {rec.id}: {type(exc).__name__}: {exc}")
+        rows += _rows(GROUND_TRUTH, rec.id, vals)
+        gt_out[rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats[rec.id])[0], dtype=np.float32),
+                          rec.speaker, float(rec.motion.fps))
+        if rec.id == task.trajectory_recording:
+            traj[GROUND_TRUTH] = np.asarray(rec.motion.rotvec)
+    for spec in task.systems:
+        name, factory = _system_spec(spec)
+        if name == GROUND_TRUTH:
+            continue
+        model, cls = _make_system(name, factory, _sub_seed(task.seed, task.fold, name))
+        train = task.train
+        if _needs_other_speakers(name, cls):
+            if task.others is None or not len(task.others):
+                warns.append(f"{name}: no other speaker in the corpus; skipped for fold {task.fold}")
+                continue
+            train = task.others
+        t0 = time.perf_counter()
+        model.fit(train)
+        timings[f"fit:{name}"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        for rec in tests:
+            rseed = _sub_seed(task.seed, rec.id, name)
+            if hasattr(model, "predict_for"):  # anchors build their motion from the recording itself
+                made = model.predict_for(rec, seed=rseed)
+            else:
+                made = model.predict(rec.audio, seed=rseed)
+            pred = _conform(made, rec.motion, name, rec.id)
+            vals = score_recording(rec.motion, pred, feats[rec.id], window_s=task.window_s, n_shifts=task.n_shifts,
+                                   seed=rseed)
+            if hasattr(model, "embed"):
+                try:
+                    emb = model.embed(rec.audio)
+                    e, _ = M.as_array(emb)
+                    e = e[: len(rec.motion)]
+                    vals["embed_cca_local"] = M.local_cca(rec.motion.rotvec[: len(e)], e,
+                                                          window=max(3, min(int(round(task.window_s * rec.motion.fps)), len(e))))
+                except Exception as exc:
+                    warns.append(f"{name}.embed on {rec.id}: {type(exc).__name__}: {exc}")
+            rows += _rows(name, rec.id, vals)
+            if rec.id == task.trajectory_recording:
+                traj[name] = pred
+        timings[f"predict+score:{name}"] = time.perf_counter() - t0
+    return {"rows": rows, "trajectories": traj, "gt": gt_out, "timings": timings, "warnings": warns}
+
+
+# -- folds -------------------------------------------------------------------------------------
+def _with_split(corpus: Corpus, idx: Sequence[int], split: dict[str, str]) -> Corpus:
+    """Subset of ``corpus`` whose recordings carry the given split labels."""
+    if corpus.root is not None:
+        entries = [dataclasses.replace(corpus.entries[i], split=split.get(corpus.entries[i].recording)) for i in idx]
+        return Corpus(root=corpus.root, entries=entries, sample_rate=corpus.sample_rate)
+    return Corpus([dataclasses.replace(corpus[i], split=split.get(corpus[i].id)) for i in idx],
+                  sample_rate=corpus.sample_rate)
+
+
+def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0) -> list[tuple[str, Corpus, Corpus, Corpus | None]]:
+    """``(fold name, train, test, other speakers)`` for ``protocol`` ``"loo"`` or ``"split"``."""
+    entries = corpus.entries
+    def others_of(spk):
+        idx = [i for i, e in enumerate(entries) if e.speaker != spk]
+        return corpus.subset(idx) if idx else None
+    folds = []
+    if protocol == "loo":
+        for rid, train, test in leave_one_out(corpus, per_speaker=True):
+            spk = test.entries[0].speaker
+            folds.append((rid, train, test, others_of(spk)))
+        if not folds:
+            raise ParameterError("leave-one-out needs a speaker with at least 2 recordings")
+    elif protocol == "split":
+        split = paper_split(corpus, seed=seed)
+        for spk in corpus.speakers:
+            tr = [i for i, e in enumerate(entries) if e.speaker == spk and split.get(e.recording) in ("train", "valid")]
+            te = [i for i, e in enumerate(entries) if e.speaker == spk and split.get(e.recording) == "test"]
+            if not tr or not te:
+                continue
+            folds.append((spk, _with_split(corpus, tr, split), _with_split(corpus, te, split), others_of(spk)))
+        if not folds:
+            raise ParameterError("the split protocol found no speaker with both train and test recordings")
+    else:
+        raise ParameterError(f"protocol must be 'loo' or 'split'; got {protocol!r}")
+    return folds
+
+
+def _fig48_rows(gt: dict, windows_s=FIG48_WINDOWS_S) -> list[dict]:
+    """Thesis Fig 4.8 per speaker: recordings concatenated, cut into windows of w seconds; local =
+    mean CCA over windows, global = CCA over the same windows concatenated."""
+    rows = []
+    by_spk: dict[str, list] = {}
+    for rid in sorted(gt):
+        x, f, spk, fps = gt[rid]
+        by_spk.setdefault(spk, []).append((x, f, fps))
+    for spk, items in by_spk.items():
+        fps = items[0][2]
+        items = [it for it in items if abs(it[2] - fps) < 1e-6]  # one frame rate per curve
+        X = np.vstack([np.hstack([x, M.deltas(x)]) for x, _, _ in items])
+        Fe = np.vstack([f for _, f, _ in items])
+        for ws in windows_s:
+            w = int(round(ws * fps))
+            nw = len(X) // w
+            if nw < 1:
+                continue
+            local = M.local_cca(X[: nw * w], Fe[: nw * w], window=w)
+            glob = M.cca(X[: nw * w], Fe[: nw * w])
+            rows += _rows(GROUND_TRUTH, f"speaker:{spk}", {f"winlocal[{ws}s]": local, f"winglobal[{ws}s]": glob,
+                                                           f"winn[{ws}s]": nw})
+    return rows
+
+
+def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", features="f0e", n_jobs: int = 1,
+             scheduler=None, seed: int = 0, window_s: float = DEFAULT_WINDOW_S, n_shifts: int = C.DEFAULT_SHIFTS,
+             feature_sets: Sequence[str] | None = None, trajectory_recording: str | None = None,
+             fig48: bool = True, progress: Callable | None = None) -> EvaluationResult:
+    """Cross-validate ``systems`` on ``corpus`` (see the module docstring).
+
+    Parameters
+    ----------
+    corpus : Corpus
+    systems : sequence of registry names (``"tws-hier"``, ``"shaped-noise"``, …) or
+        ``(name, factory)`` pairs where ``factory(**maybe_seed)`` returns a Synthesizer.
+        ``"ground-truth"`` is always included.
+    protocol : ``"loo"`` | ``"split"``
+    features : str | callable — the feature set used by FCCA (``f0e`` as in the thesis' choice of
+        F0 + energy) or ``callable(audio, fps=, n_frames=) -> FeatureTrack``.
+    n_jobs : int — parallel folds with joblib (``-1`` = all cores); ignored with ``scheduler``.
+    scheduler : str | distributed.Client | None — run the folds on a Dask cluster.
+    seed : int — everything random derives from it.
+    window_s : float — local CCA window in seconds (3 s: the paper's 300 frames at 100 fps, §4.3;
+        in seconds so that clips at 25 or 30 fps get the same time span).
+    n_shifts : int — circular shifts per chance level (≥ 200 recommended).
+    feature_sets : feature sets for paper Table 1 (default: every registered set; ``[]`` = none).
+    trajectory_recording : recording whose trajectories are kept for the figure (default: first
+        held-out recording).
+    progress : callable ``(done, total, description)``, optional.
+    """
+    t_start = time.perf_counter()
+    specs = [_system_spec(s) for s in systems]
+    names = [n for n, _ in specs]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ParameterError(f"systems listed twice: {dup}")
+    for n, fac in specs:
+        if fac is None and n != GROUND_TRUTH:
+            from ..systems.base import system_class
+
+            system_class(n)  # unknown names fail now, not in a worker
+    specs = [s for s in specs if s[0] != GROUND_TRUTH]
+    if feature_sets is None:
+        try:
+            from .. import features as F
+
+            feature_sets = tuple(F.available())
+        except ImportError:
+            feature_sets = ()
+    folds = make_folds(corpus, protocol, seed=seed)
+    if trajectory_recording is None:
+        trajectory_recording = folds[0][2].entries[0].recording
+    tasks = [FoldTask(fold=name, train=tr, test=te, others=ot, systems=tuple(specs), features=features, seed=int(seed),
+                      window_s=float(window_s), n_shifts=int(n_shifts), feature_sets=tuple(feature_sets),
+                      trajectory_recording=trajectory_recording, fig48=fig48)
+             for name, tr, te, ot in folds]
+    results = _run_tasks(tasks, n_jobs=n_jobs, scheduler=scheduler, progress=progress)
+    rows: list[dict] = []
+    traj: dict[str, np.ndarray] = {}
+    gt: dict = {}
+    timings: dict[str, float] = {}
+    warns: list[str] = []
+    for res in results:  # in fold order, whatever order they finished in
+        rows += res["rows"]
+        traj.update(res["trajectories"])
+        gt.update(res["gt"])
+        warns += res["warnings"]
+        for k, v in res["timings"].items():
+            timings[k] = timings.get(k, 0.0) + v
+    if fig48:
+        rows += _fig48_rows(gt)
+    recs = [rid for rid in corpus.ids if rid in gt]
+    fps = gt[trajectory_recording][3] if trajectory_recording in gt else 100.0
+    timings["total_wall"] = time.perf_counter() - t_start
+    config = {"protocol": protocol, "features": features if isinstance(features, str) else getattr(features, "__name__", "callable"),
+              "seed": seed, "window_s": window_s, "n_shifts": n_shifts, "systems": [GROUND_TRUTH] + [n for n, _ in specs],
+              "folds": len(tasks), "feature_sets": list(feature_sets)}
+    return EvaluationResult(rows=rows, config=config, systems=[GROUND_TRUTH] + [n for n, _ in specs], recordings=recs,
+                            trajectories=traj, trajectory_recording=trajectory_recording, trajectory_fps=fps,
+                            timings=timings, warnings=warns, speakers={rid: gt[rid][2] for rid in recs})
+
+
+def _run_tasks(tasks: list[FoldTask], *, n_jobs: int, scheduler, progress) -> list[dict]:
+    total = len(tasks)
+    if progress:
+        progress(0, total, f"{total} folds")
+    if scheduler is not None:
+        try:
+            from distributed import Client, as_completed
+        except ImportError as exc:
+            from ..errors import MissingDependencyError
+
+            raise MissingDependencyError("--scheduler needs dask.distributed: pip install 'dask[distributed]'") from exc
+        own = not isinstance(scheduler, Client)
+        client = Client(scheduler) if own else scheduler
+        try:
+            futures = client.map(run_fold, tasks, pure=False)
+            index = {f.key: i for i, f in enumerate(futures)}
+            out: list = [None] * total
+            for done, fut in enumerate(as_completed(futures), 1):
+                out[index[fut.key]] = fut.result()
+                if progress:
+                    progress(done, total, f"fold {tasks[index[fut.key]].fold}")
+            return out
+        finally:
+            if own:
+                client.close()
+    if n_jobs == 1 or total == 1:
+        out = []
+        for i, t in enumerate(tasks):
+            out.append(run_fold(t))
+            if progress:
+                progress(i + 1, total, f"fold {t.fold}")
+        return out
+    from joblib import Parallel, delayed
+
+    out = []
+    gen = Parallel(n_jobs=n_jobs, return_as="generator")(delayed(run_fold)(t) for t in tasks)
+    for i, res in enumerate(gen):
+        out.append(res)
+        if progress:
+            progress(i + 1, total, f"fold {tasks[i].fold}")
+    return out
+
+
+__all__ = ["evaluate", "EvaluationResult", "FoldTask", "make_folds", "run_fold", "score_recording", "GROUND_TRUTH"]

@@ -1,0 +1,220 @@
+"""metrics.csv and report.md in the seeds' table layouts (paper Tables 1–2, Fig 2; thesis Tables
+5.3 / 5.8, Fig 4.8).
+
+* ``metrics.csv`` — one row per system × recording × metric: ``system,recording,metric,value``
+  (the recorded motion is the system ``ground-truth``; per-speaker rows use the recording
+  ``speaker:<name>``).
+* ``report.md`` — mean ± SD over recordings:
+  paper Table 2 (NMSE and local CCA with the ground truth, per speaker, with the chance level),
+  thesis Tables 5.3 / 5.8 (mean Forced CCA per condition, with its chance level),
+  paper Table 1 (feature ↔ motion local CCA per feature set and speaker),
+  paper Fig 2 (SD of rotation and velocity) and jerk / acceleration,
+  the paper's chance score, and thesis Fig 4.8 (local vs global CCA against window size).
+* ``figures/*.png`` via :mod:`.figures`.
+
+Library considered: pandas (not a dependency; the tables are small and written by hand).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..io.atomic import atomic_write_text
+from .protocols import GROUND_TRUTH, EvaluationResult
+
+#: paper Table 1 display names of feature sets
+FEATURE_LABELS = {"f0e": "F0+Energy", "fbank": "FBank", "mfcc": "MFCC", "wav": "waveform", "lsp": "LSP",
+                  "lar": "LAR", "prosody": "Pitch+Loudness"}
+EMBED_LABELS = {"ae-dnn": "Wav_AE", "cccae": "Wav_CCCAE"}
+
+
+def write_metrics_csv(result: EvaluationResult, path) -> Path:
+    """``system,recording,metric,value`` — one row per system × recording × metric."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["system", "recording", "metric", "value"])
+    for r in result.rows:
+        w.writerow([r["system"], r["recording"], r["metric"], repr(float(r["value"]))])
+    atomic_write_text(Path(path), buf.getvalue())
+    return Path(path)
+
+
+def read_metrics_csv(path) -> list[dict]:
+    with open(path, newline="", encoding="utf-8") as fh:
+        return [{"system": r["system"], "recording": r["recording"], "metric": r["metric"], "value": float(r["value"])}
+                for r in csv.DictReader(fh)]
+
+
+def _vals(result: EvaluationResult, system: str, metric: str, recordings=None) -> np.ndarray:
+    v = [r["value"] for r in result.rows if r["system"] == system and r["metric"] == metric
+         and (recordings is None or r["recording"] in recordings)]
+    v = np.array(v, dtype=float)
+    return v[np.isfinite(v)]
+
+
+def _ms(v: np.ndarray, digits: int = 3) -> str:
+    if len(v) == 0:
+        return "–"
+    if len(v) == 1:
+        return f"{v[0]:.{digits}f}"
+    return f"{np.mean(v):.{digits}f} ± {np.std(v, ddof=1):.{digits}f}"
+
+
+def _m(v: np.ndarray, digits: int = 3) -> str:
+    return "–" if len(v) == 0 else f"{np.mean(v):.{digits}f}"
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(out) + "\n"
+
+
+def _speakers(result: EvaluationResult) -> dict[str, list[str]]:
+    by: dict[str, list[str]] = {}
+    for rid in result.recordings:
+        by.setdefault(result.speakers.get(rid, "?"), []).append(rid)
+    return by
+
+
+def render_report(result: EvaluationResult, *, title: str = "headmotion evaluation", figures: list[str] = ()) -> str:
+    """The Markdown report (see the module docstring)."""
+    cfg = result.config
+    systems = result.systems
+    spk = _speakers(result)
+    md = [f"# {title}\n"]
+    md.append(f"Protocol **{cfg.get('protocol')}** ({cfg.get('folds')} folds), FCCA features **{cfg.get('features')}**, "
+              f"local CCA window {cfg.get('window_s')} s, chance levels from {cfg.get('n_shifts')} circular shifts, "
+              f"seed {cfg.get('seed')}. {len(result.recordings)} held-out recordings of {len(spk)} speaker(s). "
+              f"Values are mean ± SD over held-out recordings. *chance* = mean of the score with the motion "
+              f"circularly shifted; *excess* = score − chance; *p<.05* = share of recordings whose score beats "
+              f"the shifted motion at p < 0.05.\n")
+
+    # paper Table 2
+    md.append("## Prediction vs ground truth (paper Table 2 layout)\n")
+    rows = []
+    for s in systems:
+        for sp, recs in spk.items():
+            p = _vals(result, s, "cca_local_p", recs)
+            rows.append([s, sp, _ms(_vals(result, s, "nmse", recs), 2), _ms(_vals(result, s, "cca_local", recs), 2),
+                         _m(_vals(result, s, "cca_local_null_mean", recs), 2),
+                         _ms(_vals(result, s, "cca_local_excess", recs), 2),
+                         "–" if len(p) == 0 else f"{np.mean(p < 0.05):.0%}",
+                         _ms(_vals(result, s, "cca_global", recs), 2)])
+    md.append(_table(["System", "Speaker", "NMSE", "local CCA", "chance", "excess", "p<.05", "global CCA"], rows))
+
+    # thesis Tables 5.3 / 5.8
+    md.append("\n## Forced CCA per condition (thesis Tables 5.3 / 5.8 layout)\n")
+    rows = []
+    for s in systems:
+        p = _vals(result, s, "fcca_p")
+        rows.append([s, _ms(_vals(result, s, "fcca")), _m(_vals(result, s, "fcca_null_mean")),
+                     _m(_vals(result, s, "fcca_null_p95")), _ms(_vals(result, s, "fcca_excess")),
+                     "–" if len(p) == 0 else f"{np.mean(p < 0.05):.0%}", _ms(_vals(result, s, "fcca_local")),
+                     _m(_vals(result, s, "fcca_local_null_mean"))])
+    md.append(_table(["Condition", "FCCA", "chance", "chance 95%", "excess", "p<.05", "local FCCA", "local chance"],
+                     rows))
+
+    # paper Table 1
+    feat_metrics = [m for m in result.metrics() if m.startswith("featcca_local[")]
+    embed = [s for s in systems if len(_vals(result, s, "embed_cca_local"))]
+    if feat_metrics or embed:
+        md.append("\n## Speech features vs recorded head motion, local CCA (paper Table 1 layout)\n")
+        rows = []
+        for m in feat_metrics:
+            fs = m[len("featcca_local["):-1]
+            for sp, recs in spk.items():
+                rows.append([FEATURE_LABELS.get(fs, fs), sp, _ms(_vals(result, GROUND_TRUTH, m, recs))])
+        for s in embed:
+            for sp, recs in spk.items():
+                rows.append([EMBED_LABELS.get(s, f"{s} embedding"), sp, _ms(_vals(result, s, "embed_cca_local", recs))])
+        md.append(_table(["Feature", "Speaker", "local CCA (held-out)"], rows))
+
+    # paper Fig 2 + GENEA jerk
+    md.append("\n## Amplitude and smoothness (paper Fig 2; GENEA jerk / acceleration)\n")
+    rows = []
+    for s in systems:
+        r = [s]
+        for ax in ("rx", "ry", "rz"):
+            r.append(_ms(np.degrees(_vals(result, s, f"sd_{ax}")), 2))
+        for ax in ("rx", "ry", "rz"):
+            r.append(_ms(np.degrees(_vals(result, s, f"sdvel_{ax}")), 1))
+        r.append(_ms(_vals(result, s, "accel"), 2))
+        r.append(_ms(_vals(result, s, "jerk"), 1))
+        rows.append(r)
+    md.append(_table(["System", "SD rx (°)", "SD ry (°)", "SD rz (°)", "SD Δrx (°/s)", "SD Δry (°/s)", "SD Δrz (°/s)",
+                      "accel (rad/s²)", "jerk (rad/s³)"], rows))
+
+    # paper chance score
+    pc = _vals(result, GROUND_TRUTH, "paper_chance")
+    md.append("\n## Chance scores\n")
+    if len(pc):
+        rows = [[sp, _ms(_vals(result, GROUND_TRUTH, "paper_chance", recs), 2),
+                 _m(_vals(result, GROUND_TRUTH, "cca_local_null_mean", recs), 2)] for sp, recs in spk.items()]
+        md.append("Paper §4.3.2: local CCA between the ground truth and another speaker's randomised motion; "
+                  "next to it the circular-shift chance level of local CCA with the speaker's own motion.\n\n")
+        md.append(_table(["Speaker", "paper chance score", "shift chance (own motion)"], rows))
+    else:
+        md.append("The paper's chance score needs a second speaker; this corpus has one. "
+                  "The circular-shift chance levels in the tables above replace it.\n")
+
+    # thesis Fig 4.8
+    wl = [m for m in result.metrics() if m.startswith("winlocal[")]
+    if wl:
+        md.append("\n## Local vs global CCA of speech features and head motion against window size (thesis Fig 4.8)\n")
+        sp_rows = sorted({r["recording"] for r in result.rows if r["metric"] in wl})
+        rows = []
+        for m in wl:
+            ws = m[len("winlocal["):-1]
+            r = [ws]
+            for sp in sp_rows:
+                r.append(_m(_vals(result, GROUND_TRUTH, m, [sp])))
+                r.append(_m(_vals(result, GROUND_TRUTH, f"winglobal[{ws}]", [sp])))
+                r.append(_m(_vals(result, GROUND_TRUTH, f"winn[{ws}]", [sp]), 0))
+            rows.append(r)
+        hdr = ["window"]
+        for sp in sp_rows:
+            name = sp.split(":", 1)[-1]
+            hdr += [f"{name} local", f"{name} global", f"{name} n"]
+        md.append(_table(hdr, rows))
+
+    if figures:
+        md.append("\n## Figures\n")
+        for f in figures:
+            md.append(f"![{Path(f).stem}]({f})\n")
+    if result.timings:
+        md.append("\n## Timings (s, summed over folds)\n")
+        md.append(_table(["step", "seconds"], [[k, f"{v:.1f}"] for k, v in sorted(result.timings.items())]))
+    if result.warnings:
+        md.append("\n## Warnings\n")
+        md += [f"- {w}\n" for w in result.warnings]
+    return "\n".join(md)
+
+
+def write_report(result: EvaluationResult, out_dir, *, figures: bool = True, title: str = "headmotion evaluation") -> dict:
+    """Write ``metrics.csv``, ``report.md``, ``config.json`` and the figures into ``out_dir``.
+
+    Returns ``{"metrics": path, "report": path, "figures": [paths]}``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    write_metrics_csv(result, out / "metrics.csv")
+    figs: list[Path] = []
+    if figures:
+        from .figures import evaluation_figures
+
+        figs = evaluation_figures(result, out / "figures")
+    rel = [f"figures/{p.name}" for p in figs]
+    atomic_write_text(out / "report.md", render_report(result, title=title, figures=rel))
+    cfg = dict(result.config)
+    cfg["timings"] = result.timings
+    cfg["recordings"] = result.recordings
+    atomic_write_text(out / "config.json", json.dumps(cfg, indent=2, default=str))
+    return {"metrics": out / "metrics.csv", "report": out / "report.md", "figures": figs}
+
+
+__all__ = ["write_metrics_csv", "read_metrics_csv", "render_report", "write_report"]

@@ -1,0 +1,664 @@
+"""Analysis of listening-test results (thesis §4.2.3.2, §4.2.4.2, §5.5.1, §5.9; paper §4.4).
+
+``headmotion listen analyze RESULTS -o REPORT_DIR`` writes a Markdown report and PNG figures:
+
+* exclusion of participants who rate everything the same (thesis §4.2.3.2: "the results of one
+  were excluded because they rated all videos the same"); for A/B: who always pick the same side;
+* rescaling of scores to [0, 1] per participant and per speaker (thesis §4.2.3.2), and per
+  participant only (Table 5.9 "rescaled for each subject");
+* windowed score differences between two conditions over presentation order, mean and standard
+  deviation over participants, one line per group (e.g. rendering style) (Figs 4.5–4.6), with key
+  statistics (Table 4.1) and score histograms (Fig 4.7);
+* MOS tables per participant group (Tables 4.4, 5.9) and Student's t-tests between groups on the
+  normalised scores (Table 4.3);
+* pairwise tests between systems: paired Student's t-tests and Wilcoxon signed-rank tests on
+  per-participant mean normalised scores (ratings) or two-sided binomial tests (A/B), with Holm's
+  step-down correction for multiple comparisons;
+* MUSHRA box plots of the raw 0–100 scores (paper Fig 3; line = median) and the standard
+  post-screening (hidden reference ≥ threshold in a fraction of items; reported, not enforced);
+* the A/B preference matrix (Table 5.4: % of times the row system was preferred to the column
+  system) with side balance and side bias.
+
+Libraries considered: pandas (not a dependency of the package; the tables here are small),
+statsmodels (``multipletests`` offers Holm, but it is a heavy dependency for five lines), pingouin
+(not installed).  Tests come from :mod:`scipy.stats`; Holm is implemented in :func:`holm`.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections import defaultdict
+from itertools import combinations
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import FormatError, ParameterError
+
+RATING_KINDS = ("mos", "mushra")
+
+
+# ---------------------------------------------------------------------------------------------
+# loading
+# ---------------------------------------------------------------------------------------------
+def load_results(path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Read results exported by the app: ``.json`` (admin download), ``.csv`` or the ``.sqlite``.
+
+    Returns
+    -------
+    test : dict
+        Test settings (type, hidden reference, anchor, screening, ...); partial for CSV.
+    rows : list of dict
+        One per stored answer, long format (participant, trial_index, phase, kind, item, speaker,
+        group, slot, condition, value, other, response_ms, demo_*).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FormatError("the results file does not exist", path=path)
+    suffix = path.suffix.lower()
+    if suffix == ".json":
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise FormatError(f"not a JSON results file: {exc}", path=path) from None
+        if not isinstance(doc, dict) or "answers" not in doc:
+            raise FormatError("expected the JSON written by /api/admin/results.json (with an "
+                              "'answers' list)", path=path)
+        return dict(doc.get("test") or {}), [dict(r) for r in doc["answers"]]
+    if suffix == ".csv":
+        with open(path, newline="", encoding="utf-8") as fh:
+            reader = csv.DictReader(fh)
+            need = {"participant", "trial_index", "kind", "condition", "value"}
+            if not need <= set(reader.fieldnames or ()):
+                raise FormatError(f"CSV results need the columns {sorted(need)}; got "
+                                  f"{reader.fieldnames}", path=path, line=1)
+            rows = []
+            for r in reader:
+                r = dict(r)
+                r["participant"] = int(r["participant"])
+                r["trial_index"] = int(r["trial_index"])
+                r["value"] = float(r["value"]) if r["value"] not in ("", None) else math.nan
+                r["response_ms"] = float(r["response_ms"]) if r.get("response_ms") else math.nan
+                rows.append(r)
+        return {}, rows
+    if suffix in (".sqlite", ".db", ".sqlite3"):
+        from .db import Database
+
+        db = Database(f"sqlite:///{path.resolve()}")
+        try:
+            test = db.get_meta("config", {}) or {}
+            return dict(test), db.answer_rows()
+        finally:
+            db.close()
+    raise FormatError(f"unknown results format {suffix!r}; expected .json, .csv or .sqlite",
+                      path=path)
+
+
+# ---------------------------------------------------------------------------------------------
+# statistics
+# ---------------------------------------------------------------------------------------------
+def holm(pvalues) -> np.ndarray:
+    """Holm's step-down adjusted p-values (family-wise error control), same order as given.
+
+    ``p_adj[(i)] = max_{j<=i} min(1, (m - j) * p_(j))`` for the sorted p-values ``p_(0) <= ...``.
+    """
+    p = np.asarray(pvalues, dtype=float)
+    m = p.size
+    if m == 0:
+        return p
+    order = np.argsort(p, kind="stable")
+    adj = np.minimum(1.0, (m - np.arange(m)) * p[order])
+    adj = np.maximum.accumulate(adj)
+    out = np.empty(m)
+    out[order] = adj
+    return out
+
+
+def rescale(rows: list[dict], *, by: tuple[str, ...], key: str = "value",
+            out: str = "norm") -> None:
+    """Rescale ``row[key]`` to [0, 1] within each group of ``by`` (in place, into ``row[out]``).
+
+    Thesis §4.2.3.2: "all the scores are scaled to be on the unit interval for each participant
+    individually ... the results from each speaker also have to be scaled separately".  A group
+    whose scores are all equal maps to 0.5."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for r in rows:
+        groups[tuple(r.get(b, "") for b in by)].append(r)
+    for g in groups.values():
+        v = np.array([r[key] for r in g], dtype=float)
+        lo, hi = np.nanmin(v), np.nanmax(v)
+        for r, x in zip(g, v):
+            r[out] = 0.5 if hi - lo <= 0 else float((x - lo) / (hi - lo))
+
+
+def constant_raters(rows: list[dict]) -> list[Any]:
+    """Participants whose (non-attention) ratings are all identical — or, in an A/B test, who
+    always chose the same side."""
+    by: dict[Any, set] = defaultdict(set)
+    count: dict[Any, int] = defaultdict(int)
+    for r in rows:
+        if r["kind"] == "attention":
+            continue
+        by[r["participant"]].add(r["slot"] if r["kind"] == "ab" else r["value"])
+        count[r["participant"]] += 1
+    return sorted(p for p, s in by.items() if len(s) == 1 and count[p] > 1)
+
+
+def windowed_differences(rows: list[dict], *, reference: str, compare: str, window: int = 10,
+                         value: str = "norm") -> dict[str, dict[str, np.ndarray]]:
+    """Mean score difference ``reference - compare`` in a sliding window over presentation order.
+
+    For each participant, trials are numbered in the order shown (training included: the point of
+    the figure is to see where training ends and boredom starts, thesis §4.2.3.2).  For a window
+    start ``s`` the participant's difference is mean(score of ``reference`` in trials
+    ``[s, s + window)``) − mean(score of ``compare`` there) when both occur.  Returned per group
+    (``row['group']``, '' = all): ``start`` (S,), ``mean`` (S,), ``std`` (S,), ``n`` (S,) over
+    participants.
+    """
+    by_group: dict[str, dict[Any, list[dict]]] = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        if r["kind"] in RATING_KINDS:
+            by_group[r.get("group") or ""][r["participant"]].append(r)
+    out = {}
+    for g, parts in sorted(by_group.items()):
+        diffs: list[np.ndarray] = []
+        n_pos = 0
+        for prs in parts.values():
+            order = {t: i for i, t in enumerate(sorted({r["trial_index"] for r in prs}))}
+            n_pos = max(n_pos, len(order))
+            pos = np.array([order[r["trial_index"]] for r in prs])
+            val = np.array([r[value] for r in prs], dtype=float)
+            cond = np.array([r["condition"] for r in prs])
+            n_starts = max(0, len(order) - window + 1)
+            d = np.full(max(n_pos, 1), np.nan)
+            for s in range(n_starts):
+                w = (pos >= s) & (pos < s + window)
+                a, b = val[w & (cond == reference)], val[w & (cond == compare)]
+                if a.size and b.size:
+                    d[s] = a.mean() - b.mean()
+            diffs.append(d)
+        n_starts = max(0, n_pos - window + 1)
+        if n_starts == 0:
+            continue
+        m = np.full((len(diffs), n_starts), np.nan)
+        for i, d in enumerate(diffs):
+            k = min(n_starts, d.size)
+            m[i, :k] = d[:k]
+        n = np.sum(np.isfinite(m), axis=0)
+        with np.errstate(invalid="ignore"), _quiet():
+            mean = np.nanmean(m, axis=0)
+            std = np.nanstd(m, axis=0)
+        out[g] = {"start": np.arange(n_starts), "mean": mean, "std": std, "n": n}
+    return out
+
+
+class _quiet:
+    def __enter__(self):
+        import warnings
+
+        self._w = warnings.catch_warnings()
+        self._w.__enter__()
+        warnings.simplefilter("ignore", RuntimeWarning)
+
+    def __exit__(self, *a):
+        self._w.__exit__(*a)
+
+
+def preference_matrix(rows: list[dict]) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """A/B preferences: ``wins[i, j]`` = times system i was chosen over j; ``n[i, j]`` = times the
+    pair was compared.  Systems are ordered by overall win rate (best first)."""
+    ab = [r for r in rows if r["kind"] == "ab"]
+    systems = sorted({r["condition"] for r in ab} | {r["other"] for r in ab})
+    idx = {s: i for i, s in enumerate(systems)}
+    wins = np.zeros((len(systems), len(systems)))
+    for r in ab:
+        wins[idx[r["condition"]], idx[r["other"]]] += 1
+    n = wins + wins.T
+    rate = wins.sum(1) / np.maximum(n.sum(1), 1)
+    order = np.argsort(-rate, kind="stable")
+    return [systems[i] for i in order], wins[np.ix_(order, order)], n[np.ix_(order, order)]
+
+
+def summarize(test: dict[str, Any], rows: list[dict[str, Any]], *, window: int = 10,
+              reference: str | None = None, compare: str | None = None,
+              include_training: bool = False) -> dict[str, Any]:
+    """All the numbers of the report (no files written).
+
+    Returns a dict with (depending on the test type) ``ranking`` (conditions, best first),
+    ``excluded``, ``mos_table``, ``group_ttests``, ``pairwise``, ``windowed``, ``mushra_screening``,
+    ``ab`` and ``attention``."""
+    from scipy import stats
+
+    if window < 1:
+        raise ParameterError(f"window must be a positive number of trials; got {window}")
+    res: dict[str, Any] = {"test": test, "warnings": []}
+    rows = [dict(r) for r in rows]
+    for r in rows:
+        r.setdefault("group", "")
+        r.setdefault("speaker", "")
+        r.setdefault("other", "")
+        r["value"] = float(r["value"]) if r.get("value") not in (None, "") else math.nan
+    attention = [r for r in rows if r["kind"] == "attention"]
+    if attention:
+        per: dict[Any, list[float]] = defaultdict(list)
+        for r in attention:
+            per[r["participant"]].append(r["value"])
+        res["attention"] = {p: float(np.mean(v)) for p, v in sorted(per.items())}
+    all_trials = [r for r in rows if r["kind"] != "attention"]
+    res["n_training_answers"] = sum(r.get("phase") == "training" for r in all_trials)
+    excluded = constant_raters([r for r in all_trials if r.get("phase") != "training"])
+    res["excluded"] = excluded
+    kept_all = [r for r in all_trials if r["participant"] not in set(excluded)]
+    data = kept_all if include_training else [r for r in kept_all if r.get("phase") != "training"]
+    res["participants"] = sorted({r["participant"] for r in all_trials})
+    res["n_participants_kept"] = len({r["participant"] for r in data})
+    demo_fields = sorted({k for r in rows for k in r if k.startswith("demo_")})
+    kinds = {r["kind"] for r in data}
+    if not data:
+        res["warnings"].append("no answers to analyse")
+        res["ranking"] = []
+        return res
+
+    if kinds & set(RATING_KINDS):
+        rated = [r for r in data if r["kind"] in RATING_KINDS]
+        rescale(rated, by=("participant", "speaker"), out="norm")
+        rescale(rated, by=("participant",), out="norm_p")
+        conds = sorted({r["condition"] for r in rated})
+        mean_norm = {c: float(np.mean([r["norm"] for r in rated if r["condition"] == c]))
+                     for c in conds}
+        ranking = sorted(conds, key=lambda c: -mean_norm[c])
+        res["ranking"] = ranking
+        res["kind"] = "mushra" if "mushra" in kinds else "mos"
+
+        def mean_of(sel, key):
+            return {c: _mean([r[key] for r in sel if r["condition"] == c]) for c in ranking}
+
+        table = []
+        for f in demo_fields:
+            for v in sorted({str(r.get(f)) for r in rated if r.get(f) not in (None, "")}):
+                sel = [r for r in rated if str(r.get(f)) == v]
+                table.append((f"{f[5:]} = {v}", len({r['participant'] for r in sel}),
+                              mean_of(sel, "value")))
+        n_all = len({r["participant"] for r in rated})
+        table.append(("Mean results", n_all, mean_of(rated, "value")))
+        table.append(("Mean normalised results (participant × speaker)", n_all,
+                      mean_of(rated, "norm")))
+        table.append(("Rescaled per participant", n_all, mean_of(rated, "norm_p")))
+        res["mos_table"] = table
+
+        # Student's t-tests between participant groups (Table 4.3), normalised scores
+        tt = []
+        for f in demo_fields:
+            values = sorted({str(r.get(f)) for r in rated if r.get(f) not in (None, "")})
+            for a, b in combinations(values, 2):
+                ps = {}
+                for c in ranking:
+                    xa = [r["norm"] for r in rated if str(r.get(f)) == a and r["condition"] == c]
+                    xb = [r["norm"] for r in rated if str(r.get(f)) == b and r["condition"] == c]
+                    if len(xa) >= 2 and len(xb) >= 2:
+                        ps[c] = float(stats.ttest_ind(xa, xb, equal_var=True).pvalue)
+                    else:
+                        ps[c] = math.nan
+                tt.append((f[5:], a, b, ps))
+        res["group_ttests"] = tt
+
+        # pairwise tests between systems on per-participant means, Holm-corrected
+        per_part: dict[Any, dict[str, float]] = defaultdict(dict)
+        for p in {r["participant"] for r in rated}:
+            for c in ranking:
+                v = [r["norm"] for r in rated if r["participant"] == p and r["condition"] == c]
+                if v:
+                    per_part[p][c] = float(np.mean(v))
+        pw = []
+        for a, b in combinations(ranking, 2):
+            pairs = [(d[a], d[b]) for d in per_part.values() if a in d and b in d]
+            x = np.array([u for u, _ in pairs])
+            y = np.array([v for _, v in pairs])
+            t_p = w_p = math.nan
+            t_stat = math.nan
+            if len(pairs) >= 2 and np.any(x - y != 0):
+                tr = stats.ttest_rel(x, y)
+                t_stat, t_p = float(tr.statistic), float(tr.pvalue)
+                try:
+                    w_p = float(stats.wilcoxon(x, y).pvalue)
+                except ValueError:
+                    w_p = math.nan
+            pw.append({"a": a, "b": b, "n": len(pairs), "mean_diff": float(np.mean(x - y))
+                       if pairs else math.nan, "t": t_stat, "p_t": t_p, "p_wilcoxon": w_p})
+        _apply_holm(pw, "p_t", "p_t_holm")
+        _apply_holm(pw, "p_wilcoxon", "p_wilcoxon_holm")
+        res["pairwise"] = pw
+
+        # windowed differences (training included; all kept participants)
+        win_rows = [r for r in kept_all if r["kind"] in RATING_KINDS]
+        rescale(win_rows, by=("participant", "speaker"), out="norm")
+        ref = reference or ranking[0]
+        cmp_ = compare or (ranking[1] if len(ranking) > 1 else ranking[0])
+        for name, c in (("reference", ref), ("compare", cmp_)):
+            if c not in conds:
+                raise ParameterError(f"--{name} condition {c!r} is not in the results; "
+                                     f"conditions are {conds}")
+        res["window"] = {"reference": ref, "compare": cmp_, "size": window,
+                         "curves": windowed_differences(win_rows, reference=ref, compare=cmp_,
+                                                        window=window)}
+        # Table 4.1-style key statistics per group after the first window (training)
+        key = []
+        for g in sorted({r["group"] for r in win_rows}):
+            parts = defaultdict(lambda: defaultdict(list))
+            rts = []
+            for r in win_rows:
+                if r["group"] == g and r["condition"] in (ref, cmp_):
+                    parts[r["participant"]][r["condition"]].append(r["norm"])
+                    if r.get("response_ms") not in (None, "") and math.isfinite(
+                            float(r["response_ms"])):
+                        rts.append(float(r["response_ms"]) / 1000)
+            d = np.array([np.mean(v[ref]) - np.mean(v[cmp_]) for v in parts.values()
+                          if v[ref] and v[cmp_]])
+            key.append({"group": g or "all", "mean_difference": _mean(d),
+                        "variance": float(np.var(d)) if d.size else math.nan,
+                        "mean_time_s": _mean(rts),
+                        "variance_time": float(np.var(rts)) if rts else math.nan})
+        res["window_stats"] = key
+        res["rated_rows"] = rated
+
+        if "mushra" in kinds:
+            hidden = test.get("hidden_reference") or "reference"
+            thr = float(test.get("screening_threshold", 90.0))
+            frac = float(test.get("screening_fraction", 0.85))
+            scr = []
+            for p in sorted({r["participant"] for r in rated}):
+                hr = [r["value"] for r in rated if r["participant"] == p and r["condition"] == hidden]
+                ok = float(np.mean(np.array(hr) >= thr)) if hr else math.nan
+                scr.append({"participant": p, "items": len(hr), "fraction_ok": ok,
+                            "passes": bool(hr) and ok >= frac})
+            res["mushra_screening"] = {"hidden_reference": hidden, "threshold": thr,
+                                       "fraction": frac, "participants": scr}
+            if hidden not in conds:
+                res["warnings"].append(f"hidden reference condition {hidden!r} not found")
+            passing = {s["participant"] for s in scr if s["passes"]}
+            res["mushra_after_screening"] = {
+                c: _mean([r["value"] for r in rated if r["condition"] == c
+                          and r["participant"] in passing]) for c in ranking}
+    if "ab" in kinds:
+        ab = [r for r in data if r["kind"] == "ab"]
+        systems, wins, n = preference_matrix(ab)
+        tests = []
+        for i, j in combinations(range(len(systems)), 2):
+            if n[i, j] > 0:
+                p = float(stats.binomtest(int(wins[i, j]), int(n[i, j]), 0.5).pvalue)
+                tests.append({"a": systems[i], "b": systems[j], "n": int(n[i, j]),
+                              "a_preferred": float(wins[i, j] / n[i, j]), "p": p})
+        _apply_holm(tests, "p", "p_holm")
+        left = sum(r["slot"] == "left" for r in ab)
+        sides: dict[tuple, list[int]] = defaultdict(lambda: [0, 0])
+        for r in ab:
+            left_sys = r["condition"] if r["slot"] == "left" else r["other"]
+            key = tuple(sorted((r["condition"], r["other"])))
+            sides[key][0 if left_sys == key[0] else 1] += 1
+        res["ab"] = {"systems": systems, "wins": wins, "n": n, "tests": tests,
+                     "left_fraction": left / max(1, len(ab)),
+                     "side_counts": {f"{k[0]} vs {k[1]}": v for k, v in sorted(sides.items())}}
+        if "ranking" not in res:
+            res["ranking"] = systems
+    return res
+
+
+def _apply_holm(rows: list[dict], key: str, out: str) -> None:
+    ps = [r[key] for r in rows]
+    finite = [i for i, p in enumerate(ps) if isinstance(p, float) and math.isfinite(p)]
+    adj = holm([ps[i] for i in finite])
+    for r in rows:
+        r[out] = math.nan
+    for i, a in zip(finite, adj):
+        rows[i][out] = float(a)
+
+
+def _mean(v) -> float:
+    v = [x for x in v if x is not None and math.isfinite(float(x))]
+    return float(np.mean(v)) if v else math.nan
+
+
+# ---------------------------------------------------------------------------------------------
+# report
+# ---------------------------------------------------------------------------------------------
+def analyze(results, output, *, window: int = 10, reference: str | None = None,
+            compare: str | None = None, include_training: bool = False) -> Path:
+    """Analyse ``results`` and write ``REPORT_DIR/report.md`` plus PNG figures; returns the report
+    path.  See the module docstring for what is computed."""
+    test, rows = load_results(results)
+    res = summarize(test, rows, window=window, reference=reference, compare=compare,
+                    include_training=include_training)
+    out = Path(output)
+    out.mkdir(parents=True, exist_ok=True)
+    figs = _figures(res, out)
+    md = _markdown(res, figs, Path(results).name)
+    from ..io.atomic import atomic_write_text
+
+    report = out / "report.md"
+    atomic_write_text(report, md)
+    atomic_write_text(out / "summary.json", json.dumps(_jsonable(res), indent=1))
+    analyze.last_warnings = res["warnings"]
+    return report
+
+
+def _jsonable(res: dict) -> dict:
+    skip = {"rated_rows"}
+
+    def conv(x):
+        if isinstance(x, dict):
+            return {str(k): conv(v) for k, v in x.items() if k not in skip}
+        if isinstance(x, (list, tuple)):
+            return [conv(v) for v in x]
+        if isinstance(x, np.ndarray):
+            return conv(x.tolist())
+        if isinstance(x, (np.floating, float)):
+            return None if not math.isfinite(float(x)) else float(x)
+        if isinstance(x, np.integer):
+            return int(x)
+        return x
+
+    return conv(res)
+
+
+def _figures(res: dict, out: Path) -> dict[str, str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..io.atomic import atomic_path
+
+    figs: dict[str, str] = {}
+
+    def save(fig, name):
+        with atomic_path(out / name) as tmp:
+            fig.savefig(tmp, dpi=110, bbox_inches="tight")
+        plt.close(fig)
+        figs[name.split(".")[0]] = name
+
+    win = res.get("window")
+    if win and win["curves"]:
+        for name, band in (("window_difference.png", False), ("window_difference_std.png", True)):
+            fig, ax = plt.subplots(figsize=(7, 4))
+            for g, c in win["curves"].items():
+                x = c["start"] + 1
+                line, = ax.plot(x, c["mean"], label=g or "all")
+                if band:
+                    ax.fill_between(x, c["mean"] - c["std"], c["mean"] + c["std"], alpha=0.2,
+                                    color=line.get_color())
+            ax.axhline(0, color="k", lw=0.8)
+            ax.set_xlabel(f"first trial of the {win['size']}-trial window (presentation order)")
+            ax.set_ylabel(f"score difference ({win['reference']} − {win['compare']})")
+            ax.set_title("Windowed score difference, normalised by participant and speaker"
+                         + (" (± 1 s.d.)" if band else ""))
+            ax.legend(title="group")
+            save(fig, name)
+    rated = res.get("rated_rows")
+    if rated:
+        ranking = res["ranking"]
+        fig, ax = plt.subplots(figsize=(7, 4))
+        bins = np.linspace(0, 1, 11)
+        for c in ranking:
+            ax.hist([r["norm"] for r in rated if r["condition"] == c], bins=bins, density=True,
+                    histtype="step", lw=2, label=c)
+        ax.set_xlabel("score normalised by participant and speaker")
+        ax.set_ylabel("density")
+        ax.set_title("Distribution of normalised scores")
+        ax.legend()
+        save(fig, "score_histogram.png")
+        fig, ax = plt.subplots(figsize=(1.4 * len(ranking) + 2, 4))
+        key = "value" if res.get("kind") == "mushra" else "norm"
+        data = [[r[key] for r in rated if r["condition"] == c] for c in ranking]
+        ax.boxplot(data, medianprops={"color": "k"})
+        ax.set_xticks(range(1, len(ranking) + 1), ranking, rotation=20)
+        if res.get("kind") == "mushra":
+            ax.set_ylim(0, 100)
+            ax.set_ylabel("MUSHRA score")
+            for k, m in enumerate(("Bad", "Poor", "Fair", "Good", "Excellent")):
+                ax.axhline(20 * (k + 1), color="0.85", lw=0.8, zorder=0)
+                ax.text(len(ranking) + 0.55, 20 * k + 10, m, va="center", fontsize=8,
+                        color="0.4")
+            ax.set_title("MUSHRA scores (line = median)")
+            save(fig, "mushra_boxplot.png")
+        else:
+            ax.set_ylabel("normalised score")
+            ax.set_title("Scores per condition (line = median)")
+            save(fig, "score_boxplot.png")
+    ab = res.get("ab")
+    if ab:
+        s, w, n = ab["systems"], ab["wins"], ab["n"]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            pct = np.where(n > 0, 100 * w / n, np.nan)
+        fig, ax = plt.subplots(figsize=(1.2 * len(s) + 3, 1.0 * len(s) + 2))
+        im = ax.imshow(pct, vmin=0, vmax=100, cmap="RdBu")
+        for i in range(len(s)):
+            for j in range(len(s)):
+                if np.isfinite(pct[i, j]):
+                    ax.text(j, i, f"{pct[i, j]:.0f}%", ha="center", va="center")
+        ax.set_xticks(range(len(s)), s, rotation=20)
+        ax.set_yticks(range(len(s)), s)
+        ax.set_title("% of times the row system was preferred to the column system")
+        fig.colorbar(im, ax=ax)
+        save(fig, "ab_preferences.png")
+    return figs
+
+
+def _f(x, nd=2) -> str:
+    return "–" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.{nd}f}"
+
+
+def _p(x) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    return "<0.001" if x < 0.001 else f"{x:.3f}"
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def _markdown(res: dict, figs: dict[str, str], source: str) -> str:
+    t = res["test"]
+    md = [f"# Listening test report: {t.get('name', source)}\n",
+          f"Source: `{source}`; test type: {t.get('type', res.get('kind', '?'))}.\n",
+          f"- participants: {len(res['participants'])}, analysed: {res['n_participants_kept']}",
+          f"- excluded (rated everything the same{' / always the same side' if 'ab' in res else ''}):"
+          f" {', '.join(map(str, res['excluded'])) or 'none'}",
+          f"- training answers (stored, flagged, left out of the tables): "
+          f"{res['n_training_answers']}",
+          f"- ranking (best first): {', '.join(res.get('ranking', [])) or '–'}\n"]
+    for w in res["warnings"]:
+        md.append(f"> warning: {w}\n")
+    if "attention" in res:
+        md.append("## Attention checks\n")
+        failed = {p: v for p, v in res["attention"].items() if v < 1}
+        md.append(f"{len(res['attention']) - len(failed)} of {len(res['attention'])} participants "
+                  "answered every attention check correctly.\n")
+        if failed:
+            md.append(_table(["participant", "fraction correct"],
+                             [[p, _f(v)] for p, v in failed.items()]))
+    if "mos_table" in res:
+        ranking = res["ranking"]
+        md.append("## Mean opinion scores per group (Tables 4.4, 5.9)\n")
+        md.append("Raw scores per group; the last two rows are rescaled to [0, 1] per participant "
+                  "and speaker (thesis §4.2.3.2) and per participant only (Table 5.9).\n")
+        md.append(_table(["participants", "n"] + ranking,
+                         [[name, n] + [_f(v[c]) for c in ranking] for name, n, v in
+                          res["mos_table"]]))
+        if res.get("group_ttests"):
+            md.append("## Student's t-tests between participant groups (Table 4.3)\n")
+            md.append("p values of two-sample Student's t-tests (equal variances) on the scores "
+                      "normalised by participant and speaker; p > 0.05: no evidence that the "
+                      "groups rate differently.\n")
+            md.append(_table(["question", "groups"] + ranking,
+                             [[f, f"{a} vs {b}"] + [_p(ps[c]) for c in ranking]
+                              for f, a, b, ps in res["group_ttests"]]))
+        md.append("## Pairwise comparisons between systems\n")
+        md.append("Per-participant mean normalised scores; paired Student's t-test and Wilcoxon "
+                  "signed-rank test; p values Holm-corrected over all pairs.\n")
+        md.append(_table(["A", "B", "n", "mean A−B", "t", "p (t)", "p (t, Holm)", "p (Wilcoxon)",
+                          "p (Wilcoxon, Holm)"],
+                         [[r["a"], r["b"], r["n"], _f(r["mean_diff"], 3), _f(r["t"]), _p(r["p_t"]),
+                           _p(r["p_t_holm"]), _p(r["p_wilcoxon"]), _p(r["p_wilcoxon_holm"])]
+                          for r in res["pairwise"]]))
+    if "mushra_screening" in res:
+        s = res["mushra_screening"]
+        md.append("## MUSHRA post-screening (reported, not enforced)\n")
+        md.append(f"A participant passes when the hidden reference ({s['hidden_reference']!r}) is "
+                  f"rated ≥ {s['threshold']:.0f} in at least {100 * s['fraction']:.0f}% of items."
+                  "\n")
+        md.append(_table(["participant", "items", "fraction ≥ threshold", "passes"],
+                         [[r["participant"], r["items"], _f(r["fraction_ok"]),
+                           "yes" if r["passes"] else "**no**"] for r in s["participants"]]))
+        md.append("Mean raw MUSHRA score of the participants who pass: " + ", ".join(
+            f"{c} {_f(v, 1)}" for c, v in res["mushra_after_screening"].items()) + "\n")
+    if "mushra_boxplot" in figs:
+        md.append("## MUSHRA scores (paper Fig 3)\n\n![MUSHRA box plot](mushra_boxplot.png)\n")
+    if "score_boxplot" in figs:
+        md.append("## Scores per condition\n\n![box plot](score_boxplot.png)\n")
+    if "window" in res and "window_difference" in figs:
+        w = res["window"]
+        md.append(f"## Windowed score differences (Figs 4.5–4.6)\n")
+        md.append(f"Mean over participants of the difference between {w['reference']!r} and "
+                  f"{w['compare']!r} in a {w['size']}-trial window, by presentation order "
+                  "(training included), scores normalised by participant and speaker.\n")
+        md.append("![windowed difference](window_difference.png)\n\n"
+                  "![windowed difference with standard deviation](window_difference_std.png)\n")
+        md.append("Key statistics (Table 4.1):\n")
+        md.append(_table(["group", "mean difference", "variance", "mean time for decision (s)",
+                          "variance (s²)"],
+                         [[k["group"], _f(k["mean_difference"]), _f(k["variance"]),
+                           _f(k["mean_time_s"], 1), _f(k["variance_time"], 1)]
+                          for k in res["window_stats"]]))
+    if "score_histogram" in figs:
+        md.append("## Distribution of normalised scores (Fig 4.7)\n\n"
+                  "![histogram](score_histogram.png)\n")
+    if "ab" in res:
+        ab = res["ab"]
+        s, w, n = ab["systems"], ab["wins"], ab["n"]
+        md.append("## A/B preferences (Table 5.4)\n")
+        md.append("Percentage of times the system in the row was preferred to the system in the "
+                  "column.\n")
+        rows = []
+        for i, a in enumerate(s):
+            rows.append([a] + ["" if i == j or n[i, j] == 0 else f"{100 * w[i, j] / n[i, j]:.0f}%"
+                               for j in range(len(s))])
+        md.append(_table(["condition"] + s, rows))
+        md.append("Two-sided binomial tests against 50%, Holm-corrected:\n")
+        md.append(_table(["A", "B", "comparisons", "A preferred", "p", "p (Holm)"],
+                         [[r["a"], r["b"], r["n"], f"{100 * r['a_preferred']:.0f}%", _p(r["p"]),
+                           _p(r["p_holm"])] for r in ab["tests"]]))
+        md.append(f"Side balance (times each system of a pair was on the left): " + "; ".join(
+            f"{k}: {v[0]}/{v[1]}" for k, v in ab["side_counts"].items()) +
+            f". Left chosen in {100 * ab['left_fraction']:.0f}% of trials.\n")
+        md.append("![A/B preferences](ab_preferences.png)\n")
+    return "\n".join(md)
+
+
+__all__ = ["load_results", "summarize", "analyze", "rescale", "holm", "constant_raters",
+           "windowed_differences", "preference_matrix"]

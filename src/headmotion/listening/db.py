@@ -1,0 +1,255 @@
+"""Storage of participants and answers for a listening test (SQLAlchemy Core).
+
+SQLite is the embedded default — one file per test, WAL journal (readers never block the writer),
+``synchronous=FULL`` so that every answer acknowledged to a browser survives a killed server — and
+``postgresql://...`` URLs are accepted for larger deployments (needs the ``psycopg`` driver).
+
+Integrity is enforced by the database, not only by the app: an answer row is unique per
+(participant, trial, slot) and a participant's ``next_trial`` pointer moves forward in the same
+transaction that stores the answer, so a resubmitted or concurrent duplicate can never be stored
+twice and a stored rating can never be changed ("participants were not allowed to re-evaluate
+videos once they made their decision", thesis §4.2.3.1).
+
+Libraries considered: the SQLAlchemy ORM (not needed for four tables), ``databases``/``encode``
+(async only, unmaintained), raw ``sqlite3`` (no PostgreSQL path).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import secrets
+import threading
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import sqlalchemy as sa
+
+from ..errors import MissingDependencyError, ParameterError
+
+metadata = sa.MetaData()
+
+meta_table = sa.Table(
+    "meta", metadata,
+    sa.Column("key", sa.String(64), primary_key=True),
+    sa.Column("value", sa.Text, nullable=False),
+)
+
+participants = sa.Table(
+    "participants", metadata,
+    sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
+    sa.Column("token", sa.String(64), nullable=False, unique=True),
+    sa.Column("created_at", sa.Float, nullable=False),
+    sa.Column("stage", sa.String(16), nullable=False),  # demographics | instructions | trials | done
+    sa.Column("demographics", sa.Text, nullable=False, default="{}"),
+    sa.Column("next_trial", sa.Integer, nullable=False, default=0),
+    sa.Column("n_trials", sa.Integer, nullable=False),
+    sa.Column("plan", sa.Text, nullable=False),
+    sa.Column("user_agent", sa.Text, nullable=False, default=""),
+    sa.Column("finished_at", sa.Float, nullable=True),
+)
+
+answers = sa.Table(
+    "answers", metadata,
+    sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
+    sa.Column("participant_id", sa.Integer, sa.ForeignKey("participants.id"), nullable=False),
+    sa.Column("trial_index", sa.Integer, nullable=False),
+    sa.Column("phase", sa.String(16), nullable=False),     # training | test | attention
+    sa.Column("kind", sa.String(16), nullable=False),      # mos | mushra | ab | attention
+    sa.Column("item", sa.Text, nullable=False),
+    sa.Column("speaker", sa.Text, nullable=False, default=""),
+    sa.Column("grp", sa.Text, nullable=False, default=""),
+    sa.Column("slot", sa.String(16), nullable=False),      # A, B, ... / left, right / choice
+    sa.Column("condition", sa.Text, nullable=False),       # system name (or the chosen option)
+    sa.Column("value", sa.Float, nullable=True),           # rating / 1 if chosen (A/B)
+    sa.Column("other", sa.Text, nullable=False, default=""),  # A/B: the system not chosen
+    sa.Column("response_ms", sa.Float, nullable=True),
+    sa.Column("created_at", sa.Float, nullable=False),
+    sa.UniqueConstraint("participant_id", "trial_index", "slot", name="uq_answer_slot"),
+)
+
+ANSWER_COLUMNS = ("participant", "trial_index", "phase", "kind", "item", "speaker", "group",
+                  "slot", "condition", "value", "other", "response_ms", "created_at")
+
+
+class NotFound(LookupError):
+    """No participant with that token."""
+
+
+class Conflict(RuntimeError):
+    """The request contradicts what is stored (answer changed, trial not reached, ...)."""
+
+
+def _sqlite_pragmas(dbapi_conn, _record):
+    cur = dbapi_conn.cursor()
+    cur.execute("PRAGMA journal_mode=WAL")
+    cur.execute("PRAGMA synchronous=FULL")
+    cur.execute("PRAGMA busy_timeout=30000")
+    cur.execute("PRAGMA foreign_keys=ON")
+    cur.close()
+
+
+class Database:
+    """Participants and answers of one test.
+
+    Parameters
+    ----------
+    url : str
+        ``sqlite:///path/to/file.sqlite`` (the folder is created) or ``postgresql://...``.
+    """
+
+    def __init__(self, url: str):
+        self.url = url
+        u = sa.engine.make_url(url)
+        self.is_sqlite = u.get_backend_name() == "sqlite"
+        if self.is_sqlite:
+            if u.database and u.database != ":memory:":
+                Path(u.database).parent.mkdir(parents=True, exist_ok=True)
+            self.engine = sa.create_engine(u, connect_args={"check_same_thread": False,
+                                                            "timeout": 30})
+            sa.event.listen(self.engine, "connect", _sqlite_pragmas)
+        elif u.get_backend_name() == "postgresql":
+            if u.drivername == "postgresql":
+                u = u.set(drivername="postgresql+psycopg")
+            try:
+                self.engine = sa.create_engine(u, pool_size=10, max_overflow=20,
+                                               pool_pre_ping=True)
+            except ModuleNotFoundError as exc:
+                raise MissingDependencyError(
+                    f"the PostgreSQL database {url!r} needs the psycopg driver "
+                    f"(pip install 'psycopg[binary]'): {exc}") from None
+        else:
+            raise ParameterError(f"database URL must be sqlite:///FILE or postgresql://...; "
+                                 f"got {url!r}")
+        # SQLite allows one writer; serialising writers in-process avoids busy retries.
+        self._lock = threading.Lock() if self.is_sqlite else contextlib.nullcontext()
+        metadata.create_all(self.engine)
+
+    def close(self) -> None:
+        self.engine.dispose()
+
+    # -- meta ------------------------------------------------------------------------------
+    def set_meta(self, key: str, value: Any) -> None:
+        with self._lock, self.engine.begin() as c:
+            c.execute(sa.delete(meta_table).where(meta_table.c.key == key))
+            c.execute(sa.insert(meta_table).values(key=key, value=json.dumps(value)))
+
+    def get_meta(self, key: str, default: Any = None) -> Any:
+        with self.engine.connect() as c:
+            row = c.execute(sa.select(meta_table.c.value).where(meta_table.c.key == key)).first()
+        return default if row is None else json.loads(row[0])
+
+    # -- participants ----------------------------------------------------------------------
+    def create_participant(self, plan_for: Callable[[int], list[dict]], *, user_agent: str = "",
+                           stage: str = "demographics") -> dict[str, Any]:
+        """Register a participant; ``plan_for(number)`` makes the trial plan from its number."""
+        token = secrets.token_urlsafe(24)
+        with self._lock, self.engine.begin() as c:
+            res = c.execute(sa.insert(participants).values(
+                token=token, created_at=time.time(), stage=stage, demographics="{}",
+                next_trial=0, n_trials=0, plan="[]", user_agent=user_agent[:500]))
+            pid = int(res.inserted_primary_key[0])
+            plan = plan_for(pid)
+            c.execute(sa.update(participants).where(participants.c.id == pid).values(
+                plan=json.dumps(plan), n_trials=len(plan)))
+        return {"id": pid, "token": token, "stage": stage}
+
+    def participant(self, token: str) -> dict[str, Any]:
+        if not isinstance(token, str) or not token or len(token) > 64:
+            raise NotFound(token)
+        with self.engine.connect() as c:
+            row = c.execute(sa.select(participants).where(participants.c.token == token)).first()
+        if row is None:
+            raise NotFound(token)
+        d = dict(row._mapping)
+        d["plan"] = json.loads(d["plan"])
+        d["demographics"] = json.loads(d["demographics"])
+        return d
+
+    def set_stage(self, token: str, *, expect: str, stage: str,
+                  demographics: dict | None = None) -> None:
+        with self._lock, self.engine.begin() as c:
+            row = c.execute(sa.select(participants.c.stage).where(
+                participants.c.token == token).with_for_update()).first()
+            if row is None:
+                raise NotFound(token)
+            if row.stage != expect:
+                raise Conflict(f"participant is at stage {row.stage!r}, not {expect!r}")
+            values: dict[str, Any] = {"stage": stage}
+            if demographics is not None:
+                values["demographics"] = json.dumps(demographics)
+            c.execute(sa.update(participants).where(participants.c.token == token).values(**values))
+
+    # -- answers ---------------------------------------------------------------------------
+    def submit(self, token: str, trial_index: int, rows: list[dict[str, Any]]) -> dict[str, Any]:
+        """Store the answer rows of one trial, exactly once.
+
+        Returns ``{"stored": n, "duplicate": bool, "next_trial": k, "done": bool}``.  Resending
+        the identical answer for the last trial is acknowledged as a duplicate (a browser retry
+        after a lost response); a different answer for a past trial, or an answer for a trial not
+        yet reached, raises :class:`Conflict`."""
+        now = time.time()
+        with self._lock, self.engine.begin() as c:
+            p = c.execute(sa.select(participants.c.id, participants.c.next_trial,
+                                    participants.c.n_trials, participants.c.stage)
+                          .where(participants.c.token == token).with_for_update()).first()
+            if p is None:
+                raise NotFound(token)
+            if p.stage not in ("trials", "done"):
+                raise Conflict(f"participant is at stage {p.stage!r}; trials have not started")
+            if trial_index < p.next_trial:
+                stored = c.execute(sa.select(answers.c.slot, answers.c.condition, answers.c.value)
+                                   .where(answers.c.participant_id == p.id,
+                                          answers.c.trial_index == trial_index)).all()
+                mine = {(r["slot"], r["condition"], r["value"]) for r in rows}
+                if {(s.slot, s.condition, s.value) for s in stored} == mine:
+                    return {"stored": 0, "duplicate": True, "next_trial": p.next_trial,
+                            "done": p.next_trial >= p.n_trials}
+                raise Conflict(f"trial {trial_index} was already answered; a rating cannot be "
+                               f"changed")
+            if trial_index > p.next_trial:
+                raise Conflict(f"trial {trial_index} has not been reached; the next trial is "
+                               f"{p.next_trial}")
+            c.execute(sa.insert(answers), [
+                {"participant_id": p.id, "trial_index": trial_index, "created_at": now,
+                 "speaker": "", "grp": "", "other": "", **r} for r in rows])
+            nxt = p.next_trial + 1
+            done = nxt >= p.n_trials
+            c.execute(sa.update(participants).where(participants.c.id == p.id).values(
+                next_trial=nxt, stage="done" if done else "trials",
+                finished_at=now if done else None))
+        return {"stored": len(rows), "duplicate": False, "next_trial": nxt, "done": done}
+
+    # -- admin -----------------------------------------------------------------------------
+    def progress(self) -> list[dict[str, Any]]:
+        with self.engine.connect() as c:
+            rows = c.execute(sa.select(
+                participants.c.id, participants.c.created_at, participants.c.stage,
+                participants.c.next_trial, participants.c.n_trials, participants.c.finished_at,
+                participants.c.demographics).order_by(participants.c.id)).all()
+        return [{**dict(r._mapping), "demographics": json.loads(r.demographics)} for r in rows]
+
+    def answer_rows(self) -> list[dict[str, Any]]:
+        """All answers (long format), with the participant's number and demographics."""
+        with self.engine.connect() as c:
+            rows = c.execute(sa.select(answers, participants.c.demographics)
+                             .join(participants, participants.c.id == answers.c.participant_id)
+                             .order_by(answers.c.participant_id, answers.c.trial_index,
+                                       answers.c.id)).all()
+        out = []
+        for r in rows:
+            m = dict(r._mapping)
+            d = {"participant": m["participant_id"], "group": m.pop("grp")}
+            d.update({k: m[k] for k in ANSWER_COLUMNS if k in m and k not in d})
+            for k, v in json.loads(m["demographics"]).items():
+                d[f"demo_{k}"] = v
+            out.append(d)
+        return out
+
+    def count_answers(self) -> int:
+        with self.engine.connect() as c:
+            return int(c.execute(sa.select(sa.func.count()).select_from(answers)).scalar_one())
+
+
+__all__ = ["Database", "NotFound", "Conflict", "ANSWER_COLUMNS"]

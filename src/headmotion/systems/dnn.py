@@ -1,0 +1,628 @@
+"""The paper's system and its baselines as :class:`~headmotion.systems.base.Synthesizer` s
+(paper §3–4: CCCAE waveform embedding → DNN regressor → post-filter).
+
+=================  =====================  ==============================================================
+registry name      class                  pipeline
+=================  =====================  ==============================================================
+``cccae``          :class:`CccaeSystem`   wav frames → CCCAE (α = 1) embedding → regressor → post-filter
+``ae-dnn``         :class:`AeDnnSystem`   wav frames → plain autoencoder (α = 0) → regressor → post-filter
+``mfcc-dnn``       :class:`MfccDnnSystem` MFCC-39 → regressor → post-filter          (M_MFCC)
+``fbank-dnn``      :class:`FbankDnnSystem` FBank-27 → regressor → post-filter
+``f0e-dnn``        :class:`F0eDnnSystem`  F0 + energy (+Δ, ΔΔ) → regressor → post-filter
+``wav-dnn``        :class:`WavDnnSystem`  raw 100-dim waveform frames → regressor → post-filter
+=================  =====================  ==============================================================
+
+Every system uses the same regressor architecture (paper §3.2, §4.2); only the input differs.
+The networks and their training loops are in :mod:`headmotion.models.nets` (layer sizes are our
+choice and documented there, since the paper's Figure 1 is not in the text we have); the CCA term
+is :mod:`headmotion.models.dcca`.
+
+Frame rate — the model works at **100 frames/s**, the paper's rate (100 Hz motion capture, 10 ms
+feature shift), whatever the corpus frame rate: features are extracted at 100 fps, the training
+motion (often 25 or 30 fps when it comes from video) is resampled to 100 fps by spherical
+interpolation, and predictions are resampled back to the training corpus's frame rate.  So the
+numbers of the paper keep their meaning: the raw waveform frame is 25 ms with a 10 ms shift; the
+±25-frame regressor context covers 510 ms of frames (525 ms of speech with the window); the
+post-filter works on 50-frame = 0.5 s segments.  (Extracting features at 25 fps instead would
+stretch the context to ±1 s and the post-filter segments to 2 s, and would skip 15 ms of every
+40 ms of waveform between 25 ms frames.)  ``model_fps`` can be changed, at the user's risk.
+
+Data use (paper §4.1–4.2) — :func:`headmotion.corpus.paper_split` assigns the corpus's recordings
+to train / valid / test per speaker (the manifest's ``split`` column when every recording has one).
+Validation recordings are used only for early stopping.  Recordings the manifest labels ``test``
+are never trained on (``holdout_test=True``); when the split is *not* given in the manifest, the
+corpus handed to ``fit`` is taken to be training material, so recordings the random fallback
+would put in "test" are trained on and only the validation recordings are held out.  When a
+speaker has no validation recording (one or two recordings), the last ``valid_fraction`` (15 %)
+of every training recording is held out instead, as a contiguous block so that the ±25-frame
+contexts of training and validation frames barely overlap.  Training uses only frames where the
+speaker speaks (:meth:`~headmotion.corpus.Recording.speaking_mask`); prediction uses every frame.
+Fitted models record which recording went where (``splits_``) so the paper's tables can be
+computed on the right sets.
+
+Determinism — ``fit`` seeds torch inside ``torch.random.fork_rng`` (the caller's global generator
+is left untouched), enables ``torch.use_deterministic_algorithms`` for the duration of ``fit``, and
+uses ``n_threads`` intra-op threads when given (default: torch's setting); the same seed and
+thread count give the same model bit for bit on CPU.
+
+Libraries considered: PyTorch for the networks (DESIGN.md); scikit-learn's ``MLPRegressor`` has no
+custom loss or layer-wise pre-training.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import time
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..align import n_frames as _n_frames
+from ..errors import ParameterError
+from ..types import Audio, FeatureTrack, Motion
+from .base import Synthesizer
+
+MODEL_FPS = 100.0
+
+
+def _fit_length(a: np.ndarray, n: int) -> np.ndarray:
+    """Trim or edge-pad ``a (T, D)`` to ``n`` frames."""
+    if len(a) == n:
+        return a
+    if len(a) > n:
+        return a[:n]
+    if len(a) == 0:
+        return np.zeros((n,) + a.shape[1:], dtype=a.dtype)
+    return np.concatenate([a, np.repeat(a[-1:], n - len(a), axis=0)], 0)
+
+
+def _clean_json(x):
+    """Replace non-finite floats by None (model configs are strict JSON)."""
+    if isinstance(x, dict):
+        return {str(k): _clean_json(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean_json(v) for v in x]
+    if isinstance(x, (float, np.floating)):
+        v = float(x)
+        return v if math.isfinite(v) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    return x
+
+
+@contextlib.contextmanager
+def _torch_context(seed: int, n_threads: int | None):
+    """Seeded, deterministic torch for the duration of the block (restores the caller's state)."""
+    import torch
+
+    prev_threads = torch.get_num_threads()
+    prev_det = torch.are_deterministic_algorithms_enabled()
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(int(seed))
+        torch.use_deterministic_algorithms(True, warn_only=True)
+        if n_threads:
+            torch.set_num_threads(int(n_threads))
+        try:
+            yield
+        finally:
+            torch.use_deterministic_algorithms(prev_det)
+            if n_threads:
+                torch.set_num_threads(prev_threads)
+
+
+class _Prepared:
+    """One recording (or part of one) at the model frame rate."""
+
+    def __init__(self, rid: str, feats: np.ndarray, motion: np.ndarray, speaking: np.ndarray):
+        self.id, self.feats, self.motion, self.speaking = rid, feats, motion, speaking
+
+    def part(self, a: int, b: int | None, suffix: str) -> "_Prepared":
+        return _Prepared(self.id + suffix, self.feats[a:b], self.motion[a:b], self.speaking[a:b])
+
+
+class _DnnSystem(Synthesizer):
+    """Shared implementation; see the module docstring.  Use the registered subclasses."""
+
+    name: ClassVar[str] = ""
+    causal: ClassVar[bool] = False
+    default_feature: ClassVar[str] = "wav"
+    #: whether the system learns a waveform embedding (CCCAE / AE) before the regressor
+    uses_embedding: ClassVar[bool] = False
+
+    _PARAMS = ("feature", "feature_params", "alpha", "embedding_dim", "ae_hidden", "regressor_hidden",
+               "context", "dropout", "postfilter", "postfilter_hidden", "postfilter_code", "segment",
+               "postfilter_noise", "model_fps", "batch_size", "cca_batch_size", "cca_reg",
+               "learning_rate", "max_epochs", "ae_max_epochs", "pretrain_epochs", "patience",
+               "valid_fraction", "holdout_test", "seed", "n_threads")
+
+    def __init__(self, *, feature: str | None = None, feature_params: dict | None = None,
+                 alpha: float | None = None, embedding_dim: int = 30,
+                 ae_hidden: tuple[int, ...] = (256, 128), regressor_hidden: tuple[int, ...] = (256, 256),
+                 context: int = 25, dropout: float = 0.1, postfilter: bool = True,
+                 postfilter_hidden: tuple[int, ...] = (256,), postfilter_code: int = 64, segment: int = 50,
+                 postfilter_noise: float = 0.3, model_fps: float = MODEL_FPS, batch_size: int = 256,
+                 cca_batch_size: int = 1000, cca_reg: float = 1e-3, learning_rate: float = 2e-4,
+                 max_epochs: int = 30, ae_max_epochs: int = 30, pretrain_epochs: int = 3, patience: int = 4,
+                 valid_fraction: float = 0.15, holdout_test: bool = True, seed: int = 0,
+                 n_threads: int | None = None):
+        self.feature = feature
+        self.feature_params = feature_params
+        self.alpha = alpha
+        self.embedding_dim = embedding_dim
+        self.ae_hidden = ae_hidden
+        self.regressor_hidden = regressor_hidden
+        self.context = context
+        self.dropout = dropout
+        self.postfilter = postfilter
+        self.postfilter_hidden = postfilter_hidden
+        self.postfilter_code = postfilter_code
+        self.segment = segment
+        self.postfilter_noise = postfilter_noise
+        self.model_fps = model_fps
+        self.batch_size = batch_size
+        self.cca_batch_size = cca_batch_size
+        self.cca_reg = cca_reg
+        self.learning_rate = learning_rate
+        self.max_epochs = max_epochs
+        self.ae_max_epochs = ae_max_epochs
+        self.pretrain_epochs = pretrain_epochs
+        self.patience = patience
+        self.valid_fraction = valid_fraction
+        self.holdout_test = holdout_test
+        self.seed = seed
+        self.n_threads = n_threads
+
+    # -- parameters ---------------------------------------------------------------------------
+    def get_params(self) -> dict[str, Any]:
+        out = {}
+        for k in self._PARAMS:
+            v = getattr(self, k)
+            out[k] = list(v) if isinstance(v, tuple) else v
+        return out
+
+    def _check_params(self) -> None:
+        def pos_int(name, lo=1):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ParameterError(f"the {name!r} parameter of {self.name} must be an int >= {lo}; got {v!r}")
+
+        def sizes(name):
+            v = getattr(self, name)
+            try:
+                ok = all(not isinstance(h, bool) and int(h) == h and h >= 1 for h in v)
+            except TypeError:
+                ok = False
+            if not ok:
+                raise ParameterError(
+                    f"the {name!r} parameter of {self.name} must be a sequence of layer sizes >= 1; got {v!r}")
+
+        for n in ("embedding_dim", "batch_size", "max_epochs", "ae_max_epochs", "patience"):
+            pos_int(n)
+        for n in ("context", "pretrain_epochs", "seed"):
+            pos_int(n, 0)
+        pos_int("segment", 2)
+        pos_int("cca_batch_size", 2)
+        for n in ("ae_hidden", "regressor_hidden", "postfilter_hidden"):
+            sizes(n)
+        pos_int("postfilter_code")
+        if self.n_threads is not None:
+            pos_int("n_threads")
+        if not 0 <= float(self.dropout) < 1:
+            raise ParameterError(f"the 'dropout' parameter of {self.name} must be in [0, 1); got {self.dropout!r}")
+        if not 0 < float(self.valid_fraction) < 1:
+            raise ParameterError(
+                f"the 'valid_fraction' parameter of {self.name} must be in (0, 1); got {self.valid_fraction!r}")
+        for n in ("learning_rate", "model_fps"):
+            v = getattr(self, n)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ParameterError(f"the {n!r} parameter of {self.name} must be a positive number; got {v!r}")
+        for n in ("postfilter_noise", "cca_reg"):
+            v = getattr(self, n)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ParameterError(f"the {n!r} parameter of {self.name} must be a number >= 0; got {v!r}")
+        if self.uses_embedding:
+            if not (isinstance(self.alpha, (int, float)) and math.isfinite(self.alpha) and self.alpha >= 0):
+                raise ParameterError(f"the 'alpha' parameter of {self.name} must be a number >= 0; got {self.alpha!r}")
+        if self.feature_params is not None and not isinstance(self.feature_params, dict):
+            raise ParameterError(f"feature_params must be a dict; got {type(self.feature_params).__name__}")
+
+    @property
+    def feature_name(self) -> str:
+        return self.feature or self.default_feature
+
+    def _feature_config(self):
+        from ..features import FeatureConfig
+
+        return FeatureConfig(self.feature_name, fps=float(self.model_fps), params=dict(self.feature_params or {}))
+
+    # -- data -----------------------------------------------------------------------------------
+    def _extract(self, audio: Audio, T: int, config=None) -> np.ndarray:
+        cfg = config if config is not None else self.feature_config_
+        return np.asarray(cfg.extract(audio, n_frames=T).values, dtype=np.float32)
+
+    def _prepare(self, rec, config) -> _Prepared:
+        fps = float(self.model_fps)
+        T = _n_frames(len(rec.audio.samples), rec.audio.sample_rate, fps)
+        feats = self._extract(rec.audio, T, config)
+        mot = rec.motion if abs(rec.motion.fps - fps) < 1e-9 else rec.motion.resample(fps)
+        motion = _fit_length(np.asarray(mot.rotvec, dtype=np.float64), T)
+        if rec.speaking is not None:
+            src = np.asarray(rec.speaking, dtype=bool)
+            idx = np.minimum(((np.arange(T) + 0.5) * rec.motion.fps / fps).astype(np.int64), len(src) - 1)
+            speaking = src[idx] if len(src) else np.zeros(T, bool)
+        else:
+            from ..features.vad import speaking_mask
+
+            speaking = np.asarray(speaking_mask(rec.audio, fps=fps, n_frames=T), dtype=bool)
+        return _Prepared(rec.id, feats, motion, speaking)
+
+    def _split(self, corpus) -> dict[str, str]:
+        from ..corpus import paper_split
+
+        explicit = all(e.split for e in corpus.entries)
+        split = paper_split(corpus, seed=int(self.seed))
+        if not explicit:
+            split = {k: ("train" if v == "test" else v) for k, v in split.items()}
+        elif not self.holdout_test:
+            split = {k: ("train" if v == "test" else v) for k, v in split.items()}
+        return split
+
+    # -- fitting ----------------------------------------------------------------------------------
+    def fit(self, corpus, *, progress=None) -> "_DnnSystem":
+        """Train embedding (CCCAE / AE systems), regressor and post-filter on ``corpus``.
+
+        Parameters
+        ----------
+        corpus : Corpus — one speaker's recordings (speaker-dependent models, paper §4.1)
+        progress : callable ``progress(done, total, description)`` or None
+        """
+        import torch
+
+        from ..features import Normalizer
+        from ..models import nets
+
+        self._check_params()
+        t0 = time.perf_counter()
+        if len(corpus) == 0:
+            raise ParameterError(f"cannot fit {self.name} on an empty corpus")
+        config = self._feature_config()
+        split = self._split(corpus)
+        train_recs = [r for r in corpus if split[r.id] == "train"]
+        valid_recs = [r for r in corpus if split[r.id] == "valid"]
+        if not train_recs:
+            raise ParameterError(f"no training recordings in the corpus (splits: {split})")
+        n_stages = (1 if self.uses_embedding else 0) + 1 + (1 if self.postfilter else 0)
+        stage = [0]
+
+        def report(desc):
+            def cb(epoch, total, v):
+                if progress is not None:
+                    progress(stage[0] + epoch / max(total, 1), n_stages, f"{desc}: epoch {epoch}, valid loss {v:.4f}")
+            return cb
+
+        if progress is not None:
+            progress(0, n_stages, f"{self.name}: extracting {self.feature_name} features")
+        train = [self._prepare(r, config) for r in train_recs]
+        valid = [self._prepare(r, config) for r in valid_recs]
+        if not valid:  # documented fallback: the tail of every training recording
+            tr, va = [], []
+            for p in train:
+                cut = int(round(len(p.feats) * (1 - float(self.valid_fraction))))
+                tr.append(p.part(0, cut, ""))
+                va.append(p.part(cut, None, "#tail"))
+            train, valid = tr, va
+        dim = train[0].feats.shape[1]
+        n_speak = sum(int(p.speaking.sum()) for p in train)
+        if n_speak < max(2 * int(self.context) + 1, 50):
+            raise ParameterError(
+                f"only {n_speak} speaking frames in the training recordings of {self.name}; need at least "
+                f"{max(2 * int(self.context) + 1, 50)} (is the speaking annotation or the audio empty?)")
+        for p in valid:  # validation frames: speaking ones, or all when none speaks
+            if not p.speaking.any():
+                p.speaking = np.ones_like(p.speaking)
+        valid = [p for p in valid if len(p.feats)]
+        if not valid:
+            raise ParameterError(f"{self.name}: no validation frames (valid_fraction {self.valid_fraction})")
+
+        feat_norm = Normalizer().fit([p.feats[p.speaking] for p in train])
+        mot_norm = Normalizer().fit([p.motion[p.speaking] for p in train])
+        for p in train + valid:
+            p.x = np.asarray(feat_norm.transform(p.feats), dtype=np.float32)
+            p.y = np.asarray(mot_norm.transform(p.motion), dtype=np.float32)
+
+        history: dict[str, Any] = {}
+        with _torch_context(int(self.seed), self.n_threads):
+            ae = None
+            emb_norm = None
+            if self.uses_embedding:
+                ae = nets.StackedAutoencoder(dim, hidden=tuple(self.ae_hidden), code_dim=int(self.embedding_dim))
+                xt = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in train]))
+                yt = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in train]))
+                xv = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in valid]))
+                yv = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in valid]))
+                history["autoencoder"] = nets.train_autoencoder(
+                    ae, xt, yt, x_valid=xv, y_valid=yv, alpha=float(self.alpha),
+                    batch_size=int(self.cca_batch_size), lr=float(self.learning_rate),
+                    max_epochs=int(self.ae_max_epochs), patience=int(self.patience),
+                    pretrain_epochs=int(self.pretrain_epochs), reg=float(self.cca_reg),
+                    progress=report("autoencoder"))
+                stage[0] += 1
+                with torch.no_grad():
+                    for p in train + valid:
+                        p.z = ae.encode(torch.from_numpy(p.x)).numpy()
+                emb_norm = Normalizer().fit([p.z[p.speaking] for p in train])
+                for p in train + valid:
+                    p.r = np.asarray(emb_norm.transform(p.z), dtype=np.float32)
+            else:
+                for p in train + valid:
+                    p.r = p.x
+            in_dim = train[0].r.shape[1]
+            reg = nets.ContextRegressor(in_dim, context=int(self.context), hidden=tuple(self.regressor_hidden),
+                                        dropout=float(self.dropout))
+            tr_seq = nets.PaddedSequences([p.r for p in train], int(self.context))
+            va_seq = nets.PaddedSequences([p.r for p in valid], int(self.context))
+            tr_starts = np.concatenate([tr_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(train)])
+            va_starts = np.concatenate([va_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(valid)])
+            history["regressor"] = nets.train_regressor(
+                reg, tr_seq, tr_starts, np.concatenate([p.y[p.speaking] for p in train]),
+                va_seq, va_starts, np.concatenate([p.y[p.speaking] for p in valid]),
+                batch_size=int(self.batch_size), lr=float(self.learning_rate), max_epochs=int(self.max_epochs),
+                patience=int(self.patience), progress=report("regressor"))
+            stage[0] += 1
+            pf = None
+            if self.postfilter:
+                seg = int(self.segment)
+                pf = nets.make_postfilter(segment=seg, dims=3, hidden=tuple(self.postfilter_hidden),
+                                          code_dim=int(self.postfilter_code))
+                tr_seg = nets.motion_segments([p.y for p in train], segment=seg, hop=max(1, seg // 10))
+                va_seg = nets.motion_segments([p.y for p in valid], segment=seg, hop=max(1, seg // 10))
+                if len(tr_seg) == 0:
+                    raise ParameterError(
+                        f"{self.name}: the training motion is shorter than one post-filter segment ({seg} frames)")
+                if len(va_seg) == 0:
+                    va_seg = tr_seg[:: max(1, len(tr_seg) // 200)]
+                history["postfilter"] = nets.train_postfilter(
+                    pf, tr_seg, va_seg, noise=float(self.postfilter_noise), batch_size=int(self.batch_size),
+                    lr=float(self.learning_rate), max_epochs=int(self.max_epochs), patience=int(self.patience),
+                    progress=report("post-filter"))
+                stage[0] += 1
+
+        self.feature_config_ = config
+        self.input_dim_ = int(dim)
+        self.feature_norm_ = feat_norm
+        self.motion_norm_ = mot_norm
+        self.embedding_norm_ = emb_norm
+        self.autoencoder_ = ae
+        self.regressor_ = reg
+        self.postfilter_ = pf
+        fps_list = sorted({float(r.motion.fps) for r in train_recs})
+        self.output_fps_ = fps_list[0] if len(fps_list) == 1 else float(self.model_fps)
+        self.splits_ = {r.id: split[r.id] for r in corpus}
+        self.history_ = _clean_json(history)
+        self.fit_seconds_ = time.perf_counter() - t0
+        self.corpus_summary_ = corpus.summary()
+        self.fitted_ = True
+        if progress is not None:
+            progress(n_stages, n_stages, f"{self.name}: done in {self.fit_seconds_:.1f} s")
+        return self
+
+    # -- inference ----------------------------------------------------------------------------------
+    def _check_features(self, values: np.ndarray, what: str) -> None:
+        if values.ndim != 2 or values.shape[1] != self.input_dim_:
+            raise ParameterError(
+                f"this {self.name} model was trained on {self.feature_config_.name!r} features with "
+                f"{self.input_dim_} dims per frame; {what} has shape {tuple(values.shape)}")
+
+    def _embed_values(self, x_norm: np.ndarray) -> np.ndarray:
+        import torch
+
+        with torch.no_grad():
+            return self.autoencoder_.encode(torch.from_numpy(np.ascontiguousarray(x_norm))).numpy()
+
+    def _predict_values(self, feats: np.ndarray) -> np.ndarray:
+        """Model-rate features ``(T, D)`` → rotation vectors ``(T, 3)`` at the model rate."""
+        from ..models import nets
+
+        self._check_features(feats, "the feature track")
+        x = np.asarray(self.feature_norm_.transform(feats), dtype=np.float32)
+        if self.autoencoder_ is not None:
+            x = np.asarray(self.embedding_norm_.transform(self._embed_values(x)), dtype=np.float32)
+        y = nets.predict_regressor(self.regressor_, x)
+        if self.postfilter_ is not None:
+            y = nets.apply_postfilter(self.postfilter_, y, segment=int(self.segment))
+        return np.asarray(self.motion_norm_.inverse_transform(y), dtype=np.float64)
+
+    def predict_features(self, features: FeatureTrack) -> Motion:
+        """Head motion from an already extracted feature track at the model frame rate.
+
+        Raises ParameterError when the track's dimension or frame rate is not what the model was
+        trained on (e.g. FBank features given to an MFCC model)."""
+        self._check_fitted()
+        values = np.asarray(features.values if isinstance(features, FeatureTrack) else features, dtype=np.float32)
+        self._check_features(values, "the given feature track")
+        fps = float(getattr(features, "fps", self.model_fps))
+        if abs(fps - float(self.model_fps)) > 1e-6:
+            raise ParameterError(
+                f"this {self.name} model works at {float(self.model_fps):g} frames/s; the feature track is at {fps:g}")
+        with _torch_context(0, None):
+            rv = self._predict_values(values)
+        return Motion(rv, float(self.model_fps), meta={"system": self.name})
+
+    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
+        """Head motion for ``audio`` at the training corpus's frame rate (deterministic; ``seed``
+        is accepted for the common interface and ignored)."""
+        self._check_fitted()
+        if not isinstance(audio, Audio):
+            raise ParameterError(f"predict needs an Audio; got {type(audio).__name__}")
+        fps = float(self.model_fps)
+        T = _n_frames(len(audio.samples), audio.sample_rate, fps)
+        feats = self._extract(audio, T)
+        with _torch_context(0, None):
+            rv = self._predict_values(feats)
+        out_fps = float(self.output_fps_)
+        n_out = _n_frames(len(audio.samples), audio.sample_rate, out_fps)
+        motion = Motion(rv, fps, meta={"system": self.name})
+        if abs(out_fps - fps) > 1e-9 and len(rv) > 0:
+            motion = motion.resample(out_fps)
+        rv_out = _fit_length(np.asarray(motion.rotvec), n_out)
+        return Motion(rv_out, out_fps, meta={"system": self.name, "model_fps": fps})
+
+    def embed(self, audio: Audio, *, fps: float | None = None, n_frames: int | None = None) -> FeatureTrack:
+        """The learned waveform embedding (Wav_CCCAE / Wav_AE, paper Table 1) of ``audio``.
+
+        Parameters
+        ----------
+        audio : Audio
+        fps : float, optional — frame rate of the result (default: the model rate, 100 fps);
+            other rates are linearly interpolated.
+        n_frames : int, optional — force the number of frames (edge-pad / trim).
+
+        Returns
+        -------
+        FeatureTrack [shape=(T, embedding_dim)] with names ``e00 …``.
+        """
+        self._check_fitted()
+        if self.autoencoder_ is None:
+            raise ParameterError(f"system {self.name!r} has no learned embedding; use cccae or ae-dnn")
+        from ..align import resample_track
+
+        mfps = float(self.model_fps)
+        T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
+        feats = self._extract(audio, T)
+        self._check_features(feats, "the feature track")
+        with _torch_context(0, None):
+            z = self._embed_values(np.asarray(self.feature_norm_.transform(feats), dtype=np.float32))
+        names = tuple(f"e{i:02d}" for i in range(z.shape[1]))
+        track = FeatureTrack(z, mfps, names)
+        if fps is not None and abs(float(fps) - mfps) > 1e-9:
+            n = n_frames if n_frames is not None else _n_frames(len(audio.samples), audio.sample_rate, float(fps))
+            return resample_track(track, float(fps), n)
+        if n_frames is not None:
+            return FeatureTrack(_fit_length(z, int(n_frames)), mfps, names)
+        return track
+
+    # -- persistence --------------------------------------------------------------------------------
+    def _get_state(self):
+        from ..models import nets
+
+        config = {
+            "params": self.get_params(),
+            "feature_config": self.feature_config_.to_dict(),
+            "input_dim": self.input_dim_,
+            "output_fps": self.output_fps_,
+            "splits": self.splits_,
+            "history": self.history_,
+            "fit_seconds": self.fit_seconds_,
+            "layers": {
+                "autoencoder": None if self.autoencoder_ is None else list(self.autoencoder_.sizes),
+                "regressor_input": (2 * int(self.context) + 1) * int(self.regressor_.in_dim),
+                "regressor_hidden": list(self.regressor_hidden),
+                "postfilter": None if self.postfilter_ is None else list(self.postfilter_.sizes),
+            },
+        }
+        arrays: dict[str, np.ndarray] = {}
+        arrays.update(self.feature_norm_.to_arrays("feature_norm"))
+        arrays.update(self.motion_norm_.to_arrays("motion_norm"))
+        if self.embedding_norm_ is not None:
+            arrays.update(self.embedding_norm_.to_arrays("embedding_norm"))
+        if self.autoencoder_ is not None:
+            arrays.update(nets.state_to_arrays(self.autoencoder_, "autoencoder/"))
+        arrays.update(nets.state_to_arrays(self.regressor_, "regressor/"))
+        if self.postfilter_ is not None:
+            arrays.update(nets.state_to_arrays(self.postfilter_, "postfilter/"))
+        return _clean_json(config), arrays
+
+    def _set_state(self, config, arrays):
+        from ..features import FeatureConfig, Normalizer
+        from ..models import nets
+
+        params = dict(config["params"])
+        for k in self._PARAMS:
+            v = params[k]
+            setattr(self, k, tuple(v) if k.endswith("hidden") and v is not None else v)
+        self.feature_config_ = FeatureConfig.from_dict(config["feature_config"])
+        self.input_dim_ = int(config["input_dim"])
+        self.output_fps_ = float(config["output_fps"])
+        self.splits_ = dict(config.get("splits") or {})
+        self.history_ = config.get("history") or {}
+        self.fit_seconds_ = config.get("fit_seconds")
+        self.feature_norm_ = Normalizer.from_arrays(arrays, "feature_norm")
+        self.motion_norm_ = Normalizer.from_arrays(arrays, "motion_norm")
+        self.embedding_norm_ = None
+        self.autoencoder_ = None
+        in_dim = self.input_dim_
+        if self.uses_embedding:
+            self.embedding_norm_ = Normalizer.from_arrays(arrays, "embedding_norm")
+            self.autoencoder_ = nets.StackedAutoencoder(self.input_dim_, hidden=tuple(self.ae_hidden),
+                                                        code_dim=int(self.embedding_dim))
+            nets.arrays_to_state(self.autoencoder_, arrays, "autoencoder/")
+            self.autoencoder_.eval()
+            in_dim = int(self.embedding_dim)
+        self.regressor_ = nets.ContextRegressor(in_dim, context=int(self.context),
+                                                hidden=tuple(self.regressor_hidden), dropout=float(self.dropout))
+        nets.arrays_to_state(self.regressor_, arrays, "regressor/")
+        self.regressor_.eval()
+        self.postfilter_ = None
+        if self.postfilter:
+            self.postfilter_ = nets.make_postfilter(segment=int(self.segment), dims=3,
+                                                    hidden=tuple(self.postfilter_hidden),
+                                                    code_dim=int(self.postfilter_code))
+            nets.arrays_to_state(self.postfilter_, arrays, "postfilter/")
+            self.postfilter_.eval()
+
+
+class CccaeSystem(_DnnSystem):
+    """M_CCCAE (paper §3): waveform → CCCAE embedding (α = 1 by default) → regressor → post-filter."""
+
+    name = "cccae"
+    default_feature = "wav"
+    uses_embedding = True
+
+    def __init__(self, *, alpha: float = 1.0, **params):
+        super().__init__(alpha=alpha, **params)
+
+
+class AeDnnSystem(_DnnSystem):
+    """M_AE (paper §4.2): the same pipeline with a plain autoencoder (α = 0)."""
+
+    name = "ae-dnn"
+    default_feature = "wav"
+    uses_embedding = True
+
+    def __init__(self, **params):
+        if params.pop("alpha", 0.0) not in (0, 0.0, None):
+            raise ParameterError("ae-dnn is the autoencoder with alpha = 0; use the 'cccae' system for alpha > 0")
+        super().__init__(alpha=0.0, **params)
+
+
+class MfccDnnSystem(_DnnSystem):
+    """M_MFCC (paper §4.2): MFCC-39 → regressor → post-filter."""
+
+    name = "mfcc-dnn"
+    default_feature = "mfcc"
+
+
+class FbankDnnSystem(_DnnSystem):
+    """FBank-27 → regressor → post-filter (paper §4.3's comparison features)."""
+
+    name = "fbank-dnn"
+    default_feature = "fbank"
+
+
+class F0eDnnSystem(_DnnSystem):
+    """F0 + energy with Δ and ΔΔ → regressor → post-filter (paper §4.3)."""
+
+    name = "f0e-dnn"
+    default_feature = "f0e"
+
+
+class WavDnnSystem(_DnnSystem):
+    """Raw 100-dim waveform frames straight into the regressor (paper Table 1's "waveform")."""
+
+    name = "wav-dnn"
+    default_feature = "wav"
+
+
+__all__ = ["CccaeSystem", "AeDnnSystem", "MfccDnnSystem", "FbankDnnSystem", "F0eDnnSystem", "WavDnnSystem",
+           "MODEL_FPS"]

@@ -1,0 +1,236 @@
+"""The Le et al. (2012) baseline, "le2012" (thesis §2.3 eq 2.19–2.21; §5.5.1 eq 5.15).
+
+Head rotation as Euler angles (pitch, yaw, roll; intrinsic yaw → pitch → roll, see
+:mod:`headmotion.rotations`); speech features pitch and loudness (the ``prosody`` feature set, an
+openSMILE-like estimate).  Five 10-component GMMs, trained by EM (scikit-learn):
+
+* one per angle κ over ``(κ_t, p_t, l_t)``;
+* one over the angular-velocity norm ``v_t = ‖θ_t − θ_{t−1}‖`` (eq 2.19) with ``(p_t, l_t)``;
+* one over the angular-acceleration norm ``a_t = ‖θ_t − 2θ_{t−1} + θ_{t−2}‖`` (eq 2.20) with
+  ``(p_t, l_t)``.
+
+Synthesis is causal: for every frame, ``θ_t`` maximises the product of eq 2.21 given the two
+previously synthesised frames, by gradient ascent (analytic gradients of the GMM log densities;
+started from a constant-velocity prediction).
+
+The "fair" variant (``joint=True``, eq 5.15) replaces the five GMMs by one 10-component GMM over
+``(pitch, yaw, roll, v, a, p, l)``, so the angles are optimised jointly and their positions
+relative to each other are modelled, as template warping does.
+
+Library considered: scikit-learn's GaussianMixture (fitting); the per-frame optimiser is
+hand-written because calling scipy.optimize per frame is ~100× slower.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
+from ..types import Audio, Motion
+from .base import Synthesizer
+
+
+class _GMM:
+    """A fitted full-covariance GMM with log density and gradient (standardised space)."""
+
+    def __init__(self, w, mu, cov):
+        self.w, self.mu = np.asarray(w, float), np.asarray(mu, float)
+        self.cov = np.asarray(cov, float)
+        self.prec = np.linalg.inv(self.cov)
+        sign, logdet = np.linalg.slogdet(self.cov)
+        self.logc = np.log(np.maximum(self.w, 1e-300)) - 0.5 * (logdet + self.mu.shape[1] * np.log(2 * np.pi))
+
+    @classmethod
+    def fit(cls, Z, n_components, random_state):
+        from sklearn.mixture import GaussianMixture
+
+        k = int(max(1, min(n_components, len(Z) // 20)))
+        g = GaussianMixture(k, covariance_type="full", reg_covar=1e-3, random_state=random_state,
+                            max_iter=100).fit(Z)
+        return cls(g.weights_, g.means_, g.covariances_)
+
+    def logpdf_grad(self, z: np.ndarray):
+        """log p(z) and d log p / dz for z (D,)."""
+        d = z[None, :] - self.mu  # (M, D)
+        pd = np.einsum("mij,mj->mi", self.prec, d)
+        lp = self.logc - 0.5 * np.sum(d * pd, axis=1)
+        mx = lp.max()
+        r = np.exp(lp - mx)
+        s = r.sum()
+        return mx + np.log(s), -(r[:, None] * pd).sum(axis=0) / s
+
+
+class Le2012(Synthesizer):
+    """Le et al. (2012) frame-wise GMM synthesis.
+
+    Parameters
+    ----------
+    features : str, default "prosody" (pitch + loudness)
+    fps : float or None
+    n_components : int, components per GMM (10)
+    joint : bool, the "fair" joint variant of eq 5.15
+    n_steps : int, gradient-ascent steps per frame
+    step : float, step size (in standardised units)
+    max_train_frames : int, frames sampled for EM (speed)
+    random_state : int
+    """
+
+    name = "le2012"
+    causal = False
+
+    def __init__(self, features="prosody", *, fps: float | None = None, n_components: int = 10,
+                 joint: bool = False, n_steps: int = 12, step: float = 0.05,
+                 max_train_frames: int = 30000, random_state: int = 0, seed: int | None = 0):
+        self.features = features
+        self.fps = fps
+        self.n_components = n_components
+        self.joint = joint
+        self.n_steps = n_steps
+        self.step = step
+        self.max_train_frames = max_train_frames
+        self.random_state = random_state
+        self.seed = seed
+
+    def get_params(self):
+        return {k: getattr(self, k) for k in ("features", "fps", "n_components", "joint", "n_steps", "step",
+                                              "max_train_frames", "random_state", "seed")}
+
+    def _config(self):
+        from .tws_common import make_feature_config
+
+        return make_feature_config(self.features, self.fps_)
+
+    def fit(self, corpus, *, progress=None):
+        from ..features import Normalizer
+
+        recs = list(corpus)
+        if not recs:
+            raise ParameterError("cannot train le2012 on an empty corpus")
+        self.fps_ = float(self.fps) if self.fps else float(recs[0].motion.fps)
+        self.sample_rate_ = int(recs[0].audio.sample_rate)
+        cfg = self._config()
+        ang, feats = [], []
+        for i, r in enumerate(recs):
+            m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
+            if len(m) < 3:
+                continue
+            ang.append(rotvec_to_pitch_yaw_roll(m.rotvec))
+            feats.append(np.asarray(cfg.extract(r.audio, n_frames=len(m)).values, dtype=np.float64))
+            if progress:
+                progress(i + 1, len(recs) + 1, f"features {r.id}")
+        if not ang:
+            raise ParameterError("le2012 needs recordings of at least 3 frames")
+        self.normalizer_ = Normalizer().fit(feats)
+        rows = []
+        for A, F in zip(ang, feats):
+            F = np.asarray(self.normalizer_.transform(F), dtype=np.float64)
+            v = np.r_[0.0, np.linalg.norm(np.diff(A, axis=0), axis=1)]
+            acc = np.r_[0.0, 0.0, np.linalg.norm(A[2:] - 2 * A[1:-1] + A[:-2], axis=1)]
+            rows.append(np.hstack([A, v[:, None], acc[:, None], F])[2:])
+        Z = np.vstack(rows)
+        self.n_features_ = Z.shape[1] - 5
+        rng = np.random.default_rng(self.random_state)
+        if len(Z) > self.max_train_frames:
+            Z = Z[rng.choice(len(Z), self.max_train_frames, replace=False)]
+        self.z_mu_ = Z.mean(axis=0)
+        self.z_sd_ = np.maximum(Z.std(axis=0), 1e-6)
+        Zs = (Z - self.z_mu_) / self.z_sd_
+        Fi = list(range(5, Z.shape[1]))
+        if self.joint:
+            self.gmms_ = {"joint": _GMM.fit(Zs, self.n_components, self.random_state)}
+        else:
+            self.gmms_ = {f"angle{k}": _GMM.fit(Zs[:, [k] + Fi], self.n_components, self.random_state) for k in range(3)}
+            self.gmms_["vel"] = _GMM.fit(Zs[:, [3] + Fi], self.n_components, self.random_state)
+            self.gmms_["acc"] = _GMM.fit(Zs[:, [4] + Fi], self.n_components, self.random_state)
+        allA = np.vstack(ang)
+        self.start_ = allA.mean(axis=0)
+        self.lo_, self.hi_ = allA.min(axis=0), allA.max(axis=0)
+        self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
+        self.fitted_ = True
+        return self
+
+    # -- synthesis ----------------------------------------------------------------------------
+    def _objective(self, theta, p1, p2, f):
+        """log of eq 2.21 (or eq 5.15) and its gradient w.r.t. theta (radians)."""
+        mu, sd = self.z_mu_, self.z_sd_
+        du = theta - p1
+        dd = theta - 2 * p1 + p2
+        v = np.linalg.norm(du)
+        a = np.linalg.norm(dd)
+        gv = du / v if v > 1e-12 else np.zeros(3)
+        ga = dd / a if a > 1e-12 else np.zeros(3)
+        zs_theta = (theta - mu[:3]) / sd[:3]
+        zs_v, zs_a = (v - mu[3]) / sd[3], (a - mu[4]) / sd[4]
+        if self.joint:
+            lp, g = self.gmms_["joint"].logpdf_grad(np.r_[zs_theta, zs_v, zs_a, f])
+            grad = g[:3] / sd[:3] + g[3] / sd[3] * gv + g[4] / sd[4] * ga
+            return lp, grad
+        total, grad = 0.0, np.zeros(3)
+        for k in range(3):
+            lp, g = self.gmms_[f"angle{k}"].logpdf_grad(np.r_[zs_theta[k], f])
+            total += lp
+            grad[k] += g[0] / sd[k]
+        lp, g = self.gmms_["vel"].logpdf_grad(np.r_[zs_v, f])
+        total += lp
+        grad += g[0] / sd[3] * gv
+        lp, g = self.gmms_["acc"].logpdf_grad(np.r_[zs_a, f])
+        total += lp
+        grad += g[0] / sd[4] * ga
+        return total, grad
+
+    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
+        from ..align import n_frames as _n
+
+        self._check_fitted()
+        if audio.sample_rate != self.sample_rate_:
+            from ..io.audio import resample
+
+            audio = Audio(resample(audio.samples, audio.sample_rate, self.sample_rate_), self.sample_rate_)
+        T = _n(len(audio.samples), audio.sample_rate, self.fps_)
+        if T == 0:
+            return Motion(np.zeros((0, 3)), self.fps_)
+        F = np.asarray(self.normalizer_.transform(np.asarray(self._config().extract(audio, n_frames=T).values,
+                                                                   dtype=np.float64)), dtype=np.float64)
+        Fs = (F - self.z_mu_[5:]) / self.z_sd_[5:]
+        out = np.empty((T, 3))
+        out[0] = out[min(1, T - 1)] = self.start_
+        sd = self.z_sd_[:3]
+        span = self.hi_ - self.lo_
+        lo, hi = self.lo_ - 0.1 * span, self.hi_ + 0.1 * span
+        for t in range(2, T):
+            p1, p2 = out[t - 1], out[t - 2]
+            theta = p1 + (p1 - p2)
+            for _ in range(self.n_steps):
+                _, g = self._objective(theta, p1, p2, Fs[t])
+                # step in standardised units, each coordinate moved by at most `step` SDs
+                dz = np.clip(self.step * g * sd, -self.step, self.step)
+                theta = np.clip(theta + dz * sd, lo, hi)
+            out[t] = theta
+        rv = pitch_yaw_roll_to_rotvec(out[:, 0], out[:, 1], out[:, 2])
+        return Motion(rv, self.fps_, meta={"system": self.name})
+
+    # -- persistence --------------------------------------------------------------------------
+    def _get_state(self):
+        from .tws_common import make_feature_config
+
+        arrays = {"z_mu": self.z_mu_, "z_sd": self.z_sd_, "start": self.start_, "lo": self.lo_, "hi": self.hi_}
+        for k, g in self.gmms_.items():
+            arrays.update({f"{k}_w": g.w, f"{k}_mu": g.mu, f"{k}_cov": g.cov})
+        arrays.update(self.normalizer_.to_arrays("norm_"))
+        return {"params": self.get_params(), "fps": self.fps_, "sample_rate": self.sample_rate_,
+                "gmms": sorted(self.gmms_), "features": make_feature_config(self.features, self.fps_).to_dict()}, arrays
+
+    def _set_state(self, config, arrays):
+        from ..features import Normalizer
+
+        self.__init__(**config["params"])
+        self.fps_ = float(config["fps"])
+        self.sample_rate_ = int(config["sample_rate"])
+        self.z_mu_, self.z_sd_ = arrays["z_mu"], arrays["z_sd"]
+        self.start_, self.lo_, self.hi_ = arrays["start"], arrays["lo"], arrays["hi"]
+        self.gmms_ = {k: _GMM(arrays[f"{k}_w"], arrays[f"{k}_mu"], arrays[f"{k}_cov"]) for k in config["gmms"]}
+        self.normalizer_ = Normalizer.from_arrays(arrays, "norm_")
+
+
+__all__ = ["Le2012"]

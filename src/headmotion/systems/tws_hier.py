@@ -1,0 +1,286 @@
+"""Hierarchical template-warping synthesis, "tws-hier" (thesis §5.6–5.8, Tables 5.5–5.7,
+Figs 5.10–5.13).
+
+Three layers per axis and template (rising / falling; templates alternate, so the next one is
+known at every change point):
+
+1. **Clusters** (§5.6.1, §5.7.2): k-means with random restarts (Euclidean, unweighted means) over
+   standardised vectors of the new and previous warping parameters of this axis, the other axes'
+   current parameters and the 10 speech frames before the change.  ``n_clusters=None`` chooses k
+   by G-means (Hamerly & Elkan 2003, :mod:`headmotion.models.gmeans`); the thesis found 3–4 and
+   used 4 for everything, the default here.  Clusters are indexed by increasing size (the last
+   is the most frequent), as in Tables 5.6–5.7.
+2. **Regression** (§5.7.3): per cluster one full-covariance Gaussian over ``[x; (d, a)]`` with
+   ``x`` = previous ``(d, a, c)``, the other axes' ``(d, a)``, the speech frame at the change and
+   the mean of the 10 frames before it.  The thesis initialised each fit 100 times at random; for a
+   single Gaussian EM has one fixed point, the closed-form ML estimate, which is what is computed
+   (the BIC of every cluster's Gaussian is recorded in ``fit_info_``, cf. Fig 5.12).
+3. **Recognition** (§5.6.2, §5.7.4): per cluster a 5-state left-to-right HMM with diagonal
+   covariance over per-frame observations = the speech features of the previous segment (the
+   registry's f0e / mfcc already carry Δ and ΔΔ) + the previous warping parameters of this axis and
+   the other axes' current parameters (Fig 5.15), constant over the segment; per axis an
+   ergodic 5-state HMM over cluster symbols is the "language model" biasing the choice.
+
+Synthesis (§5.8): at each change point the cluster maximising
+``Viterbi log-likelihood of the previous segment under the cluster HMM + lm_weight × log P_LM(cluster |
+clusters so far)`` is chosen (or sampled from the normalised scores with ``stochastic`` "cluster" /
+"both"); the warping parameters come from the cluster's Gaussian by ML (= the conditional mean for
+one Gaussian), MMSE or sampling; the template is warped and appended.
+
+:meth:`TwsHier.cluster_confusion` gives Tables 5.6 (HMM + LM recogniser) and 5.7 (regression
+Gaussians alone).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..models.gmm import GMMRegression
+from ..models.hmm import ErgodicLM, HMMBank, LeftToRightHMM
+from .tws_common import CONTEXT, TwsBase, collect
+
+
+class TwsHier(TwsBase):
+    """Hierarchical template-warping synthesis.
+
+    Parameters
+    ----------
+    features : str or FeatureConfig, default "f0e"
+    fps : float or None
+    n_clusters : int or None — clusters per axis and template; None chooses by G-means
+    n_states : int, states of the cluster HMMs and the language model (5)
+    hmm_iter : int, Baum–Welch iterations (capped for training speed)
+    lm_weight : float, weight of the language-model log probability
+    method : "ml", "mmse" or "sample"
+    stochastic : "none", "cluster", "params" or "both"
+    gain, feature_block, feature_context, seed : see :class:`~headmotion.systems.tws_basic.TwsBasic`
+    n_init : int, k-means random restarts
+    random_state : int
+    """
+
+    name = "tws-hier"
+    _with_frames = True
+
+    def __init__(self, features="f0e", *, fps: float | None = None, n_clusters: int | None = 4,
+                 n_states: int = 5, hmm_iter: int = 10, lm_weight: float = 1.0, method: str = "ml",
+                 stochastic: str = "none", gain: float = 1.0, feature_block: int = 50,
+                 feature_context: int = 20, seed: int | None = 0, n_init: int = 10, random_state: int = 0):
+        if stochastic not in ("none", "cluster", "params", "both"):
+            raise ParameterError(f"stochastic must be 'none', 'cluster', 'params' or 'both'; got {stochastic!r}")
+        if n_clusters is not None and (not isinstance(n_clusters, int) or n_clusters < 1):
+            raise ParameterError(f"n_clusters must be a positive int or None (G-means); got {n_clusters!r}")
+        self._init_common(features, fps, method, stochastic, gain, feature_block, feature_context, seed)
+        self.n_clusters = n_clusters
+        self.n_states = n_states
+        self.hmm_iter = hmm_iter
+        self.lm_weight = lm_weight
+        self.n_init = n_init
+        self.random_state = random_state
+
+    # -- vectors ----------------------------------------------------------------------------
+    @staticmethod
+    def _xreg(prev, others, frame, ctx, D):
+        cm = ctx.reshape(len(ctx), CONTEXT, D).mean(axis=1)
+        return np.hstack([prev, others, frame, cm])
+
+    @staticmethod
+    def _xclu(y, prev, others, ctx):
+        return np.hstack([y, prev, others, ctx])
+
+    # -- training ---------------------------------------------------------------------------
+    def _fit_axes(self, data, progress=None):
+        from sklearn.cluster import KMeans
+
+        D = self.n_features_
+        self.models_ = {}
+        self.fit_info_ = {"k": {}, "bic": {}, "counts": {}}
+        # scale of the "other axes" part of HMM observations (unit variance like the features)
+        allo = np.vstack([np.hstack([np.asarray(d.prev).reshape(-1, 3), np.asarray(d.others).reshape(-1, 4)])
+                          for d in data])
+        self.oth_mu_ = allo.mean(axis=0)
+        self.oth_sd_ = np.maximum(allo.std(axis=0), 1e-6)
+        step = 0
+        for j in range(3):
+            a = data[j].arrays()
+            frames = data[j].seg_frames
+            symbols = np.zeros(len(a["y"]), dtype=np.int64)
+            K_max = 0
+            for tau in (0, 1):
+                idx = np.nonzero(a["template"] == tau)[0]
+                Z = self._xclu(a["y"][idx], a["prev"][idx], a["others"][idx], a["ctx"][idx])
+                zmu, zsd = Z.mean(axis=0) if len(Z) else 0, np.maximum(Z.std(axis=0), 1e-9) if len(Z) else 1
+                Zs = (Z - zmu) / zsd
+                xr = self._xreg(a["prev"][idx], a["others"][idx], a["frame"][idx], a["ctx"][idx], D)
+                min_per = xr.shape[1] + 4
+                if self.n_clusters is None and len(Zs) >= 2 * min_per:
+                    from ..models.gmeans import gmeans
+
+                    k, _, _ = gmeans(Zs, max_k=8, min_size=2 * min_per, random_state=self.random_state)
+                else:
+                    k = self.n_clusters or 1
+                k = int(max(1, min(k, len(idx) // min_per)))
+                if k > 1:
+                    km = KMeans(k, n_init=self.n_init, random_state=self.random_state).fit(Zs)
+                    lab, cen = km.labels_, km.cluster_centers_
+                else:
+                    lab, cen = np.zeros(len(idx), dtype=np.int64), Zs.mean(axis=0, keepdims=True)
+                # index clusters by increasing size
+                counts = np.bincount(lab, minlength=k)
+                order = np.argsort(counts, kind="stable")
+                remap = np.empty(k, dtype=np.int64)
+                remap[order] = np.arange(k)
+                lab = remap[lab]
+                cen = cen[order]
+                regs, hmms = [], []
+                for c in range(k):
+                    sel = idx[lab == c]
+                    xc = self._xreg(a["prev"][sel], a["others"][sel], a["frame"][sel], a["ctx"][sel], D)
+                    g = GMMRegression(1).fit(xc, a["y"][sel])
+                    regs.append(g)
+                    self.fit_info_["bic"][f"{j}_{tau}_{c}"] = g.bic(xc, a["y"][sel])
+                    const = (np.hstack([a["prev"][sel], a["others"][sel]]) - self.oth_mu_) / self.oth_sd_
+                    seqs = [np.hstack([frames[i], np.tile(const[n], (len(frames[i]), 1))])
+                            for n, i in enumerate(sel)]
+                    X = np.vstack(seqs)
+                    h = LeftToRightHMM(self.n_states, n_iter=self.hmm_iter,
+                                       random_state=self.random_state).fit(X, [len(q) for q in seqs])
+                    hmms.append(h)
+                symbols[idx] = tau * 100 + lab
+                K_max = max(K_max, k)
+                self.models_[(j, tau)] = dict(k=k, regs=regs, hmms=hmms, bank=HMMBank(hmms, D),
+                                              centres=cen, zmu=np.asarray(zmu, dtype=np.float64),
+                                              zsd=np.asarray(zsd, dtype=np.float64))
+                self.fit_info_["k"][f"{j}_{tau}"] = k
+                self.fit_info_["counts"][f"{j}_{tau}"] = counts[order].tolist()
+                step += 1
+                if progress:
+                    progress(step, 6, f"axis {j} template {tau}: {k} clusters")
+            # language model over symbols tau*K + cluster, one sequence per recording
+            K = K_max
+            sym = np.where(symbols >= 100, K + symbols - 100, symbols)
+            lengths = np.bincount(a["rec"]) if len(a["rec"]) else np.zeros(0, dtype=np.int64)
+            lengths = lengths[lengths > 0]
+            lm = ErgodicLM(self.n_states, 2 * K, random_state=self.random_state).fit(sym, lengths)
+            self.models_[("lm", j)] = dict(lm=lm, K=K)
+
+    # -- synthesis ----------------------------------------------------------------------------
+    def _init_generation(self):
+        return {"alpha": [self.models_[("lm", j)]["lm"].initial_state() for j in range(3)],
+                "first": [True, True, True]}
+
+    def _hmm_scores(self, j, tau, Fseg, prev, others):
+        m = self.models_[(j, tau)]
+        bank: HMMBank = m["bank"]
+        o = (np.hstack([prev, others]) - self.oth_mu_) / self.oth_sd_
+        return bank.segment_loglik(bank.frame_loglik(Fseg), o)
+
+    def _lm_scores(self, j, tau, alpha, first):
+        lmm = self.models_[("lm", j)]
+        K = lmm["K"]
+        k = self.models_[(j, tau)]["k"]
+        lp = lmm["lm"].prior(alpha, first=first)
+        return lp[tau * K: tau * K + k], tau * K
+
+    def _choose(self, j, tau, state, F, t, rng):
+        from .tws_common import MAX_HMM_FRAMES, context_frames
+
+        g = state["gen"]
+        m = self.models_[(j, tau)]
+        lo = max(int(state["seg_start"]), t - MAX_HMM_FRAMES + 1)
+        score = self._hmm_scores(j, tau, F[lo:t + 1], state["prev"], state["others"])
+        lms, off = self._lm_scores(j, tau, g["alpha"][j], g["first"][j])
+        score = score + self.lm_weight * lms
+        if self.stochastic in ("cluster", "both"):
+            p = np.exp(score - score.max())
+            c = int(rng.choice(len(p), p=p / p.sum()))
+        else:
+            c = int(np.argmax(score))
+        lmm = self.models_[("lm", j)]
+        g["alpha"][j] = lmm["lm"].update(g["alpha"][j], off + c, first=g["first"][j])
+        g["first"][j] = False
+        x = self._xreg(state["prev"][None], state["others"][None], F[t][None],
+                       context_frames(F, t)[None], self.n_features_)
+        method = "sample" if self.stochastic in ("params", "both") else self.method
+        y = m["regs"][c].predict(x, method=method, rng=rng)[0]
+        return float(y[0]), float(y[1])
+
+    # -- analysis -----------------------------------------------------------------------------
+    def cluster_confusion(self, corpus) -> dict[str, np.ndarray]:
+        """Tables 5.6 / 5.7: true cluster (nearest k-means centre) vs the cluster recognised by the
+        HMMs + language model (``"hmm"``) and by the regression Gaussians' input likelihood alone
+        (``"gmm"``), given the true boundaries; counts summed over axes and templates, clusters
+        indexed by increasing training frequency."""
+        self._check_fitted()
+        motions, feats = [], []
+        for r in corpus:
+            mo = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
+            motions.append(np.asarray(mo.rotvec))
+            feats.append(self._features_full(r.audio, len(mo)))
+        data = collect(motions, feats, self.fps_, with_frames=True)
+        kmax = max(self.models_[(j, t)]["k"] for j in range(3) for t in (0, 1))
+        conf = {"hmm": np.zeros((kmax, kmax), dtype=np.int64), "gmm": np.zeros((kmax, kmax), dtype=np.int64)}
+        D = self.n_features_
+        for j in range(3):
+            a = data[j].arrays()
+            lmm = self.models_[("lm", j)]
+            alpha, first, prev_rec = None, True, -1
+            for i in range(len(a["y"])):
+                if a["rec"][i] != prev_rec:
+                    alpha, first, prev_rec = lmm["lm"].initial_state(), True, a["rec"][i]
+                tau = int(a["template"][i])
+                m = self.models_[(j, tau)]
+                z = (self._xclu(a["y"][i:i + 1], a["prev"][i:i + 1], a["others"][i:i + 1], a["ctx"][i:i + 1]) - m["zmu"]) / m["zsd"]
+                true = int(np.argmin(((m["centres"] - z) ** 2).sum(axis=1)))
+                s = self._hmm_scores(j, tau, data[j].seg_frames[i], a["prev"][i], a["others"][i])
+                lms, off = self._lm_scores(j, tau, alpha, first)
+                pred_h = int(np.argmax(s + self.lm_weight * lms))
+                x = self._xreg(a["prev"][i:i + 1], a["others"][i:i + 1], a["frame"][i:i + 1], a["ctx"][i:i + 1], D)
+                pred_g = int(np.argmax([r.log_likelihood_x(x)[0] for r in m["regs"]]))
+                conf["hmm"][true, pred_h] += 1
+                conf["gmm"][true, pred_g] += 1
+                alpha = lmm["lm"].update(alpha, off + true, first=first)
+                first = False
+        return conf
+
+    # -- persistence --------------------------------------------------------------------------
+    def _model_state(self):
+        arrays = {"oth_mu": self.oth_mu_, "oth_sd": self.oth_sd_}
+        ks = {}
+        for j in range(3):
+            for tau in (0, 1):
+                m = self.models_[(j, tau)]
+                p = f"m{j}{tau}_"
+                ks[f"{j}_{tau}"] = m["k"]
+                arrays[p + "centres"] = m["centres"]
+                arrays[p + "zmu"] = np.atleast_1d(m["zmu"])
+                arrays[p + "zsd"] = np.atleast_1d(m["zsd"])
+                for c in range(m["k"]):
+                    arrays.update(m["regs"][c].to_arrays(f"{p}reg{c}_"))
+                    arrays.update(m["hmms"][c].to_arrays(f"{p}hmm{c}_"))
+            lmm = self.models_[("lm", j)]
+            arrays.update(lmm["lm"].to_arrays(f"lm{j}_"))
+            ks[f"lm{j}"] = lmm["K"]
+        info = {"k": self.fit_info_["k"], "counts": self.fit_info_["counts"],
+                "bic": {k: float(v) for k, v in self.fit_info_["bic"].items()}}
+        return {"clusters": ks, "fit_info": info}, arrays
+
+    def _load_model_state(self, config, arrays):
+        self.oth_mu_ = np.asarray(arrays["oth_mu"], dtype=np.float64)
+        self.oth_sd_ = np.asarray(arrays["oth_sd"], dtype=np.float64)
+        ks = config["clusters"]
+        self.models_ = {}
+        for j in range(3):
+            for tau in (0, 1):
+                p = f"m{j}{tau}_"
+                k = int(ks[f"{j}_{tau}"])
+                regs = [GMMRegression.from_arrays(arrays, f"{p}reg{c}_") for c in range(k)]
+                hmms = [LeftToRightHMM.from_arrays(arrays, f"{p}hmm{c}_") for c in range(k)]
+                self.models_[(j, tau)] = dict(k=k, regs=regs, hmms=hmms, bank=HMMBank(hmms, self.n_features_),
+                                              centres=arrays[p + "centres"], zmu=arrays[p + "zmu"],
+                                              zsd=arrays[p + "zsd"])
+            self.models_[("lm", j)] = dict(lm=ErgodicLM.from_arrays(arrays, f"lm{j}_"), K=int(ks[f"lm{j}"]))
+        self.fit_info_ = config.get("fit_info", {})
+
+
+__all__ = ["TwsHier"]

@@ -1,0 +1,155 @@
+"""Cross-validation protocols (headmotion.evaluation.protocols) with tiny systems of our own."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from headmotion.corpus import Corpus, Recording
+from headmotion.errors import ParameterError
+from headmotion.evaluation import protocols as P
+from headmotion.systems.base import Synthesizer
+from headmotion.types import Audio, FeatureTrack, Motion
+
+SR = 8000
+FPS = 50.0
+
+
+def envelope(audio: Audio, *, fps: float, n_frames: int) -> FeatureTrack:
+    """Frame log-energy and its Δ (a stand-in for f0e in these tests)."""
+    hop = int(audio.sample_rate / fps)
+    s = np.asarray(audio.samples[: n_frames * hop], dtype=float)
+    s = np.pad(s, (0, max(0, n_frames * hop - len(s))))
+    e = np.log(np.mean(s.reshape(n_frames, hop) ** 2, axis=1) + 1e-8)
+    return FeatureTrack(np.column_stack([e, np.gradient(e)]), fps, ("loge", "dloge"))
+
+
+def _smooth(x, width=9):
+    k = np.hanning(width)
+    return np.convolve(x, k / k.sum(), mode="same")
+
+
+def make_corpus(n_per_speaker=3, speakers=("A", "B"), seconds=12.0, seed=0) -> Corpus:
+    rng = np.random.default_rng(seed)
+    recs = []
+    for spk in speakers:
+        for k in range(n_per_speaker):
+            T = int(seconds * FPS)
+            gate = _smooth((rng.random(T) < 0.3).astype(float) * rng.uniform(0.2, 1.0, T), 15) + 0.01
+            amp = np.repeat(gate, SR // int(FPS))
+            audio = Audio((rng.normal(size=len(amp)) * amp * 0.3).astype(np.float32), SR)
+            e = envelope(audio, fps=FPS, n_frames=T).values[:, 0]
+            e = (e - e.mean()) / e.std()
+            rv = np.column_stack([0.05 * _smooth(e), 0.03 * _smooth(np.roll(e, 3)), 0.01 * _smooth(rng.normal(size=T), 25)])
+            recs.append(Recording(f"{spk}{k}", spk, "read" if k % 2 else "free", audio, Motion(rv, FPS)))
+    return Corpus(recs, sample_rate=SR)
+
+
+class EnergyFollower(Synthesizer):
+    """Learns a linear map from frame energy to rotation (plus seeded noise)."""
+
+    name = "energy-follower"
+
+    def __init__(self, random_state=0):
+        self.random_state = random_state
+
+    def fit(self, corpus, *, progress=None):
+        X, Y = [], []
+        for r in corpus:
+            f = envelope(r.audio, fps=r.motion.fps, n_frames=len(r.motion)).values
+            X.append(np.column_stack([f, np.ones(len(f))]))
+            Y.append(r.motion.rotvec)
+        self.coef_ = np.linalg.lstsq(np.vstack(X), np.vstack(Y), rcond=None)[0]
+        self.fps_ = corpus[0].motion.fps
+        self.fitted_ = True
+        return self
+
+    def predict(self, audio, *, seed=None):
+        n = int(round(audio.duration * self.fps_))
+        f = envelope(audio, fps=self.fps_, n_frames=n).values
+        rng = np.random.default_rng(seed)
+        return Motion(np.column_stack([f, np.ones(n)]) @ self.coef_ + 0.002 * rng.normal(size=(n, 3)), self.fps_)
+
+    def _get_state(self):
+        return {}, {"coef": self.coef_}
+
+    def _set_state(self, config, arrays):
+        self.coef_ = arrays["coef"]
+
+
+class Stillness(EnergyFollower):
+    name = "still-test"
+
+    def predict(self, audio, *, seed=None):
+        n = int(round(audio.duration * self.fps_)) + 1  # one frame too many: trimmed by the protocol
+        return Motion(np.zeros((n, 3)), self.fps_)
+
+
+SYSTEMS = [("energy", EnergyFollower), ("still", Stillness)]
+
+
+@pytest.fixture(scope="module")
+def corpus():
+    return make_corpus()
+
+
+@pytest.fixture(scope="module")
+def loo(corpus):
+    return P.evaluate(corpus, SYSTEMS, protocol="loo", features=envelope, n_shifts=40, seed=3, window_s=3.0,
+                      feature_sets=[])
+
+
+def test_loo_rows_and_orderings(loo, corpus):
+    assert loo.systems == ["ground-truth", "energy", "still"]
+    assert sorted(loo.recordings) == sorted(corpus.ids)
+    assert loo.config["folds"] == 6
+    for system in loo.systems:
+        assert len(loo.values(system, "nmse")) == 6
+    assert loo.mean("ground-truth", "nmse") == 0.0
+    assert loo.mean("ground-truth", "cca_global") == pytest.approx(1.0, abs=1e-6)
+    # the learnt system follows the speech: beats chance and the still head
+    assert loo.mean("energy", "nmse_rx") < 0.3  # rz is unpredictable noise
+    assert loo.mean("energy", "cca_local") > loo.mean("energy", "cca_local_null_p95")
+    assert loo.mean("energy", "cca_local_excess") > 0.2
+    assert loo.mean("still", "fcca") == 0.0
+    assert loo.mean("still", "nmse") == pytest.approx(1.0, abs=0.5)
+    assert loo.mean("still", "sd_rx") == 0.0
+    # FCCA of the original is the top of the scale; the paper's chance score exists (2 speakers)
+    assert loo.mean("ground-truth", "fcca") >= loo.mean("energy", "fcca") - 0.05
+    assert 0 < loo.mean("ground-truth", "paper_chance") < 1
+    # Fig 4.8 rows per speaker
+    assert len(loo.values("ground-truth", "winlocal[2s]")) == 2
+    # trajectories kept for one recording
+    assert set(loo.trajectories) == {"ground-truth", "energy", "still"}
+    assert loo.trajectories["still"].shape == loo.trajectories["ground-truth"].shape
+
+
+def test_rerun_and_parallel_identical(loo, corpus):
+    again = P.evaluate(corpus, SYSTEMS, protocol="loo", features=envelope, n_shifts=40, seed=3, window_s=3.0,
+                       feature_sets=[], n_jobs=2)
+    assert again.rows == loo.rows
+
+
+def test_split_protocol(corpus):
+    res = P.evaluate(corpus, SYSTEMS[:1], protocol="split", features=envelope, n_shifts=20, seed=0, window_s=3.0,
+                     feature_sets=[], fig48=False)
+    assert res.config["folds"] == 2  # one per speaker
+    assert len(res.recordings) == 2  # 3 recordings per speaker -> 1 test each
+
+
+def test_bad_arguments(corpus):
+    with pytest.raises(ParameterError, match="protocol"):
+        P.evaluate(corpus, SYSTEMS, protocol="kfold", features=envelope)
+    with pytest.raises(ParameterError, match="unknown system"):
+        P.evaluate(corpus, ["no-such-system"], features=envelope)
+    with pytest.raises(ParameterError, match="twice"):
+        P.evaluate(corpus, [SYSTEMS[0], SYSTEMS[0]], features=envelope)
+
+
+@pytest.mark.slow
+def test_dask_local_cluster_equals_local_run(loo, corpus):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cluster:
+        res = P.evaluate(corpus, SYSTEMS, protocol="loo", features=envelope, n_shifts=40, seed=3, window_s=3.0,
+                         feature_sets=[], scheduler=cluster.scheduler_address)
+    assert res.rows == loo.rows
