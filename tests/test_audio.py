@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
-
 import numpy as np
 import pytest
 import soundfile as sf
@@ -264,3 +262,12 @@ def test_audio_info_reports_channels(tmp_path):
     sf.write(str(p), np.zeros((1600, 2), np.float32), 16000)
     d = audio_info(p)
     assert d["channels"] == 2 and d["sample_rate"] == 16000 and math.isclose(d["duration"], 0.1)
+
+
+@pytest.mark.shared
+def test_real_video_without_audio_track(shared_data):
+    files = sorted((shared_data / "talking_video" / "styletalk").glob("*.mp4"))
+    if not files:
+        pytest.skip("no styletalk videos")
+    with pytest.raises(AudioLoadingError, match=r"KristiNoem\.mp4|\.mp4: the file has no audio track"):
+        load_audio(files[0])

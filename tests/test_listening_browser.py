@@ -119,8 +119,18 @@ def test_mos_ref_participant_in_browser(browser, tmp_path, examples_dir):
             else:
                 if i == 0:
                     assert page.inner_text("#phase") == "Training"
-                    page.click("[data-play='Video']")  # replayable
+                    # motion + audio stimuli are drawn by the project's viewer component
+                    page.wait_for_function(
+                        "document.querySelectorAll('.player[data-viewer=ready]').length === 2",
+                        timeout=20000)
                     page.click("[data-play='Video']")
+                    page.wait_for_function(
+                        "document.querySelector('[data-slot=Video] .player')"
+                        ".headmotionViewer.getState().time > 0.2", timeout=20000)
+                    page.click("[data-play='Video']")  # replay restarts from the beginning
+                    t = page.evaluate("document.querySelector('[data-slot=Video] .player')"
+                                      ".headmotionViewer.getState().time")
+                    assert t < 0.5
                 r = 1 + (i * 3) % 7
                 page.click(f"#rating-{r}")
                 clicked[i] = float(r)

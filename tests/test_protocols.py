@@ -153,3 +153,35 @@ def test_dask_local_cluster_equals_local_run(loo, corpus):
         res = P.evaluate(corpus, SYSTEMS, protocol="loo", features=envelope, n_shifts=40, seed=3, window_s=3.0,
                          feature_sets=[], scheduler=cluster.scheduler_address)
     assert res.rows == loo.rows
+
+
+def test_registered_anchors(corpus):
+    res = P.evaluate(corpus, ["desync", "other-speaker", "shaped-noise", "still"], protocol="loo", features=envelope,
+                     n_shifts=20, seed=1, window_s=3.0, feature_sets=[], fig48=False)
+    assert res.systems == ["ground-truth", "desync", "other-speaker", "shaped-noise", "still"]
+    for s in res.systems:
+        assert len(res.values(s, "fcca")) == 6, s
+    assert res.mean("still", "sd_rx") == pytest.approx(0.0, abs=1e-12)
+    assert res.mean("still", "fcca") == pytest.approx(0.0, abs=1e-9)
+    # unsynchronised motion keeps the amplitude but loses the relation to speech
+    assert res.mean("desync", "sd_rx") == pytest.approx(res.mean("ground-truth", "sd_rx"), rel=0.2)
+    for s in ("desync", "other-speaker", "shaped-noise"):
+        assert res.mean(s, "fcca") < res.mean("ground-truth", "fcca") - 0.3
+        assert abs(res.mean(s, "cca_local_excess")) < 0.2
+
+
+class Broken(EnergyFollower):
+    name = "broken"
+
+    def fit(self, corpus, *, progress=None):
+        raise ParameterError("cannot learn from this little data")
+
+
+def test_failing_system_is_reported_not_fatal(corpus):
+    res = P.evaluate(corpus, [("broken", Broken), SYSTEMS[0]], features=envelope, n_shifts=10, window_s=3.0,
+                     feature_sets=[], fig48=False)
+    assert len(res.values("energy", "nmse")) == 6
+    assert len(res.values("broken", "nmse")) == 0
+    assert len(res.warnings) == 6 and "cannot learn" in res.warnings[0]
+    with pytest.raises(ParameterError, match="cannot learn"):
+        P.evaluate(corpus, [("broken", Broken)], features=envelope, n_shifts=10, feature_sets=[], strict=True)

@@ -33,6 +33,7 @@ def evaluate_cmd(
     feature_table: Optional[str] = typer.Option(
         None, "--feature-table", help="comma-separated feature sets for the paper Table 1 (default: all; 'none' to skip)"),
     no_figures: bool = typer.Option(False, "--no-figures", help="skip the PNG figures"),
+    strict: bool = typer.Option(False, "--strict", help="stop when a system fails on a fold (default: warn, go on)"),
 ):
     """Cross-validate systems on a corpus and write metrics.csv, report.md and figures."""
     from ..corpus import Corpus
@@ -52,7 +53,7 @@ def evaluate_cmd(
         fsets = [] if feature_table.strip().lower() == "none" else [f.strip() for f in feature_table.split(",") if f.strip()]
     with progress_bar("evaluating") as update:
         result = evaluate(corpus, names, protocol=protocol, features=features, n_jobs=jobs, scheduler=scheduler,
-                          seed=seed, n_shifts=shifts, window_s=window, feature_sets=fsets,
+                          seed=seed, n_shifts=shifts, window_s=window, feature_sets=fsets, strict=strict,
                           progress=lambda done, total, desc: update(done, total=total, description=desc))
     out = write_report(result, output, figures=not no_figures, title=f"headmotion evaluation of {corpus_dir}")
     console.print(f"{len(result.recordings)} held-out recordings, {result.config['folds']} folds, "

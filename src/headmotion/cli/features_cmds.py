@@ -92,9 +92,8 @@ def features(
     track = cfg.extract(snd, n_frames=n_frames)
     dt = time.perf_counter() - t0
     write_features(track, output, {"feature": cfg.to_dict(), "audio": str(audio)})
-    speed = f", {snd.duration / dt:.0f}× real time" if dt > 0 else ""
     console.print(
         f"wrote {output}: {track.n_frames}×{track.dim} {feature_set} at {track.fps:g} fps "
-        f"({snd.duration:.2f} s of audio in {dt:.2f} s{speed})",
+        f"({snd.duration:.2f} s of audio, {dt:.2f} s including start-up)",
         highlight=False,
     )

@@ -55,6 +55,7 @@ def render(
     fps: Optional[float] = typer.Option(None, "--fps", help="video frame rate (default: the motion's)"),
     antialias: bool = typer.Option(False, "--antialias", help="4× multisampling (smoother, ~3× slower)"),
     crf: int = typer.Option(20, "--crf", help="x264 quality (lower is better)"),
+    no_translation: bool = typer.Option(False, "--no-translation", help="rotation only, even if the motion has translation"),
 ):
     """Render head motion as an H.264 video with the speech, one head or a labelled grid."""
     from ..render import render_video
@@ -64,6 +65,7 @@ def render(
     with progress_bar("rendering", total=None) as update:
         info = render_video(ms, out, audio=audio, style=style, size=size, labels=labs,
                             mask=not no_mask, fps=fps, samples=4 if antialias else 0, crf=crf,
+                            translation=not no_translation,
                             progress=lambda d, t: update(d, total=t))
     w, h = info["size"]
     console.print(f"wrote {out} ({info['frames']} frames at {info['fps']:g} fps, {w}x{h}, "

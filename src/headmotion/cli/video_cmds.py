@@ -50,16 +50,19 @@ def from_video(
         with progress_bar(f"{job.video.name}", total=None) as update:
             yield lambda done, total: update(done, total=total)
 
+    errors = []
+
     def on_error(job, exc):
-        err_console.print(f"[bold red]skipped[/] {job.video}: {exc}", highlight=False, soft_wrap=True)
+        errors.append(exc)
+        if len(videos) > 1:
+            err_console.print(f"[bold red]skipped[/] {job.video}: {exc}", highlight=False, soft_wrap=True)
 
     rows, failures = build_corpus(
         jobs, output, fps=fps, lowpass=lowpass or None, method=method, max_side=max_side,
         cache_dir=cache if cache is not None else Path(output) / ".cache",
         progress_factory=factory, on_error=on_error, plot_dir=Path(output) / "plots" if plots else None)
-    if rows:
-        console.print(format_quality_table(rows))
+    if errors and not rows:  # nothing usable: the (first) reason, as one line and an exit code
+        raise errors[0]
+    console.print(format_quality_table(rows))
     minutes = sum(float(r["seconds"]) for r in rows) / 60.0
     console.print(f"wrote {len(rows)} recording(s), {minutes:.2f} min, to {output}/corpus.csv")
-    if failures and not rows:
-        raise typer.Exit(code=1)

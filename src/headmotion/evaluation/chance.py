@@ -68,6 +68,7 @@ def _result(score: float, null: np.ndarray) -> NullResult:
     return NullResult(float(score), mean, float(np.percentile(null, 95)), float(p), float(score - mean), len(null))
 
 
+@M.single_threaded
 def shift_null(score_fn: Callable[[np.ndarray], float], x, *, n_shifts: int = DEFAULT_SHIFTS, seed=0,
                min_shift: int | None = None) -> NullResult:
     """Null distribution of ``score_fn`` under circular shifts of ``x``.
@@ -87,6 +88,7 @@ def shift_null(score_fn: Callable[[np.ndarray], float], x, *, n_shifts: int = DE
     return _result(score, np.array(null))
 
 
+@M.single_threaded
 def global_cca_null(x, y, *, n_shifts: int = DEFAULT_SHIFTS, seed=0, min_shift: int | None = None,
                     ridge: float = M.RIDGE) -> NullResult:
     """Global CCA of ``x`` and ``y`` and its null with ``x`` circularly shifted."""
@@ -107,6 +109,7 @@ def global_cca_null(x, y, *, n_shifts: int = DEFAULT_SHIFTS, seed=0, min_shift: 
     return _result(score, null)
 
 
+@M.single_threaded
 def local_cca_null(x, y, *, window: int = M.DEFAULT_WINDOW, window_s: float | None = None, hop: int | None = None,
                    fps: float | None = None, n_shifts: int = DEFAULT_SHIFTS, seed=0, min_shift: int | None = None,
                    ridge: float = M.RIDGE, chunk: int = 16) -> NullResult:
@@ -118,14 +121,15 @@ def local_cca_null(x, y, *, window: int = M.DEFAULT_WINDOW, window_s: float | No
     score = M.local_cca(a, b, window=w, hop=h, ridge=ridge)
     shifts = _shifts(len(a), n_shifts, seed, min_shift if min_shift is not None else min(w, len(a) // 4))
     bw = M.windows(b, w, h)
+    yw = M._whiten(bw, ridge=ridge)  # the unshifted stream is whitened once for all shifts
     null = []
     for i in range(0, len(shifts), chunk):
         xa = np.stack([M.windows(np.roll(a, int(s), axis=0), w, h) for s in shifts[i:i + chunk]])
-        yb = np.broadcast_to(bw, (len(xa),) + bw.shape)
-        null.extend(M._cca_batch(xa, yb, ridge=ridge)[..., 0].mean(axis=1))
+        null.extend(M._cca_batch(xa, bw, ridge=ridge, Yw=yw)[..., 0].mean(axis=1))
     return _result(score, np.array(null))
 
 
+@M.single_threaded
 def fcca_null(motion_orig, features, motion_synth, *, window: int | None = None, window_s: float | None = None,
               fps: float | None = None, n_shifts: int = DEFAULT_SHIFTS, seed=0, min_shift: int | None = None,
               ridge: float = M.RIDGE) -> NullResult:
@@ -155,6 +159,7 @@ def fcca_null(motion_orig, features, motion_synth, *, window: int | None = None,
     return _result(score, null)
 
 
+@M.single_threaded
 def paper_chance_score(ground_truth, other_motions: Sequence, *, window: int = M.DEFAULT_WINDOW,
                        n_draws: int = 20, seed=0) -> float:
     """The paper's chance score (§4.3.2): local CCA between the ground truth and randomised motion

@@ -126,6 +126,7 @@ def motion_observations(rotvec: np.ndarray) -> np.ndarray:
     return np.hstack([a, M.deltas(a, order=1), M.deltas(a, order=2)])
 
 
+@M.single_threaded
 def cross_entropy_distances(observations: Sequence[np.ndarray], *, n_bins: int = N_BINS) -> np.ndarray:
     """Symmetric cross-entropy distance matrix (thesis eq 3.1) between recordings.
 
@@ -193,6 +194,7 @@ def stress(dist: np.ndarray, X: np.ndarray) -> tuple[float, float]:
     return float(np.sqrt(s2)), s2
 
 
+@M.single_threaded
 def mds(dist: np.ndarray, *, n_components: int = 2, seed: int = 0, max_iter: int = 300) -> tuple[np.ndarray, float, float]:
     """Classical MDS, then metric SMACOF from it; returns ``(X (N, n_components), stress-1, eq-3.2 stress)``."""
     import warnings
@@ -307,6 +309,7 @@ class CorpusStats:
     timings: dict = field(default_factory=dict)
 
 
+@M.single_threaded
 def _one_recording(corpus: Corpus, i: int, speaking_rate: bool) -> dict:
     rec = corpus[i]
     row = {"recording": rec.id, "speaker": rec.speaker, "task": rec.task, "seconds": rec.duration,
@@ -500,6 +503,10 @@ def stats_figures(st: CorpusStats, out_dir) -> list[Path]:
     ax.grid(alpha=0.3)
     if len(speakers) * len(tasks) <= 30:
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    else:  # too many for a legend: label the points
+        for k, r in enumerate(rows):
+            ax.annotate(r["speaker"][:12], st.mds[k], fontsize=5, alpha=0.8, xytext=(2, 2),
+                        textcoords="offset points")
     paths.append(_save_fig(fig, out / "mds.png"))
     # Figs 3.4-3.6
     spk = [r["speaker"] for r in rows]

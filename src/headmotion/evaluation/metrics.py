@@ -55,6 +55,36 @@ _CONST_TOL = 1e-13
 DEFAULT_WINDOW = 300  # frames (paper §4.3: 300 frames = 3 s at 100 fps)
 
 
+# -- BLAS threads ----------------------------------------------------------------------------------
+_CONTROLLER = None
+
+
+def single_threaded(fn):
+    """Run ``fn`` with one BLAS thread.
+
+    The metrics work on many small matrices (3 × 3 to 100 × 100); multi-threaded OpenBLAS gains
+    nothing there and, on a busy machine, its spinning threads made batched ``eigh`` 50× slower
+    (measured: 4 s instead of 0.08 s).  Uses threadpoolctl (a scikit-learn dependency)."""
+    import functools
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        global _CONTROLLER
+        if _CONTROLLER is None:
+            try:
+                from threadpoolctl import ThreadpoolController
+
+                _CONTROLLER = ThreadpoolController()
+            except ImportError:  # pragma: no cover
+                _CONTROLLER = False
+        if not _CONTROLLER:
+            return fn(*args, **kwargs)
+        with _CONTROLLER.limit(limits=1, user_api="blas"):
+            return fn(*args, **kwargs)
+
+    return wrapper
+
+
 # -- input handling --------------------------------------------------------------------------------
 def as_array(x, *, name: str = "input") -> tuple[np.ndarray, float | None]:
     """``(values (T, D) float64, fps or None)`` from an array, Motion or FeatureTrack."""
@@ -172,24 +202,27 @@ def _inv_sqrt(c: np.ndarray, mag2: np.ndarray, ridge: float) -> np.ndarray:
     return (v * inv[..., None, :]) @ np.swapaxes(v, -1, -2)
 
 
-def _cca_batch(X: np.ndarray, Y: np.ndarray, *, ridge: float = RIDGE, weights: bool = False):
+def _whiten(X: np.ndarray, *, ridge: float = RIDGE):
+    """Centred and whitened windows: ``(Xc @ W, W, mean)`` for stacked ``X (..., n, d)``, with
+    ``W = Cxx^-1/2`` (ridge, constant directions dropped)."""
+    n = X.shape[-2]
+    mx = X.mean(axis=-2, keepdims=True)
+    Xc = X - mx
+    cxx = np.swapaxes(Xc, -1, -2) @ Xc / max(n - 1, 1)
+    w = _inv_sqrt(cxx, np.max(np.abs(X), axis=(-2, -1)) ** 2, ridge)
+    return Xc @ w, w, mx[..., 0, :]
+
+
+def _cca_batch(X: np.ndarray, Y: np.ndarray, *, ridge: float = RIDGE, weights: bool = False, Yw=None):
     """CCA of stacked windows ``X (..., n, dx)``, ``Y (..., n, dy)``.
 
     Returns correlations ``(..., k)`` with ``k = min(dx, dy)``, and with ``weights`` also
-    ``A (..., dx, k)``, ``B (..., dy, k)``, ``mean_x (..., dx)``, ``mean_y (..., dy)``."""
+    ``A (..., dx, k)``, ``B (..., dy, k)``, ``mean_x (..., dx)``, ``mean_y (..., dy)``.
+    ``Yw`` may pass a precomputed :func:`_whiten` of ``Y`` (reused across shifted ``X``)."""
     n = X.shape[-2]
-    mx = X.mean(axis=-2, keepdims=True)
-    my = Y.mean(axis=-2, keepdims=True)
-    Xc, Yc = X - mx, Y - my
-    denom = max(n - 1, 1)
-    cxx = np.swapaxes(Xc, -1, -2) @ Xc / denom
-    cyy = np.swapaxes(Yc, -1, -2) @ Yc / denom
-    cxy = np.swapaxes(Xc, -1, -2) @ Yc / denom
-    magx = np.max(np.abs(X), axis=(-2, -1)) ** 2
-    magy = np.max(np.abs(Y), axis=(-2, -1)) ** 2
-    wx = _inv_sqrt(cxx, magx, ridge)
-    wy = _inv_sqrt(cyy, magy, ridge)
-    k_mat = wx @ cxy @ wy
+    xw, wx, mx = _whiten(X, ridge=ridge)
+    yw, wy, my = _whiten(Y, ridge=ridge) if Yw is None else Yw
+    k_mat = np.swapaxes(xw, -1, -2) @ yw / max(n - 1, 1)
     k = min(X.shape[-1], Y.shape[-1])
     if not weights:
         s = np.linalg.svd(k_mat, compute_uv=False)[..., :k]
@@ -197,7 +230,7 @@ def _cca_batch(X: np.ndarray, Y: np.ndarray, *, ridge: float = RIDGE, weights: b
     u, s, vt = np.linalg.svd(k_mat, full_matrices=False)
     a = wx @ u[..., :, :k]
     b = wy @ np.swapaxes(vt, -1, -2)[..., :, :k]
-    return np.clip(s[..., :k], 0.0, 1.0), a, b, mx[..., 0, :], my[..., 0, :]
+    return np.clip(s[..., :k], 0.0, 1.0), a, b, mx, my
 
 
 class CCAFit(NamedTuple):
@@ -227,6 +260,7 @@ def _check_cca_input(a, b):
         raise ParameterError(f"CCA needs at least 3 frames; got {len(a)}")
 
 
+@single_threaded
 def cca_fit(x, y, *, ridge: float = RIDGE) -> CCAFit:
     """Fit CCA between ``x (T, Dx)`` and ``y (T, Dy)`` (thesis eq 4.1–4.4); see :class:`CCAFit`."""
     a, b, _ = _pair(x, y)
@@ -235,6 +269,7 @@ def cca_fit(x, y, *, ridge: float = RIDGE) -> CCAFit:
     return CCAFit(s, wa, wb, ma, mb)
 
 
+@single_threaded
 def cca(x, y, *, all_components: bool = False, ridge: float = RIDGE):
     """Canonical correlation of two streams over their whole length (global CCA, ρ_g).
 
@@ -286,6 +321,7 @@ def windows(a: np.ndarray, window: int, hop: int) -> np.ndarray:
     return np.swapaxes(v, -1, -2)
 
 
+@single_threaded
 def local_cca(x, y, *, window: int = DEFAULT_WINDOW, window_s: float | None = None, hop: int | None = None,
               fps: float | None = None, return_windows: bool = False, ridge: float = RIDGE):
     """Local CCA ρ_l: mean first canonical correlation over windows (thesis §4.3.1; paper §4.3).
@@ -318,6 +354,7 @@ def local_cca(x, y, *, window: int = DEFAULT_WINDOW, window_s: float | None = No
     return s.copy() if return_windows else float(np.mean(s))
 
 
+@single_threaded
 def fcca(motion_orig, features, motion_synth, *, window: int | None = None, window_s: float | None = None,
          fps: float | None = None, ridge: float = RIDGE) -> float:
     """Forced CCA ρ_f (thesis §4.3.2, eq 4.5–4.6).
@@ -425,6 +462,7 @@ def jerk_accel(motion, *, fps: float | None = None) -> tuple[float, float]:
 
 
 # -- distributions (thesis Table 3.4) -----------------------------------------------------------------
+@single_threaded
 def distribution_stats(motion, *, axis_names=("rx", "ry", "rz")) -> dict[str, dict[str, float]]:
     """Skew, kurtosis and Kolmogorov–Smirnov statistics of rotation, Δ and ΔΔ (thesis Table 3.4).
 

@@ -35,7 +35,8 @@ features = the ``features`` set), ``feat_cca_local`` (motion vs features), ``sd_
 ``sdvel_rx..`` (paper Fig 2, rad and rad/s), ``jerk``, ``accel``; every CCA-type score ``m`` also
 has ``m_null_mean``, ``m_null_p95``, ``m_p``, ``m_excess`` (score − null mean).  The ground truth
 additionally gets ``paper_chance`` (local CCA with another speaker's randomised motion),
-``featcca_local[<set>]`` for every feature set (paper Table 1), and per speaker the local/global
+``featcca_local[<set>]`` for every feature set (paper Table 1; with ``_null_mean``, ``_excess``,
+``_p`` suffixes for its chance level), and per speaker the local/global
 CCA against window size (thesis Fig 4.8) as ``winlocal[<s>s]`` / ``winglobal[<s>s]``
 (recording ``speaker:<name>``).  A system with an ``embed(audio)`` method (CCCAE, AE) adds
 ``embed_cca_local`` — its embedding's local CCA with the recorded motion (paper Table 1 Wav_AE /
@@ -95,6 +96,7 @@ class FoldTask:
     feature_sets: tuple
     trajectory_recording: str | None
     fig48: bool
+    strict: bool = False
 
 
 @dataclass
@@ -194,6 +196,7 @@ def _conform(pred: Motion, ref: Motion, system: str, rec_id: str) -> np.ndarray:
 
 
 # -- scoring ---------------------------------------------------------------------------------------
+@M.single_threaded
 def score_recording(ref: Motion, pred: np.ndarray, feats, *, window_s: float = DEFAULT_WINDOW_S,
                     n_shifts: int = C.DEFAULT_SHIFTS, seed: int = 0) -> dict[str, float]:
     """All per-recording metrics of one prediction (names in the module docstring).
@@ -246,6 +249,7 @@ def _rows(system: str, recording: str, values: dict[str, float]) -> list[dict]:
     return [{"system": system, "recording": recording, "metric": k, "value": float(v)} for k, v in values.items()]
 
 
+@M.single_threaded
 def run_fold(task: FoldTask) -> dict:
     """Fit every system on ``task.train``, synthesise and score ``task.test``.
 
@@ -258,6 +262,7 @@ def run_fold(task: FoldTask) -> dict:
     tests = list(task.test)
     feats = {}
     t0 = time.perf_counter()
+    t_table = 0.0
     for rec in tests:
         feats[rec.id] = _extract(task.features, rec.audio, float(rec.motion.fps), len(rec.motion))
     timings["features"] = time.perf_counter() - t0
@@ -270,17 +275,25 @@ def run_fold(task: FoldTask) -> dict:
         if task.others is not None and len(task.others):
             vals["paper_chance"] = C.paper_chance_score(rec.motion, [o.motion for o in task.others],
                                                          window=win, seed=rseed)
+        t1 = time.perf_counter()
         for fs in task.feature_sets:
             try:
                 ft = _extract(fs, rec.audio, float(rec.motion.fps), len(rec.motion))
-                vals[f"featcca_local[{fs}]"] = M.local_cca(rec.motion, ft, window=win)
+                r = C.local_cca_null(rec.motion, ft, window=win, n_shifts=task.n_shifts,
+                                     seed=_sub_seed(task.seed, rec.id, "features", fs))
+                vals[f"featcca_local[{fs}]"] = r.score
+                vals[f"featcca_local[{fs}]_null_mean"] = r.null_mean
+                vals[f"featcca_local[{fs}]_excess"] = r.excess
+                vals[f"featcca_local[{fs}]_p"] = r.p_value
             except Exception as exc:  # a feature set that fails must not sink the evaluation
                 warns.append(f"feature set {fs!r} on {rec.id}: {type(exc).__name__}: {exc}")
+        t_table += time.perf_counter() - t1
         rows += _rows(GROUND_TRUTH, rec.id, vals)
         gt_out[rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats[rec.id])[0], dtype=np.float32),
                           rec.speaker, float(rec.motion.fps))
         if rec.id == task.trajectory_recording:
             traj[GROUND_TRUTH] = np.asarray(rec.motion.rotvec)
+    timings["feature table"] = t_table
     for spec in task.systems:
         name, factory = _system_spec(spec)
         if name == GROUND_TRUTH:
@@ -293,31 +306,49 @@ def run_fold(task: FoldTask) -> dict:
                 continue
             train = task.others
         t0 = time.perf_counter()
-        model.fit(train)
-        timings[f"fit:{name}"] = time.perf_counter() - t0
+        try:
+            model.fit(train)
+        except Exception as exc:
+            if task.strict:
+                raise
+            warns.append(f"{name} could not be trained for fold {task.fold} ({len(train)} recordings, "
+                         f"{sum(len(r.motion) / r.motion.fps for r in train):.0f} s): {type(exc).__name__}: {exc}")
+            continue
+        timings[f"fit:{name}"] = timings.get(f"fit:{name}", 0.0) + time.perf_counter() - t0
         t0 = time.perf_counter()
         for rec in tests:
             rseed = _sub_seed(task.seed, rec.id, name)
-            if hasattr(model, "predict_for"):  # anchors build their motion from the recording itself
-                made = model.predict_for(rec, seed=rseed)
-            else:
-                made = model.predict(rec.audio, seed=rseed)
-            pred = _conform(made, rec.motion, name, rec.id)
+            try:
+                if hasattr(model, "predict_for"):  # anchors build their motion from the recording itself
+                    made = model.predict_for(rec, seed=rseed)
+                else:
+                    made = model.predict(rec.audio, seed=rseed)
+                pred = _conform(made, rec.motion, name, rec.id)
+            except Exception as exc:
+                if task.strict:
+                    raise
+                warns.append(f"{name} failed to synthesise {rec.id}: {type(exc).__name__}: {exc}")
+                continue
             vals = score_recording(rec.motion, pred, feats[rec.id], window_s=task.window_s, n_shifts=task.n_shifts,
                                    seed=rseed)
-            if hasattr(model, "embed"):
+            if hasattr(model, "embed") and getattr(model, "autoencoder_", True) is not None:
                 try:
-                    emb = model.embed(rec.audio)
+                    emb = model.embed(rec.audio, fps=float(rec.motion.fps), n_frames=len(rec.motion))
                     e, _ = M.as_array(emb)
                     e = e[: len(rec.motion)]
-                    vals["embed_cca_local"] = M.local_cca(rec.motion.rotvec[: len(e)], e,
-                                                          window=max(3, min(int(round(task.window_s * rec.motion.fps)), len(e))))
+                    r = C.local_cca_null(rec.motion.rotvec[: len(e)], e,
+                                         window=max(3, min(int(round(task.window_s * rec.motion.fps)), len(e))),
+                                         n_shifts=task.n_shifts, seed=_sub_seed(task.seed, rec.id, name, "embed"))
+                    vals["embed_cca_local"] = r.score
+                    vals["embed_cca_local_null_mean"] = r.null_mean
+                    vals["embed_cca_local_excess"] = r.excess
+                    vals["embed_cca_local_p"] = r.p_value
                 except Exception as exc:
                     warns.append(f"{name}.embed on {rec.id}: {type(exc).__name__}: {exc}")
             rows += _rows(name, rec.id, vals)
             if rec.id == task.trajectory_recording:
                 traj[name] = pred
-        timings[f"predict+score:{name}"] = time.perf_counter() - t0
+        timings[f"predict+score:{name}"] = timings.get(f"predict+score:{name}", 0.0) + time.perf_counter() - t0
     return {"rows": rows, "trajectories": traj, "gt": gt_out, "timings": timings, "warnings": warns}
 
 
@@ -359,6 +390,7 @@ def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0) -> list[
     return folds
 
 
+@M.single_threaded
 def _fig48_rows(gt: dict, windows_s=FIG48_WINDOWS_S) -> list[dict]:
     """Thesis Fig 4.8 per speaker: recordings concatenated, cut into windows of w seconds; local =
     mean CCA over windows, global = CCA over the same windows concatenated."""
@@ -387,7 +419,7 @@ def _fig48_rows(gt: dict, windows_s=FIG48_WINDOWS_S) -> list[dict]:
 def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", features="f0e", n_jobs: int = 1,
              scheduler=None, seed: int = 0, window_s: float = DEFAULT_WINDOW_S, n_shifts: int = C.DEFAULT_SHIFTS,
              feature_sets: Sequence[str] | None = None, trajectory_recording: str | None = None,
-             fig48: bool = True, progress: Callable | None = None) -> EvaluationResult:
+             fig48: bool = True, strict: bool = False, progress: Callable | None = None) -> EvaluationResult:
     """Cross-validate ``systems`` on ``corpus`` (see the module docstring).
 
     Parameters
@@ -408,6 +440,9 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     feature_sets : feature sets for paper Table 1 (default: every registered set; ``[]`` = none).
     trajectory_recording : recording whose trajectories are kept for the figure (default: first
         held-out recording).
+    strict : bool — re-raise when a system fails to train or synthesise; by default the failure
+        is recorded in ``warnings`` and the evaluation goes on without that system's rows for the
+        fold (e.g. a template-warping model cannot be trained from one 10-second clip).
     progress : callable ``(done, total, description)``, optional.
     """
     t_start = time.perf_counter()
@@ -434,7 +469,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         trajectory_recording = folds[0][2].entries[0].recording
     tasks = [FoldTask(fold=name, train=tr, test=te, others=ot, systems=tuple(specs), features=features, seed=int(seed),
                       window_s=float(window_s), n_shifts=int(n_shifts), feature_sets=tuple(feature_sets),
-                      trajectory_recording=trajectory_recording, fig48=fig48)
+                      trajectory_recording=trajectory_recording, fig48=fig48, strict=bool(strict))
              for name, tr, te, ot in folds]
     results = _run_tasks(tasks, n_jobs=n_jobs, scheduler=scheduler, progress=progress)
     rows: list[dict] = []

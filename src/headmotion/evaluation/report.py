@@ -101,27 +101,28 @@ def render_report(result: EvaluationResult, *, title: str = "headmotion evaluati
     for s in systems:
         for sp, recs in spk.items():
             p = _vals(result, s, "cca_local_p", recs)
-            rows.append([s, sp, _ms(_vals(result, s, "nmse", recs), 2), _ms(_vals(result, s, "cca_local", recs), 2),
+            rows.append([s, sp, str(len(_vals(result, s, "cca_local", recs))), _ms(_vals(result, s, "nmse", recs), 2),
+                         _ms(_vals(result, s, "cca_local", recs), 2),
                          _m(_vals(result, s, "cca_local_null_mean", recs), 2),
                          _ms(_vals(result, s, "cca_local_excess", recs), 2),
                          "–" if len(p) == 0 else f"{np.mean(p < 0.05):.0%}",
                          _ms(_vals(result, s, "cca_global", recs), 2)])
-    md.append(_table(["System", "Speaker", "NMSE", "local CCA", "chance", "excess", "p<.05", "global CCA"], rows))
+    md.append(_table(["System", "Speaker", "n", "NMSE", "local CCA", "chance", "excess", "p<.05", "global CCA"], rows))
 
     # thesis Tables 5.3 / 5.8
     md.append("\n## Forced CCA per condition (thesis Tables 5.3 / 5.8 layout)\n")
     rows = []
     for s in systems:
         p = _vals(result, s, "fcca_p")
-        rows.append([s, _ms(_vals(result, s, "fcca")), _m(_vals(result, s, "fcca_null_mean")),
+        rows.append([s, str(len(_vals(result, s, "fcca"))), _ms(_vals(result, s, "fcca")), _m(_vals(result, s, "fcca_null_mean")),
                      _m(_vals(result, s, "fcca_null_p95")), _ms(_vals(result, s, "fcca_excess")),
                      "–" if len(p) == 0 else f"{np.mean(p < 0.05):.0%}", _ms(_vals(result, s, "fcca_local")),
                      _m(_vals(result, s, "fcca_local_null_mean"))])
-    md.append(_table(["Condition", "FCCA", "chance", "chance 95%", "excess", "p<.05", "local FCCA", "local chance"],
+    md.append(_table(["Condition", "n", "FCCA", "chance", "chance 95%", "excess", "p<.05", "local FCCA", "local chance"],
                      rows))
 
     # paper Table 1
-    feat_metrics = [m for m in result.metrics() if m.startswith("featcca_local[")]
+    feat_metrics = [m for m in result.metrics() if m.startswith("featcca_local[") and m.endswith("]")]
     embed = [s for s in systems if len(_vals(result, s, "embed_cca_local"))]
     if feat_metrics or embed:
         md.append("\n## Speech features vs recorded head motion, local CCA (paper Table 1 layout)\n")
@@ -129,11 +130,22 @@ def render_report(result: EvaluationResult, *, title: str = "headmotion evaluati
         for m in feat_metrics:
             fs = m[len("featcca_local["):-1]
             for sp, recs in spk.items():
-                rows.append([FEATURE_LABELS.get(fs, fs), sp, _ms(_vals(result, GROUND_TRUTH, m, recs))])
+                p = _vals(result, GROUND_TRUTH, f"{m}_p", recs)
+                rows.append([FEATURE_LABELS.get(fs, fs), sp, _ms(_vals(result, GROUND_TRUTH, m, recs)),
+                             _m(_vals(result, GROUND_TRUTH, f"{m}_null_mean", recs)),
+                             _ms(_vals(result, GROUND_TRUTH, f"{m}_excess", recs)),
+                             "–" if len(p) == 0 else f"{np.mean(p < 0.05):.0%}"])
         for s in embed:
             for sp, recs in spk.items():
-                rows.append([EMBED_LABELS.get(s, f"{s} embedding"), sp, _ms(_vals(result, s, "embed_cca_local", recs))])
-        md.append(_table(["Feature", "Speaker", "local CCA (held-out)"], rows))
+                p = _vals(result, s, "embed_cca_local_p", recs)
+                rows.append([EMBED_LABELS.get(s, f"{s} embedding"), sp, _ms(_vals(result, s, "embed_cca_local", recs)),
+                             _m(_vals(result, s, "embed_cca_local_null_mean", recs)),
+                             _ms(_vals(result, s, "embed_cca_local_excess", recs)),
+                             "–" if len(p) == 0 else f"{np.mean(p < 0.05):.0%}"])
+        md.append("Local CCA between each feature set of the held-out audio and the recorded motion; chance = the "
+                  "same with the motion circularly shifted (high-dimensional features find spurious correlation "
+                  "in short windows, so compare the excess).\n\n")
+        md.append(_table(["Feature", "Speaker", "local CCA", "chance", "excess", "p<.05"], rows))
 
     # paper Fig 2 + GENEA jerk
     md.append("\n## Amplitude and smoothness (paper Fig 2; GENEA jerk / acceleration)\n")

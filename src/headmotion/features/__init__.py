@@ -7,17 +7,17 @@ default) with one name per column; frame ``t`` is the analysis window centred on
 features line up with a motion track; by default it is :func:`headmotion.align.n_frames` of the
 audio.
 
-==========  ====  ==========================================================  ================
-name        dims  what                                                        module
-==========  ====  ==========================================================  ================
-``f0e``     6     log F0 + energy (dB), 10-frame smoothing, Δ, ΔΔ (paper)    :mod:`.prosody`
-``mfcc``    39    energy + 12 mel cepstra, Δ, ΔΔ (paper, HTK recipe)          :mod:`.spectral`
-``fbank``   27    26 log mel bands + log energy (paper §4.3)                  :mod:`.spectral`
-``wav``     100   4 kHz waveform, 25 ms windows (paper, CCCAE input)          :mod:`.waveform`
-``lsp``     16    line spectral frequencies of LPC order 16 (thesis §5.7.1)   :mod:`.lpc`
-``lar``     16    log area ratios (thesis §5.7.1)                             :mod:`.lpc`
-``prosody`` 2     openSMILE-like pitch (semitones) + loudness (Le et al.)     :mod:`.prosody`
-==========  ====  ==========================================================  ================
+===========  ====  =======================================================  ================
+name         dims  what                                                     module
+===========  ====  =======================================================  ================
+``f0e``      6     log F0 + energy (dB), 10-frame smoothing, Δ, ΔΔ (paper)  :mod:`.prosody`
+``mfcc``     39    energy + 12 mel cepstra, Δ, ΔΔ (paper, HTK recipe)       :mod:`.spectral`
+``fbank``    27    26 log mel bands + log energy (paper §4.3)               :mod:`.spectral`
+``wav``      100   4 kHz waveform, 25 ms windows (paper, CCCAE input)       :mod:`.waveform`
+``lsp``      16    line spectral frequencies, LPC order 16 (thesis §5.7.1)  :mod:`.lpc`
+``lar``      16    log area ratios (thesis §5.7.1)                          :mod:`.lpc`
+``prosody``  2     openSMILE-like pitch (semitones) + loudness (Le et al.)  :mod:`.prosody`
+===========  ====  =======================================================  ================
 
 Audio at any rate is first resampled to ``analysis_rate`` (16 kHz, thesis §3.4) with soxr, so
 features do not depend on the recording's rate (``wav`` resamples straight to 4 kHz).
@@ -28,7 +28,10 @@ track (e.g. EMA from speech inversion, thesis §5.7.1), :func:`available` lists 
 :class:`~headmotion.features.normalize.Normalizer` the per-dimension normalisation.
 Speech activity: :mod:`headmotion.features.vad`.
 
-Heavy libraries (librosa, parselmouth) are imported only when a feature is computed.
+Heavy libraries (parselmouth, soxr; librosa only for ``lsp``/``lar`` with ``method="burg"``) are
+imported only when a feature is computed.  CPU time on 60 s of 16 kHz speech (one core): ``wav``
+~0.01 s, ``mfcc``/``fbank``/``lar`` ~0.04–0.06 s, ``f0e`` ~0.11 s, ``prosody`` ~0.14 s, ``lsp``
+~0.2 s — all ≥ 200× real time (measured on a shared, loaded 2-core machine).
 """
 
 from __future__ import annotations
@@ -243,6 +246,9 @@ class FeatureConfig:
             raise ParameterError(f"FeatureConfig.params must be JSON-serialisable: {exc}") from None
         object.__setattr__(self, "fps", fps)
         object.__setattr__(self, "params", params)
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.fps, json.dumps(dict(self.params), sort_keys=True)))
 
     def extract(self, audio: Audio, n_frames: int | None = None) -> FeatureTrack:
         """:func:`extract` with this configuration."""

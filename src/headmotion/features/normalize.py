@@ -102,10 +102,14 @@ class Normalizer:
 
     @staticmethod
     def _key(prefix: str, name: str) -> str:
-        return f"{prefix}_{name}" if prefix else name
+        """``"norm" -> "norm_mean"``; a prefix ending in ``_``, ``.`` or ``/`` is used as is."""
+        if not prefix or prefix.endswith(("_", ".", "/")):
+            return f"{prefix}{name}"
+        return f"{prefix}_{name}"
 
     def to_arrays(self, prefix: str = "norm") -> dict[str, np.ndarray]:
-        """``{prefix_mean, prefix_std}`` float64 ``(D,)`` arrays (for an npz / model file)."""
+        """``{<prefix>_mean, <prefix>_std}`` float64 ``(D,)`` arrays (for an npz / model file);
+        ``to_arrays("norm_")`` gives ``norm_mean`` / ``norm_std``."""
         self._check(len(getattr(self, "mean_", [])))
         return {self._key(prefix, "mean"): np.asarray(self.mean_, np.float64),
                 self._key(prefix, "std"): np.asarray(self.std_, np.float64)}

@@ -6,24 +6,29 @@
   second option of thesis §2.2.4; the ends hold the nearest voiced value); both streams are smoothed
   with a 10-frame moving average (paper §4.1) before Δ and ΔΔ.  Energy is the log mean power of a
   25 ms Hamming window in dB re full scale (the windows of every other feature, centred on each
-  frame), which matches openSMILE's frame energy rather than Praat's intensity (whose frames do not
-  start at 0 s and which is referenced to 2·10⁻⁵ Pa).  The paper's openSMILE setup also gave a
+  frame): a frame log energy like openSMILE's ``cEnergy`` (the paper's tool), rather than Praat's
+  intensity, whose frames do not start at 0 s and which is referenced to 2·10⁻⁵ Pa.  The paper's openSMILE setup also gave a
   voicing probability; we keep ``f0e`` at exactly 6 dims and append the raw 0/1 voicing flag as a
   7th column ``voiced`` only when ``voicing=True``.
 * :func:`prosody` — openSMILE-like ``pitch`` and ``loudness`` for the Le et al. (2012) baseline
-  (thesis §2.3, §5.5.1).  Approximation, documented: pitch is F0 in semitones re 27.5 Hz (the unit
-  of openSMILE's ``F0semitoneFrom27.5Hz``), interpolated through unvoiced frames (openSMILE writes 0
-  there; the baseline's GMMs need a continuous value); loudness follows eGeMAPS' auditory-spectrum
-  loudness: mel-band powers (26 bands) weighted by the A-weighting equal-loudness curve, each
-  compressed by Stevens' power law (exponent 0.3, openSMILE's ``cIntensity`` loudness exponent) and
-  summed.  openSMILE itself is not used (its licence restricts commercial use and it adds a
-  native binary), so the features are recomputed from their definitions.
+  (thesis §2.3, §5.5.1).  Loudness (default ``loudness="intensity"``) is openSMILE's ``cIntensity``
+  definition exactly: ``L = (I / I0)^0.3`` with ``I`` the Hamming-weighted mean of the squared
+  samples of the frame (``Σ w_i x_i² / Σ w_i``, samples in [-1, 1]) and ``I0 = 10⁻⁶``;
+  ``loudness="auditory"`` gives an eGeMAPS-like auditory-spectrum loudness instead (26 mel-band
+  powers weighted by the A-weighting equal-loudness curve, each compressed by the same power law
+  and summed).  Pitch is Praat's F0, interpolated through unvoiced frames (openSMILE writes 0
+  there; the baseline's GMMs need a continuous value), in semitones re 27.5 Hz (the unit of
+  openSMILE's ``F0semitoneFrom27.5Hz``) or, with ``unit="hz"``, in Hz (openSMILE's ``F0``): this is
+  the approximation — openSMILE's own pitch tracker (ACF/SHS + Viterbi smoothing) is not
+  reproduced.  openSMILE itself is not used (its licence restricts commercial use and it adds a
+  native binary).
 
-Library considered: parselmouth (Praat) for F0 — librosa's ``pyin`` is ~50× slower and ``yin``
-has no voicing decision.  Praat runs with a 20 ms time step by default and is interpolated to the
-frame rate: it halves the dominant cost, and after the 100 ms smoothing the log F0 differs from a
-10 ms step by a median 0.01–0.02 semitones (95th percentile 0.3 semitones) on our example speech;
-``pitch_step=0.01`` gives Praat at every 100 fps frame.
+Library considered: parselmouth (Praat) for F0 — librosa's ``pyin`` took 15× the CPU time of Praat
+at the same 10 ms step on our example speech, and ``yin`` has no voicing decision.  Praat runs
+with a 20 ms time step by default and is interpolated to the frame rate: that halves the dominant
+cost, and after the 100 ms smoothing log F0 differs from a 10 ms step by a median 0.01–0.02
+semitones (95th percentile 0.3 semitones) on our example speech; ``pitch_step=0.01`` gives Praat
+at every 100 fps frame.
 """
 
 from __future__ import annotations
@@ -131,9 +136,9 @@ def f0e(audio: Audio, *, fps: float, n_frames: int, smooth_frames: int | None = 
 
 
 def prosody(audio: Audio, *, fps: float, n_frames: int, unit: str = "semitone",
-            pitch_floor: float = PITCH_FLOOR, pitch_ceiling: float = PITCH_CEILING,
-            pitch_step: float = 0.02, window_s: float = 0.025, n_bands: int = 26,
-            exponent: float = 0.3):
+            loudness: str = "intensity", pitch_floor: float = PITCH_FLOOR,
+            pitch_ceiling: float = PITCH_CEILING, pitch_step: float = 0.02, window_s: float = 0.025,
+            n_bands: int = 26, exponent: float = 0.3):
     """openSMILE-like ``pitch`` and ``loudness`` (2 dims) for the Le et al. (2012) baseline.
 
     Parameters
@@ -143,25 +148,39 @@ def prosody(audio: Audio, *, fps: float, n_frames: int, unit: str = "semitone",
     n_frames : int
     unit : {"semitone", "hz"}
         Pitch in semitones re 27.5 Hz (default) or in Hz.
-    n_bands : int, mel bands of the auditory spectrum
-    exponent : float, Stevens' power-law compression per band
+    loudness : {"intensity", "auditory"}
+        openSMILE ``cIntensity`` loudness ``(I / 1e-6)^0.3`` (default) or the band-weighted
+        auditory-spectrum loudness (see the module docstring).
+    window_s : float, analysis window (s)
+    n_bands : int, mel bands of the auditory spectrum (``loudness="auditory"``)
+    exponent : float, power-law compression (0.3 in openSMILE)
 
     Returns
     -------
     values : np.ndarray [shape=(T, 2)]
     names : ``["pitch", "loudness"]``
     """
-    from .spectral import a_weighting_db, mel_power
-
     if unit not in ("semitone", "hz"):
         raise ParameterError(f"prosody unit must be 'semitone' or 'hz'; got {unit!r}")
+    if loudness not in ("intensity", "auditory"):
+        raise ParameterError(f"prosody loudness must be 'intensity' or 'auditory'; got {loudness!r}")
     f0, _ = praat_pitch(audio, fps=fps, n_frames=n_frames, pitch_floor=pitch_floor,
                         pitch_ceiling=pitch_ceiling, pitch_step=pitch_step)
     pitch = 12.0 * np.log2(f0 / 27.5) if unit == "semitone" else f0
-    power, centres = mel_power(audio, fps=fps, n_frames=n_frames, n_mels=n_bands,
-                               window_s=window_s, pre_emph=0.0)
-    weight = 10.0 ** (a_weighting_db(np.maximum(centres, 1.0)) / 10.0)
-    loud = np.sum((power * weight[None, :]) ** exponent, axis=1)
+    if loudness == "intensity":
+        win = max(1, int(round(window_s * audio.sample_rate)))
+        frames = frame_signal(audio.samples, sample_rate=audio.sample_rate, fps=fps,
+                              n_frames=n_frames, win_length=win).astype(np.float64)
+        w = np.hamming(win)
+        intensity = (frames ** 2) @ w / np.sum(w)
+        loud = (intensity / 1e-6) ** exponent
+    else:
+        from .spectral import a_weighting_db, mel_power
+
+        power, centres = mel_power(audio, fps=fps, n_frames=n_frames, n_mels=n_bands,
+                                   window_s=window_s, pre_emph=0.0)
+        weight = 10.0 ** (a_weighting_db(np.maximum(centres, 1.0)) / 10.0)
+        loud = np.sum((power * weight[None, :]) ** exponent, axis=1)
     return np.stack([pitch, loud], axis=1), ["pitch", "loudness"]
 
 

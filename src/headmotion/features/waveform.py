@@ -8,8 +8,6 @@ everywhere in headmotion; no window function is applied (the paper feeds the raw
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..io.audio import resample
 from ..types import Audio
 from .frames import frame_signal

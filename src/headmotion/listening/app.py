@@ -119,6 +119,10 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
     def admin_page():
         return FileResponse(STATIC / "admin.html", media_type="text/html")
 
+    @app.get("/favicon.ico")
+    def favicon():
+        return Response(status_code=204)
+
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
     if VIEWER_STATIC.is_dir():
         app.mount("/viewer", StaticFiles(directory=VIEWER_STATIC), name="viewer")

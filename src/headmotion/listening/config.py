@@ -44,6 +44,7 @@ DEFAULT_QUESTIONS = {
 }
 DEFAULT_MOS_LABELS = ("1 – very different", "2", "3", "4", "5", "6", "7 – identical")
 MUSHRA_MARKS = ("Bad", "Poor", "Fair", "Good", "Excellent")
+VIEWER_STYLES = ("textured", "smooth", "silhouette")
 VIDEO_SUFFIXES = (".mp4", ".webm", ".m4v", ".ogv")
 MOTION_SUFFIXES = (".npz", ".json", ".csv", ".bvh")
 AUDIO_SUFFIXES = (".wav", ".mp3", ".ogg", ".flac", ".m4a")
@@ -272,6 +273,7 @@ class TestConfig:
     screening_threshold: float = 90.0
     screening_fraction: float = 0.85
     require_play: bool = False
+    viewer_style: str = "textured"
     admin_token: str | None = None
     database: str | None = None
     finish_text: str = "Thank you for taking part!"
@@ -295,6 +297,7 @@ class TestConfig:
             "instructions": self.instructions, "question": self.question,
             "scale_points": self.scale_points, "scale_labels": list(self.scale_labels),
             "mushra_marks": list(MUSHRA_MARKS), "require_play": self.require_play,
+            "viewer_style": self.viewer_style,
             "finish_text": self.finish_text, "n_trials": self.n_trials,
             "demographics": [
                 {"name": q.name, "label": q.label, "type": q.type, "options": list(q.options),
@@ -315,7 +318,7 @@ def _trials_per_item(cfg: TestConfig, item: Item) -> int:
 # ---------------------------------------------------------------------------------------------
 _TOP_KEYS = {"type", "title", "name", "seed", "consent", "instructions", "question", "scale",
              "demographics", "training", "items", "attention_checks", "mushra", "ab",
-             "require_play", "admin_token", "database", "finish_text"}
+             "require_play", "admin_token", "database", "finish_text", "viewer_style"}
 
 
 def load_config(path) -> TestConfig:
@@ -365,6 +368,12 @@ def load_config(path) -> TestConfig:
         kw["name"] = path.stem
     if "seed" in top:
         kw["seed"] = ctx.integer(top["seed"], "'seed'", 0, 2**63 - 1)
+    if "viewer_style" in top:
+        style = ctx.string(top["viewer_style"], "'viewer_style'")
+        if style not in VIEWER_STYLES:
+            ctx.fail(f"'viewer_style' must be one of {', '.join(VIEWER_STYLES)} (thesis §4.2.3); "
+                     f"got {style!r}", top["viewer_style"])
+        kw["viewer_style"] = style
     if "require_play" in top:
         kw["require_play"] = ctx.boolean(top["require_play"], "'require_play'")
 

@@ -202,8 +202,8 @@ def cccae_loss(ae: StackedAutoencoder, x: torch.Tensor, y: torch.Tensor | None, 
     rec = torch.mean((ae.decode(z) - x) ** 2)
     if alpha and y is not None:
         corr = cca_objective(z, y, reg=reg)
-        return rec - alpha * corr, float(rec), float(corr)
-    return rec, float(rec), float("nan")
+        return rec - alpha * corr, float(rec.detach()), float(corr.detach())
+    return rec, float(rec.detach()), float("nan")
 
 
 def train_autoencoder(ae: StackedAutoencoder, x_train: torch.Tensor, y_train: torch.Tensor | None, *,

@@ -5,7 +5,8 @@ filter 5 frames wide (at 100 Hz; the width scales with the frame rate), and segm
 placed where the first derivative of the smoothed trajectory is zero, i.e. at its peaks and
 troughs.  Segments shorter than the minimum (6 frames at 100 Hz, below the Nyquist period of the
 fastest head motion, ~7 Hz, Hadar et al. 1983) are merged away by removing the pair of extrema
-that bounds them, so that consecutive segments keep alternating between rising and falling.
+that bounds them; neighbouring segments that then move in the same direction are merged, so
+consecutive segments strictly alternate between rising and falling (the templates alternate, §5.4).
 
 Library considered: ``scipy.signal.find_peaks`` finds extrema but does not keep maxima and minima
 alternating when merging short segments; ``scipy.ndimage.gaussian_filter1d`` does the smoothing.
@@ -126,7 +127,23 @@ def segment_axis(x: np.ndarray, *, fps: float, min_segment: int | None = None,
     xs = x if smoothed else smooth(x, fps=fps)
     m = min_segment_frames(fps) if min_segment is None else int(min_segment)
     ext = _merge_short(find_extrema(xs), m, T)
-    return np.concatenate([[0], ext, [T - 1]]).astype(np.int64)
+    return _alternate(np.concatenate([[0], ext, [T - 1]]).astype(np.int64), xs)
+
+
+def _alternate(b: np.ndarray, xs: np.ndarray) -> np.ndarray:
+    """Merge consecutive segments that move in the same direction (possible after removing short
+    segments: max → min with the min higher than the max), so rising and falling strictly alternate."""
+    pts = [int(b[0])]
+    last_dir = 0.0
+    for e in b[1:].tolist():
+        d = np.sign(xs[e] - xs[pts[-1]])
+        if len(pts) >= 2 and (d == last_dir or d == 0):
+            pts[-1] = e
+            last_dir = np.sign(xs[e] - xs[pts[-2]])
+        else:
+            pts.append(e)
+            last_dir = d
+    return np.asarray(pts, dtype=np.int64)
 
 
 @dataclass(frozen=True)

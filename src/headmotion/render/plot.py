@@ -102,12 +102,12 @@ def plot_motion(motions, out=None, *, labels=None, audio=None, f0: bool = True, 
     if au is not None:
         ax = axes[3]
         x = au.samples
-        step = max(1, len(x) // 20000)  # decimate peaks for drawing
+        step = max(1, len(x) // 3000)  # min/max envelope per block: the waveform as drawn in papers
         n = len(x) // step * step
         if step > 1:
             blk = x[:n].reshape(-1, step)
             tt = np.arange(blk.shape[0]) * step / au.sample_rate
-            ax.fill_between(tt, blk.min(1), blk.max(1), color="0.55", lw=0)
+            ax.fill_between(tt, blk.min(1), blk.max(1), color="0.6", lw=0.3, edgecolor="0.6")
         else:
             ax.plot(np.arange(len(x)) / au.sample_rate, x, color="0.55", lw=0.5)
         ax.set_ylabel("speech")

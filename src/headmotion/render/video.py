@@ -151,7 +151,7 @@ def _audio_file(audio, tmpdir: str):
 def render_video(motions, out, *, audio=None, style: str = "textured", size=(640, 480),
                  labels=None, mask: bool = True, fps: float | None = None, grid=None,
                  crf: int = 20, preset: str = "veryfast", samples: int = 0,
-                 progress=None) -> dict:
+                 translation: bool = True, progress=None) -> dict:
     """Render head motion to an H.264 MP4 with the speech muxed in.
 
     Parameters
@@ -168,6 +168,8 @@ def render_video(motions, out, *, audio=None, style: str = "textured", size=(640
         resampled (Slerp)
     grid : (rows, cols) or None (one row for ≤ 4 motions, else near-square)
     crf, preset : x264 quality (lower = better) and speed
+    translation : bool, move the head by ``Motion.translation`` when present (about the clip's
+        mean position, so a constant offset from the torso does not lift the head off the neck)
     samples : multisampling for anti-aliasing (0 = off, the default; 4 looks smoother and
         renders about 3× slower on the CPU rasteriser)
     progress : callable ``progress(done, total)`` or None
@@ -198,9 +200,9 @@ def render_video(motions, out, *, audio=None, style: str = "textured", size=(640
         # shorter motions hold their last pose
         idx = np.minimum(np.arange(n_frames), len(m) - 1)
         rotvecs[:, k] = m.rotvec[idx]
-        if m.translation is not None:
-            trans[:, k] = m.translation[idx]
-    has_trans = any(m.translation is not None for m in ms)
+        if translation and m.translation is not None:
+            trans[:, k] = m.translation[idx] - m.translation.mean(axis=0)
+    has_trans = translation and any(m.translation is not None for m in ms)
     duration = n_frames / rate
 
     with tempfile.TemporaryDirectory(prefix="headmotion-render-") as tmpdir:
@@ -270,4 +272,32 @@ def read_frames(path, *, size=None) -> np.ndarray:
     return np.stack(frames) if frames else np.zeros((0, h, w, 3), np.uint8)
 
 
-__all__ = ["render_video", "FFmpegWriter", "ffmpeg_exe", "probe", "read_frames"]
+def benchmark(*, n_frames: int = 300, size=(640, 480), style: str = "textured", samples: int = 0,
+              out=None) -> dict:
+    """Frames per second of :func:`render_video` (render + readback + pipe to ffmpeg + x264).
+
+    Also reports CPU milliseconds per frame of this process (OpenGL on llvmpipe, Python) and of
+    ffmpeg, which tell what an idle machine would do when the measured one is busy.
+    Returns ``{"frames", "size", "wall_fps", "cpu_ms_render", "cpu_ms_ffmpeg", "load"}``."""
+    import resource
+
+    fps = 25.0
+    t = np.arange(n_frames) / fps
+    rv = np.stack([0.2 * np.sin(2 * np.pi * 0.5 * t), 0.3 * np.sin(2 * np.pi * 0.3 * t),
+                   0.1 * np.sin(2 * np.pi * 0.7 * t)], 1)
+    from .mesh import build_head_mesh
+
+    build_head_mesh(detail=1)  # not part of the per-frame cost
+    with tempfile.TemporaryDirectory() as d:
+        target = out or os.path.join(d, "bench.mp4")
+        s0 = resource.getrusage(resource.RUSAGE_SELF)
+        c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        info = render_video(Motion(rv, fps), target, size=size, style=style, samples=samples)
+        s1 = resource.getrusage(resource.RUSAGE_SELF)
+        c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = lambda a, b: (b.ru_utime + b.ru_stime - a.ru_utime - a.ru_stime) * 1000 / n_frames  # noqa: E731
+    return {"frames": n_frames, "size": info["size"], "wall_fps": info["render_fps"],
+            "cpu_ms_render": cpu(s0, s1), "cpu_ms_ffmpeg": cpu(c0, c1), "load": os.getloadavg()[0]}
+
+
+__all__ = ["render_video", "FFmpegWriter", "ffmpeg_exe", "probe", "read_frames", "benchmark"]

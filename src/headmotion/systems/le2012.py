@@ -47,18 +47,8 @@ class _GMM:
 
         k = int(max(1, min(n_components, len(Z) // 20)))
         g = GaussianMixture(k, covariance_type="full", reg_covar=1e-3, random_state=random_state,
-                            max_iter=100).fit(Z)
+                            max_iter=50, tol=1e-3).fit(Z)
         return cls(g.weights_, g.means_, g.covariances_)
-
-    def logpdf_grad(self, z: np.ndarray):
-        """log p(z) and d log p / dz for z (D,)."""
-        d = z[None, :] - self.mu  # (M, D)
-        pd = np.einsum("mij,mj->mi", self.prec, d)
-        lp = self.logc - 0.5 * np.sum(d * pd, axis=1)
-        mx = lp.max()
-        r = np.exp(lp - mx)
-        s = r.sum()
-        return mx + np.log(s), -(r[:, None] * pd).sum(axis=0) / s
 
 
 class Le2012(Synthesizer):
@@ -81,7 +71,7 @@ class Le2012(Synthesizer):
 
     def __init__(self, features="prosody", *, fps: float | None = None, n_components: int = 10,
                  joint: bool = False, n_steps: int = 12, step: float = 0.05,
-                 max_train_frames: int = 30000, random_state: int = 0, seed: int | None = 0):
+                 max_train_frames: int = 10000, random_state: int = 0, seed: int | None = 0):
         self.features = features
         self.fps = fps
         self.n_components = n_components
@@ -151,35 +141,42 @@ class Le2012(Synthesizer):
         return self
 
     # -- synthesis ----------------------------------------------------------------------------
-    def _objective(self, theta, p1, p2, f):
-        """log of eq 2.21 (or eq 5.15) and its gradient w.r.t. theta (radians)."""
-        mu, sd = self.z_mu_, self.z_sd_
-        du = theta - p1
-        dd = theta - 2 * p1 + p2
-        v = np.linalg.norm(du)
-        a = np.linalg.norm(dd)
-        gv = du / v if v > 1e-12 else np.zeros(3)
-        ga = dd / a if a > 1e-12 else np.zeros(3)
-        zs_theta = (theta - mu[:3]) / sd[:3]
-        zs_v, zs_a = (v - mu[3]) / sd[3], (a - mu[4]) / sd[4]
-        if self.joint:
-            lp, g = self.gmms_["joint"].logpdf_grad(np.r_[zs_theta, zs_v, zs_a, f])
-            grad = g[:3] / sd[:3] + g[3] / sd[3] * gv + g[4] / sd[4] * ga
-            return lp, grad
-        total, grad = 0.0, np.zeros(3)
-        for k in range(3):
-            lp, g = self.gmms_[f"angle{k}"].logpdf_grad(np.r_[zs_theta[k], f])
-            total += lp
-            grad[k] += g[0] / sd[k]
-        lp, g = self.gmms_["vel"].logpdf_grad(np.r_[zs_v, f])
-        total += lp
-        grad += g[0] / sd[3] * gv
-        lp, g = self.gmms_["acc"].logpdf_grad(np.r_[zs_a, f])
-        total += lp
-        grad += g[0] / sd[4] * ga
-        return total, grad
+    def _conditionals(self, Fs: np.ndarray):
+        """Condition every GMM on the speech features of every frame (vectorised over T).
+
+        Returns per GMM: log weights (T, M) incl. log N(f_t), conditional means (T, M, Dz) and
+        conditional precisions (M, Dz, Dz) with their log-determinant terms (M,)."""
+        out = {}
+        for key, g in self.gmms_.items():
+            Dz = 5 if key == "joint" else 1
+            mu_z, mu_f = g.mu[:, :Dz], g.mu[:, Dz:]
+            S = g.cov
+            Szz, Szf, Sff = S[:, :Dz, :Dz], S[:, :Dz, Dz:], S[:, Dz:, Dz:]
+            Sff_inv = np.linalg.inv(Sff)
+            A = np.einsum("mij,mjk->mik", Szf, Sff_inv)  # (M, Dz, Df)
+            C = Szz - np.einsum("mik,mjk->mij", A, Szf)
+            P = np.linalg.inv(C)
+            _, ldC = np.linalg.slogdet(C)
+            _, ldF = np.linalg.slogdet(Sff)
+            df = Fs[:, None, :] - mu_f[None]  # (T, M, Df)
+            q = np.einsum("tmi,mij,tmj->tm", df, Sff_inv, df)
+            logw = (np.log(np.maximum(g.w, 1e-300))[None] - 0.5 * (q + ldF[None] + Fs.shape[1] * np.log(2 * np.pi))
+                    - 0.5 * ldC[None])
+            cm = mu_z[None] + np.einsum("mij,tmj->tmi", A, df)
+            out[key] = (logw, cm, P)
+        return out
+
+    @staticmethod
+    def _mix_grad(z, logw, cm, P):
+        """d/dz log sum_m exp(logw_m) N(z; cm_m, P_m^-1) for z (Dz,)."""
+        d = z[None, :] - cm  # (M, Dz)
+        pd = np.einsum("mij,mj->mi", P, d)
+        lp = logw - 0.5 * np.sum(d * pd, axis=1)
+        r = np.exp(lp - lp.max())
+        return -(r[:, None] * pd).sum(axis=0) / r.sum()
 
     def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
+        """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``)."""
         from ..align import n_frames as _n
 
         self._check_fitted()
@@ -193,19 +190,38 @@ class Le2012(Synthesizer):
         F = np.asarray(self.normalizer_.transform(np.asarray(self._config().extract(audio, n_frames=T).values,
                                                                    dtype=np.float64)), dtype=np.float64)
         Fs = (F - self.z_mu_[5:]) / self.z_sd_[5:]
+        cond = self._conditionals(Fs)
+        mu, sd = self.z_mu_, self.z_sd_
         out = np.empty((T, 3))
         out[0] = out[min(1, T - 1)] = self.start_
-        sd = self.z_sd_[:3]
         span = self.hi_ - self.lo_
         lo, hi = self.lo_ - 0.1 * span, self.hi_ + 0.1 * span
+        if not self.joint:
+            # stack the five univariate conditional mixtures: (T, 5, M), (5, M)
+            keys = ["angle0", "angle1", "angle2", "vel", "acc"]
+            LW = np.stack([cond[k][0] for k in keys], axis=1)
+            CM = np.stack([cond[k][1][..., 0] for k in keys], axis=1)
+            PR = np.stack([cond[k][2][:, 0, 0] for k in keys], axis=0)
         for t in range(2, T):
             p1, p2 = out[t - 1], out[t - 2]
             theta = p1 + (p1 - p2)
             for _ in range(self.n_steps):
-                _, g = self._objective(theta, p1, p2, Fs[t])
-                # step in standardised units, each coordinate moved by at most `step` SDs
-                dz = np.clip(self.step * g * sd, -self.step, self.step)
-                theta = np.clip(theta + dz * sd, lo, hi)
+                du, dd = theta - p1, theta - 2 * p1 + p2
+                v, a = np.sqrt(du @ du), np.sqrt(dd @ dd)
+                gv = du / v if v > 1e-12 else np.zeros(3)
+                ga = dd / a if a > 1e-12 else np.zeros(3)
+                z = np.r_[(theta - mu[:3]) / sd[:3], (v - mu[3]) / sd[3], (a - mu[4]) / sd[4]]
+                if self.joint:
+                    g = self._mix_grad(z, cond["joint"][0][t], cond["joint"][1][t], cond["joint"][2])
+                else:
+                    d = z[:, None] - CM[t]  # (5, M)
+                    lp = LW[t] - 0.5 * d * d * PR
+                    r = np.exp(lp - lp.max(axis=1, keepdims=True))
+                    g = -(r * d * PR).sum(axis=1) / r.sum(axis=1)
+                grad = g[:3] / sd[:3] + g[3] / sd[3] * gv + g[4] / sd[4] * ga
+                # gradient ascent in standardised units, at most `step` SDs per coordinate and step
+                dz = np.clip(self.step * grad * sd[:3], -self.step, self.step)
+                theta = np.minimum(np.maximum(theta + dz * sd[:3], lo), hi)
             out[t] = theta
         rv = pitch_yaw_roll_to_rotvec(out[:, 0], out[:, 1], out[:, 2])
         return Motion(rv, self.fps_, meta={"system": self.name})

@@ -162,6 +162,8 @@ def analyse_video(path, *, audio=None, max_side: int | None = DEFAULT_MAX_SIDE,
 def cache_key(path, audio=None, max_side=DEFAULT_MAX_SIDE) -> str:
     """A key that changes when the video (or its audio) file or the analysis settings change."""
     p = Path(path).resolve()
+    if not p.is_file():
+        raise FormatError("video file not found", path=path)
     st = p.stat()
     parts = [str(p), str(st.st_size), str(st.st_mtime_ns), str(max_side), str(ANALYSIS_VERSION)]
     side = Path(audio) if audio is not None else find_sidecar_audio(p)
@@ -433,23 +435,26 @@ def build_corpus(jobs: Sequence[VideoJob], out_dir, *, fps: float | None = None,
             on_error(job, exc)
             failures.append((job, str(exc)))
             continue
+        # replace this video's old entries in place (a re-run keeps the manifest order)
+        pos = next((i for i, e in enumerate(entries) if pat.match(e.recording)), len(entries))
         entries = [e for e in entries if not pat.match(e.recording)]
+        pos = min(pos, len(entries))
         for k in [k for k in old_quality if pat.match(k)]:
             del old_quality[k]
+        new_entries = []
         for part in parts:
             save_audio(part.audio, out / f"{part.id}.wav")
             save_motion(part.motion, out / f"{part.id}.npz")
-            entries.append(CorpusEntry(part.id, job.speaker, TASK, Path(f"{part.id}.wav"), Path(f"{part.id}.npz")))
+            new_entries.append(CorpusEntry(part.id, job.speaker, TASK, Path(f"{part.id}.wav"), Path(f"{part.id}.npz")))
             row = dict(part.quality, speaker=job.speaker)
             rows.append(row)
             old_quality[part.id] = row
             if plot_dir is not None:
                 plot_pose(part.motion, Path(plot_dir) / f"{part.id}.png", title=f"{part.id} ({job.speaker})")
+        entries[pos:pos] = new_entries
         # manifest and quality table after every video, so an interrupted build keeps its work
         Corpus(root=out, entries=entries).save(out)
         write_quality_csv(list(old_quality.values()), out / "quality.csv")
-    if not entries and failures:
-        pass
     return rows, failures
 
 

@@ -43,33 +43,45 @@ function motionPlayer(info, onplay) {
   const audio = new Audio(info.audio);
   audio.preload = "auto";
   let viewer = null;
+  const note = (text) => box.append(Object.assign(document.createElement("div"), { className: "note", textContent: text }));
   const ready = Promise.all([loadViewer(), fetch(info.motion).then((r) => r.json())]).then(async ([mod, motion]) => {
-    if (!mod) {
-      box.append(Object.assign(document.createElement("div"), { className: "note", textContent: "3D head viewer not installed: audio only" }));
-      return;
+    if (!mod) { note("3D head viewer not installed: audio only"); return; }
+    try {
+      viewer = await mountViewer(mod, box, motion, audio);
+      box.dataset.viewer = "ready";
+    } catch (e) {
+      console.error("viewer failed", e);
+      note(`3D head viewer failed (${e && e.message ? e.message : e}): audio only`);
+      box.dataset.viewer = "error";
     }
-    viewer = await mountViewer(mod, box, motion, audio);
   });
   const p = {
     element: box,
+    ready,
+    get viewer() { return viewer; },
     async play() {
       stopAll(p);
       onplay();
       await ready.catch(() => {});
+      if (viewer) { viewer.seek(0); viewer.play(); return; }
       audio.currentTime = 0;
-      if (viewer && viewer.seek) viewer.seek(0);
       audio.play().catch(() => {});
-      if (viewer && viewer.play) viewer.play();
     },
-    stop() { audio.pause(); if (viewer && viewer.pause) viewer.pause(); },
+    stop() { if (viewer) viewer.pause(); else audio.pause(); },
   };
   players.add(p);
   return p;
 }
 
-// Adapter to the viewer component's API (see the comment at the top of its module).
+// The viewer component's API (comment at the top of src/headmotion/web/js/src/viewer.js):
+// mountViewer(element, {motion: {fps, rotvec}, audio: HTMLAudioElement, style, mask, controls}).
+let testInfo = null;
 async function mountViewer(mod, container, motion, audio) {
-  const make = mod.createViewer || mod.mountViewer || (mod.default && mod.default.createViewer);
-  if (!make) { console.warn("viewer module has no createViewer()"); return null; }
-  return await make(container, { motion, audio });
+  const make = mod.mountViewer || mod.createViewer;
+  if (!make) throw new Error("the viewer module exports no mountViewer()");
+  if (testInfo === null) testInfo = await fetch("/api/test").then((r) => r.json());
+  return await make(container, {
+    motion, audio, style: testInfo.viewer_style || "textured", mask: true, controls: false,
+    cellAspect: 4 / 3,
+  });
 }

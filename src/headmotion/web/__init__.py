@@ -1,0 +1,23 @@
+"""The browser viewer (issue 7): a three.js head that plays speech and head motion in sync.
+
+* ``static/viewer.js`` — the viewer component, an ES module exporting ``mountViewer(element,
+  {motions, audioUrl, ...})`` (API documented at the top of ``js/src/viewer.js``); three.js from the
+  npm registry is bundled into it at build time, so nothing is fetched from a CDN at run time.
+* ``static/head_mesh.bin`` — the project's head model (:mod:`headmotion.render.mesh`, detail 0).
+* ``static/index.html`` — the page ``headmotion view`` serves (:mod:`headmotion.web.server`).
+
+The listening-test app mounts ``static/`` under ``/viewer`` and imports ``/viewer/viewer.js``.
+
+Rebuilding the static files (only needed after editing ``js/src/viewer.js`` or the mesh)::
+
+    cd src/headmotion/web/js && npm ci && npm run build      # → static/viewer.js (minified)
+    python -m headmotion.web.build_assets                     # → static/head_mesh.bin
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+STATIC_DIR = Path(__file__).resolve().parent / "static"
+
+__all__ = ["STATIC_DIR"]

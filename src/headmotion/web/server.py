@@ -1,0 +1,160 @@
+"""The local viewer server behind ``headmotion view MOTION... [--audio A]`` (issue 7).
+
+A small FastAPI app (the framework the listening tests use too) served by uvicorn on localhost:
+
+* ``/``                  — the page (``static/index.html``) that mounts the viewer component;
+* ``/api/session``       — ``{motions: [{label, url}], audioUrl, mask, style}`` for the page;
+* ``/motion/{i}.json``   — one motion as ``{fps, rotvec, translation?}`` (:func:`motion_payload`);
+* ``/audio.wav``         — the speech as 16-bit WAV (served as a file, so HTTP range requests and
+  hence seeking work in every browser);
+* ``/viewer/...``        — the static files: ``viewer.js`` (three.js bundled) and ``head_mesh.bin``.
+
+Libraries considered: ``http.server`` (no range requests for audio seeking, which Chromium needs),
+Flask (not otherwise used in the project); FastAPI/Starlette's ``FileResponse`` handles ranges.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import socket
+import tempfile
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..types import Audio, Motion
+
+STATIC = Path(__file__).resolve().parent / "static"
+
+
+def motion_payload(motion: Motion, *, label: str | None = None, decimals: int = 6) -> dict:
+    """A motion as the JSON the viewer component reads: ``{"fps", "rotvec": [[x, y, z], ...]}``
+    (radians, ``(T, 3)``) plus ``"translation"`` (metres, about the clip's mean position) when
+    present and ``"label"``."""
+    d = {"fps": float(motion.fps), "rotvec": np.round(motion.rotvec, decimals).tolist()}
+    if motion.translation is not None:  # about the clip's mean position (as in the videos)
+        tr = motion.translation - motion.translation.mean(axis=0)
+        d["translation"] = np.round(tr, decimals).tolist()
+    if label is not None:
+        d["label"] = str(label)
+    return d
+
+
+def _write_wav(audio, tmpdir: str) -> str | None:
+    if audio is None:
+        return None
+    if not isinstance(audio, Audio):
+        from ..io import load_audio
+
+        audio = load_audio(audio)
+    import soundfile as sf
+
+    path = os.path.join(tmpdir, "audio.wav")
+    sf.write(path, np.clip(audio.samples, -1, 1), audio.sample_rate, subtype="PCM_16")
+    return path
+
+
+def create_app(motions, *, labels=None, audio_path: str | None = None, mask: bool = True,
+               style: str = "textured"):
+    """The FastAPI app for a list of motions (audio already written as a WAV file, or None)."""
+    from fastapi import FastAPI, HTTPException
+    from fastapi.responses import FileResponse, JSONResponse
+    from fastapi.staticfiles import StaticFiles
+
+    ms = [motions] if isinstance(motions, Motion) else list(motions)
+    if not ms:
+        raise ParameterError("the viewer needs at least one motion")
+    labels = [f"motion {i + 1}" for i in range(len(ms))] if labels is None else [str(s) for s in labels]
+    if len(labels) != len(ms):
+        raise ParameterError(f"{len(labels)} labels given for {len(ms)} motions")
+    if style not in ("textured", "smooth", "silhouette"):
+        raise ParameterError(f"style must be textured, smooth or silhouette; got {style!r}")
+    payloads = [motion_payload(m, label=lab) for m, lab in zip(ms, labels)]
+    app = FastAPI(title="headmotion viewer", docs_url=None, redoc_url=None, openapi_url=None)
+
+    @app.get("/")
+    def index():
+        return FileResponse(STATIC / "index.html", media_type="text/html")
+
+    @app.get("/api/session")
+    def session():
+        return {
+            "motions": [{"label": lab, "url": f"/motion/{i}.json"} for i, lab in enumerate(labels)],
+            "audioUrl": "/audio.wav" if audio_path else None,
+            "mask": mask, "style": style,
+        }
+
+    @app.get("/motion/{i}.json")
+    def motion(i: int):
+        if not 0 <= i < len(payloads):
+            raise HTTPException(404, f"no motion {i}")
+        return JSONResponse(payloads[i])
+
+    @app.get("/audio.wav")
+    def audio():
+        if not audio_path:
+            raise HTTPException(404, "no audio")
+        return FileResponse(audio_path, media_type="audio/wav")
+
+    app.mount("/viewer", StaticFiles(directory=STATIC), name="viewer")
+    return app
+
+
+@contextlib.contextmanager
+def running_server(motions, *, labels=None, audio=None, host: str = "127.0.0.1", port: int = 0,
+                   mask: bool = True, style: str = "textured"):
+    """Run the viewer server in a background thread; yields its base URL (for tests/notebooks)."""
+    import uvicorn
+
+    with tempfile.TemporaryDirectory(prefix="headmotion-view-") as tmpdir:
+        app = create_app(motions, labels=labels, audio_path=_write_wav(audio, tmpdir), mask=mask, style=style)
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            sock.bind((host, int(port)))
+        except OSError as exc:
+            sock.close()
+            raise ParameterError(f"cannot listen on {host}:{port}: {exc}") from None
+        actual = sock.getsockname()[1]
+        config = uvicorn.Config(app, log_level="warning", lifespan="off")
+        server = uvicorn.Server(config)
+        thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+        thread.start()
+        try:
+            import time
+
+            for _ in range(200):
+                if server.started:
+                    break
+                time.sleep(0.025)
+            yield f"http://{host}:{actual}/"
+        finally:
+            server.should_exit = True
+            thread.join(timeout=5)
+            sock.close()
+
+
+def serve(motions, *, labels=None, audio=None, host: str = "127.0.0.1", port: int = 8765,
+          mask: bool = True, style: str = "textured", open_browser: bool = True, announce=print):
+    """Serve the viewer until interrupted (``headmotion view``)."""
+    import time
+
+    with running_server(motions, labels=labels, audio=audio, host=host, port=port, mask=mask,
+                        style=style) as url:
+        announce(url)
+        if open_browser:
+            import webbrowser
+
+            with contextlib.suppress(Exception):
+                webbrowser.open(url)
+        try:
+            while True:
+                time.sleep(0.5)
+        except KeyboardInterrupt:
+            pass
+
+
+__all__ = ["create_app", "running_server", "serve", "motion_payload", "STATIC"]
