@@ -185,3 +185,23 @@ def test_failing_system_is_reported_not_fatal(corpus):
     assert len(res.warnings) == 6 and "cannot learn" in res.warnings[0]
     with pytest.raises(ParameterError, match="cannot learn"):
         P.evaluate(corpus, [("broken", Broken)], features=envelope, n_shifts=10, feature_sets=[], strict=True)
+
+
+def test_evaluate_cli_writes_report(corpus, tmp_path):
+    import csv
+
+    from headmotion.cli import main
+
+    corpus.save(tmp_path / "corpus")
+    out = tmp_path / "report"
+    code = main(["evaluate", str(tmp_path / "corpus"), "--systems", "desync,still", "-o", str(out), "--shifts", "20",
+                 "--feature-table", "none", "--seed", "2"])
+    assert code == 0
+    with open(out / "metrics.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert set(rows[0]) == {"system", "recording", "metric", "value"}
+    assert {r["system"] for r in rows} == {"ground-truth", "desync", "still"}
+    md = (out / "report.md").read_text()
+    assert "paper Table 2" in md and "Tables 5.3 / 5.8" in md
+    assert {p.name for p in (out / "figures").iterdir()} >= {"sd_bars.png", "fcca_per_condition.png", "trajectories.png"}
+    assert main(["evaluate", str(tmp_path / "corpus"), "--systems", "nonsense", "-o", str(out)]) != 0

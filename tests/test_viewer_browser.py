@@ -23,7 +23,7 @@ from headmotion.types import Audio, Motion
 from headmotion.web import STATIC_DIR
 
 FPS = 25.0
-DUR = 4.0
+DUR = 8.0
 
 
 def _yaw_motion():
@@ -181,7 +181,8 @@ def test_playback_follows_the_audio_clock(page):
         assert math.floor(s["t0"] * FPS + 1e-6) <= s["frame"] <= math.floor(s["t1"] * FPS + 1e-6)
         assert abs(s["rt"] * FPS - s["frame"]) < 1
     assert len({round(s["yaw"], 4) for s in samples}) >= 3  # the head moves over time
-    page.click(".hm-play")  # pause
+    if page.evaluate("headmotionViewer.getState().playing"):
+        page.click(".hm-play")  # pause (unless the clip already ended on a very slow machine)
     s = page.evaluate("(() => { const v = headmotionViewer; v.renderNow(); return {...v.getState(), t: v.audio.currentTime, paused: v.audio.paused}; })()")
     assert s["paused"] and not s["playing"]
     assert s["rendered"]["frames"][0] == min(len(_yaw_motion()) - 1, math.floor(s["t"] * FPS + 1e-6))

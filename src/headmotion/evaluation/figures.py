@@ -130,7 +130,7 @@ def fcca_per_condition(result: EvaluationResult, path) -> Path:
     for ax, s in zip(axes[:, 0], conds or [GROUND_TRUTH]):
         v = np.array([_one(result, s, "fcca", r) for r in recs])
         nul = np.array([_one(result, s, "fcca_null_p95", r) for r in recs])
-        ax.bar(x, v, 0.7, color="tab:blue", label=s)
+        ax.bar(x, v, 0.7, color="tab:blue", label="condition")
         ax.plot(x, gt, "k_", markersize=14, mew=2, label="ground truth")
         ax.plot(x, nul, "r.", label="chance 95%")
         ax.set_ylabel("FCCA")

@@ -279,6 +279,12 @@ def run_fold(task: FoldTask) -> dict:
         for fs in task.feature_sets:
             try:
                 ft = _extract(fs, rec.audio, float(rec.motion.fps), len(rec.motion))
+                dims = 3 + M.as_array(ft)[0].shape[1]
+                if win < dims + 10:
+                    warns.append(f"feature set {fs!r} on {rec.id}: a {win}-frame window is too short for CCA of "
+                                 f"{dims} dimensions (local CCA would be ~1 whatever the data); left out — use a "
+                                 f"longer --window")
+                    continue
                 r = C.local_cca_null(rec.motion, ft, window=win, n_shifts=task.n_shifts,
                                      seed=_sub_seed(task.seed, rec.id, "features", fs))
                 vals[f"featcca_local[{fs}]"] = r.score

@@ -140,19 +140,23 @@ def _lsf_grid(poly: np.ndarray, n_roots: int, symmetric: bool, grid: int = 512):
     roots = np.zeros((T, n_roots))
     if not ok.any() or n_roots == 0:
         return roots, ok
-    rows, cols = np.nonzero(change[ok])
-    f0, f1 = f[ok][rows, cols], f[ok][rows, cols + 1]
+    good = np.flatnonzero(ok)
+    rows, cols = np.nonzero(change[good])
+    rows_full = good[rows]
+    f0, f1 = f[rows_full, cols], f[rows_full, cols + 1]
     w0, w1 = w[cols], w[cols + 1]
     est = (w0 - f0 * (w1 - w0) / (f1 - f0)).reshape(-1, n_roots)
-    pk = poly[ok][:, None, :]
+    pk = poly[good][:, None, :]
+    pkm = pk * mult
     for _ in range(2):
         arg = est[:, :, None] * mult[None, None, :]
+        c, s_ = np.cos(arg), np.sin(arg)
         if symmetric:
-            val = np.sum(pk * np.cos(arg), axis=2)
-            der = -np.sum(pk * mult * np.sin(arg), axis=2)
+            val = np.einsum("tnk,tnk->tn", np.broadcast_to(pk, arg.shape), c)
+            der = -np.einsum("tnk,tnk->tn", np.broadcast_to(pkm, arg.shape), s_)
         else:
-            val = np.sum(pk * np.sin(arg), axis=2)
-            der = np.sum(pk * mult * np.cos(arg), axis=2)
+            val = np.einsum("tnk,tnk->tn", np.broadcast_to(pk, arg.shape), s_)
+            der = np.einsum("tnk,tnk->tn", np.broadcast_to(pkm, arg.shape), c)
         step = np.where(np.abs(der) > 1e-12, val / np.where(der == 0, 1, der), 0.0)
         est = np.clip(est - np.clip(step, -(w[1] - w[0]), w[1] - w[0]), 0.0, np.pi)
     roots[ok] = est

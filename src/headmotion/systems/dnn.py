@@ -130,7 +130,7 @@ class _DnnSystem(Synthesizer):
     #: whether the system learns a waveform embedding (CCCAE / AE) before the regressor
     uses_embedding: ClassVar[bool] = False
 
-    _PARAMS = ("feature", "feature_params", "alpha", "embedding_dim", "ae_hidden", "regressor_hidden",
+    _PARAMS = ("feature", "feature_params", "alpha", "embedding_dim", "ae_hidden", "ae_activation", "regressor_hidden",
                "context", "dropout", "postfilter", "postfilter_hidden", "postfilter_code", "segment",
                "postfilter_noise", "model_fps", "batch_size", "cca_batch_size", "cca_reg",
                "learning_rate", "max_epochs", "ae_max_epochs", "pretrain_epochs", "patience",
@@ -138,7 +138,8 @@ class _DnnSystem(Synthesizer):
 
     def __init__(self, *, feature: str | None = None, feature_params: dict | None = None,
                  alpha: float | None = None, embedding_dim: int = 30,
-                 ae_hidden: tuple[int, ...] = (256, 128), regressor_hidden: tuple[int, ...] = (256, 256),
+                 ae_hidden: tuple[int, ...] = (256, 128), ae_activation: str = "relu",
+                 regressor_hidden: tuple[int, ...] = (256, 256),
                  context: int = 25, dropout: float = 0.1, postfilter: bool = True,
                  postfilter_hidden: tuple[int, ...] = (256,), postfilter_code: int = 64, segment: int = 50,
                  postfilter_noise: float = 0.3, model_fps: float = MODEL_FPS, batch_size: int = 256,
@@ -151,6 +152,7 @@ class _DnnSystem(Synthesizer):
         self.alpha = alpha
         self.embedding_dim = embedding_dim
         self.ae_hidden = ae_hidden
+        self.ae_activation = ae_activation
         self.regressor_hidden = regressor_hidden
         self.context = context
         self.dropout = dropout
@@ -224,6 +226,9 @@ class _DnnSystem(Synthesizer):
         if self.uses_embedding:
             if not (isinstance(self.alpha, (int, float)) and math.isfinite(self.alpha) and self.alpha >= 0):
                 raise ParameterError(f"the 'alpha' parameter of {self.name} must be a number >= 0; got {self.alpha!r}")
+        if self.ae_activation not in ("relu", "tanh", "sigmoid"):
+            raise ParameterError(
+                f"the 'ae_activation' parameter of {self.name} must be 'relu', 'tanh' or 'sigmoid'; got {self.ae_activation!r}")
         if self.feature_params is not None and not isinstance(self.feature_params, dict):
             raise ParameterError(f"feature_params must be a dict; got {type(self.feature_params).__name__}")
 
@@ -336,7 +341,8 @@ class _DnnSystem(Synthesizer):
             ae = None
             emb_norm = None
             if self.uses_embedding:
-                ae = nets.StackedAutoencoder(dim, hidden=tuple(self.ae_hidden), code_dim=int(self.embedding_dim))
+                ae = nets.StackedAutoencoder(dim, hidden=tuple(self.ae_hidden), code_dim=int(self.embedding_dim),
+                                             activation=str(self.ae_activation))
                 xt = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in train]))
                 yt = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in train]))
                 xv = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in valid]))
@@ -555,7 +561,8 @@ class _DnnSystem(Synthesizer):
         if self.uses_embedding:
             self.embedding_norm_ = Normalizer.from_arrays(arrays, "embedding_norm")
             self.autoencoder_ = nets.StackedAutoencoder(self.input_dim_, hidden=tuple(self.ae_hidden),
-                                                        code_dim=int(self.embedding_dim))
+                                                        code_dim=int(self.embedding_dim),
+                                                        activation=str(self.ae_activation))
             nets.arrays_to_state(self.autoencoder_, arrays, "autoencoder/")
             self.autoencoder_.eval()
             in_dim = int(self.embedding_dim)
