@@ -70,7 +70,7 @@ def envelope_corpus(*, n_recordings: int = 4, seconds: float = 30.0, fps: float 
 
 
 FAST = dict(ae_hidden=(128,), regressor_hidden=(64,), context=10, postfilter_hidden=(64,), postfilter_code=16,
-            max_epochs=8, ae_max_epochs=40, pretrain_epochs=2, patience=40, cca_batch_size=500,
+            max_epochs=8, ae_max_epochs=80, pretrain_epochs=2, patience=40, cca_batch_size=500,
             batch_size=128, n_threads=1, learning_rate=2e-4)
 
 

@@ -164,6 +164,7 @@ def _xcorr(m, i, max_lag):
     return np.array(out)
 
 
+@pytest.mark.slow
 def test_audio_video_sync_within_one_frame(grid_analyses, french):
     """Mouth opening and speech intensity correlate best within ±1 frame of zero lag (averaged
     over the 11 GRID sentences and 8 s of the French clip, whose video starts 80 ms after its
@@ -181,6 +182,7 @@ def test_audio_video_sync_within_one_frame(grid_analyses, french):
     assert total.max() / (len(grid_analyses) + 1) > 0.3
 
 
+@pytest.mark.slow
 def test_grid_mpg_with_mp2_audio_gives_aligned_recordings(grid_analyses):
     from headmotion.corpus import Recording
 

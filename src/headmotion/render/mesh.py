@@ -270,7 +270,7 @@ def _build_head(n_lon: int, n_lat: int) -> MeshPart:
     # hair: a cap of thickness up to 9 mm above the hairline, thinning over 1.5 cm of height
     az = np.arctan2(pos[:, 0], pos[:, 2])
     s = pos[:, 1] - _hairline(az)
-    hair = _smoothstep(0.0, 0.015, s)
+    hair = _smoothstep(0.0, 0.008, s)
     bare_normals = _vertex_normals(pos, idx)
     pos = pos + bare_normals * ((0.008 + 0.004 * _smoothstep(0.05, 0.09, pos[:, 1])) * hair)[:, None]
     nrm = _vertex_normals(pos, idx)
@@ -335,9 +335,9 @@ def _build_neck(n_around: int = 36, n_along: int = 16) -> MeshPart:
     ys = np.linspace(0.035, -0.17, n_along)
     a = np.linspace(-np.pi, np.pi, n_around, endpoint=False)
     Y, A = np.meshgrid(ys, a, indexing="ij")
-    flare = 1.0 + 0.45 * _smoothstep(-0.08, -0.16, Y)             # widens into the trapezius
-    rx = 0.057 * flare
-    rz = 0.054 * (1.0 + 0.1 * _smoothstep(-0.08, -0.16, Y))
+    flare = 1.0 + 0.5 * _smoothstep(-0.07, -0.15, Y)              # widens into the trapezius
+    rx = 0.060 * flare
+    rz = 0.057 * (1.0 + 0.1 * _smoothstep(-0.07, -0.15, Y))
     cz = -0.012 + 0.10 * np.minimum(Y, 0.0) * -0.1                 # leans slightly forward
     pos = np.stack([rx * np.sin(A), Y, cz + rz * np.cos(A)], -1).reshape(-1, 3)
     tris = []
@@ -363,7 +363,7 @@ def _build_torso(n_lon: int = 48, n_lat: int = 24) -> MeshPart:
     # a superellipsoid: square-ish shoulders
     e = 0.55
     s = np.sign(dirs) * np.abs(dirs) ** e
-    pos = s * np.array([0.215, 0.13, 0.11]) + np.array([0.0, -0.265, -0.02])
+    pos = s * np.array([0.215, 0.13, 0.11]) + np.array([0.0, -0.25, -0.02])
     # slope the shoulders down and away from the neck
     pos[:, 1] -= 0.06 * (np.abs(pos[:, 0]) / 0.215) ** 2 * (dirs[:, 1] > -0.2)
     nrm = _vertex_normals(pos, idx)

@@ -320,6 +320,7 @@ def parts_from_analysis(analysis: VideoAnalysis, *, rec_id: str, fps: float | No
             notes.append(f"two faces in {two:.0%} of frames (kept the tracked one)")
         row = {"recording": pid, "source": Path(src).name, "seconds": round(motion.duration, 3),
                "fps": round(motion.fps, 3), "detection": round(float(detected[a:b].mean()), 4),
+               "confidence": round(float(conf[a:b].mean()), 4),
                "two_faces": round(two, 4), "gaps": len(in_part),
                "gaps_filled": int(sum(okg for *_, okg in in_part)), "cuts": len(cuts),
                "sd_pitch": round(float(sd[0]), 3), "sd_yaw": round(float(sd[1]), 3),

@@ -211,7 +211,7 @@ def jitter_deg(rotvec: np.ndarray) -> np.ndarray:
     return np.degrees(np.nanmedian(np.abs(np.diff(r, axis=0)), axis=0))
 
 
-QUALITY_COLUMNS = ("recording", "source", "seconds", "fps", "detection", "two_faces", "gaps",
+QUALITY_COLUMNS = ("recording", "speaker", "source", "seconds", "fps", "detection", "confidence", "two_faces", "gaps",
                    "gaps_filled", "cuts", "sd_pitch", "sd_yaw", "sd_roll",
                    "jitter_pitch", "jitter_yaw", "jitter_roll", "note")
 
@@ -221,7 +221,8 @@ def format_quality_table(rows: list[dict]):
     from rich.table import Table
 
     t = Table(title="video → head pose quality (SD and jitter in degrees)")
-    heads = {"recording": "recording", "seconds": "s", "detection": "detect", "two_faces": "2 faces",
+    heads = {"recording": "recording", "seconds": "s", "detection": "detect", "confidence": "conf",
+             "two_faces": "2 faces",
              "gaps": "gaps", "gaps_filled": "filled", "cuts": "cuts", "sd_pitch": "SD p",
              "sd_yaw": "SD y", "sd_roll": "SD r", "jitter_pitch": "jit p", "jitter_yaw": "jit y",
              "jitter_roll": "jit r", "note": "note"}
@@ -232,7 +233,7 @@ def format_quality_table(rows: list[dict]):
         for k in heads:
             v = r.get(k, "")
             if isinstance(v, float):
-                v = f"{v:.0%}" if k in ("detection", "two_faces") else f"{v:.2f}" if k.startswith(("sd", "jit")) else f"{v:.1f}"
+                v = f"{v:.0%}" if k in ("detection", "two_faces", "confidence") else f"{v:.2f}" if k.startswith(("sd", "jit")) else f"{v:.1f}"
             cells.append(str(v))
         t.add_row(*cells)
     return t

@@ -1,0 +1,291 @@
+"""headmotion benchmarks: one command, one table (issue 9).
+
+    python benchmarks/run.py [--quick] [--out results.json] [--only GROUP,...]
+
+Each row: what was measured, the figure, the target, PASS/FAIL, and a note; the machine (cores,
+CPU model) heads the table.  Timings are in-process, after a warm-up, the median of several runs;
+speech-related figures are ratios to real time (audio seconds ÷ compute seconds).
+
+Data: the corpora are *planted-structure* corpora (:mod:`headmotion.synthetic`): real speech
+(the package's examples/speech, or ../shared/data/speech when present) tiled to the length needed,
+with head motion made by a known template-warping process driven by that speech.  The output says
+which speech was used.  Video → pose needs a real talking-face video (../shared/data); the row is
+skipped with a reason when it is absent.
+
+Groups: features, synth, stream, train, memory, render, video, evaluate.
+``--quick`` runs a reduced set (short corpora, fewer repeats) in under 3 minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness import Results, Row, peak_rss_of, time_median  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = Path(os.environ.get("HEADMOTION_SHARED_DATA", ROOT.parent / "shared" / "data"))
+
+FEATURE_SETS = ("f0e", "mfcc", "fbank", "wav", "prosody", "lsp", "lar")
+SYNTH_SYSTEMS = ("tws-basic", "tws-hier", "le2012", "cccae", "mfcc-dnn")
+DNN_BENCH_PARAMS = {"max_epochs": 4, "ae_max_epochs": 4, "pretrain_epochs": 1, "patience": 2}
+
+
+def speech_dir() -> Path:
+    d = SHARED / "speech"
+    return d if d.is_dir() else ROOT / "examples" / "speech"
+
+
+def speech_audio(seconds: float, seed: int = 0):
+    from headmotion.synthetic import _speech_pool, speech_sources, tiled_speech
+    from headmotion.types import Audio
+
+    pool = _speech_pool(speech_sources(speech_dir()), 16000)
+    return Audio(tiled_speech(pool, seconds, sample_rate=16000, rng=np.random.default_rng(seed)), 16000)
+
+
+def planted(minutes: float, *, n_recordings: int = 6, fps: float = 100.0, seed: int = 0):
+    from headmotion.synthetic import planted_corpus
+
+    return planted_corpus(minutes=minutes, n_recordings=n_recordings, fps=fps, seed=seed, speech_dir=speech_dir())
+
+
+def make_system(name: str, quick: bool):
+    from headmotion.systems import create
+
+    params = dict(DNN_BENCH_PARAMS) if name in ("cccae", "mfcc-dnn", "ae-dnn") else {}
+    if quick and params:
+        params.update(max_epochs=2, ae_max_epochs=2)
+    return create(name, **params)
+
+
+# -- groups ------------------------------------------------------------------------------------
+def bench_features(res: Results, quick: bool):
+    from headmotion.features import extract
+
+    audio = speech_audio(60.0)
+    for name in FEATURE_SETS:
+        t = time_median(lambda: extract(name, audio, fps=100.0), repeats=2 if quick else 3)
+        rt = audio.duration / t
+        res.add(Row("1 features", f"{name} (60 s input)", rt, "x RT", "-", None, f"{t * 1000:.0f} ms"))
+
+
+def bench_synth(res: Results, quick: bool, cache: dict):
+    audio = speech_audio(60.0, seed=1)
+    corpus = planted(2.0 if quick else 5.0)
+    systems = ("tws-basic", "tws-hier") if quick else SYNTH_SYSTEMS
+    for name in systems:
+        t0 = time.perf_counter()
+        s = make_system(name, quick).fit(corpus)
+        fit_s = time.perf_counter() - t0
+        cache[name] = s
+        t = time_median(lambda: s.predict(audio, seed=0), repeats=2 if quick else 3)
+        rt = audio.duration / t
+        res.add(Row("2 synth", f"{name}: features + synthesis, 60 s", rt, "x RT", ">= 200x", rt >= 200,
+                    f"{t * 1000:.0f} ms; trained in {fit_s:.0f} s"))
+        # the model's own cost: predict minus extracting its features
+        cfg = getattr(s, "feature_config_", None)
+        if cfg is not None:
+            from headmotion.align import n_frames
+
+            T = n_frames(len(audio), audio.sample_rate, getattr(s, "fps_", 100.0))
+            tf = time_median(lambda: cfg.extract(audio, n_frames=T), repeats=2 if quick else 3)
+            own = max(t - tf, 1e-6)
+            res.add(Row("3 synth only", f"{name}: synthesis given features", audio.duration / own, "x RT", "-", None,
+                        f"{own * 1000:.0f} ms = predict {t * 1000:.0f} - features {tf * 1000:.0f}"))
+
+
+def bench_stream(res: Results, quick: bool, cache: dict):
+    s = cache.get("tws-hier") or make_system("tws-hier", quick).fit(planted(2.0))
+    audio = speech_audio(20.0 if quick else 60.0, seed=2)
+    chunk = audio.sample_rate // 100  # 10 ms
+    st = s.stream(seed=0)
+    st.push(audio.samples[:chunk])  # warm-up
+    st = s.stream(seed=0)
+    times = []
+    for a in range(0, len(audio.samples), chunk):
+        t0 = time.perf_counter()
+        st.push(audio.samples[a:a + chunk])
+        times.append(time.perf_counter() - t0)
+    st.flush()
+    ms = np.array(times) * 1000
+    res.add(Row("4 stream", "tws-hier: mean compute per 10 ms chunk", float(ms.mean()), "ms", "<= 0.5 ms",
+                ms.mean() <= 0.5, f"p99 {np.percentile(ms, 99):.2f} ms over {len(ms)} chunks"))
+    res.add(Row("4 stream", "tws-hier: algorithmic latency", float(getattr(st, "latency_ms", float("nan"))), "ms",
+                "-", None, "audio needed beyond a frame before it is final"))
+
+
+def bench_train(res: Results, quick: bool):
+    minutes = (1, 2, 4) if quick else (5, 10, 20, 40)
+    for name in ("tws-hier", "tws-basic"):
+        times = []
+        for m in minutes:
+            corpus = planted(m, n_recordings=max(4, int(m)), seed=3)
+            list(corpus)
+            t0 = time.perf_counter()
+            make_system(name, quick).fit(corpus)
+            times.append(time.perf_counter() - t0)
+            res.add(Row("5 train", f"{name}: {m} min", times[-1], "s", "-", None, ""))
+        slope = float(np.polyfit(np.log(minutes), np.log(times), 1)[0])
+        res.add(Row("5 train", f"{name}: log-log slope", slope, "", "<= 1.2", slope <= 1.2,
+                    f"minutes {minutes}"))
+        t30 = float(np.exp(np.polyval(np.polyfit(np.log(minutes), np.log(times), 1), np.log(30))))
+        res.add(Row("5 train", f"{name}: 30 min (from the fit)", t30, "s", "<= 120 s", t30 <= 120,
+                    "interpolated" if max(minutes) >= 30 else "extrapolated"))
+    if not quick:
+        corpus = planted(10.0, n_recordings=10, seed=4)
+        list(corpus)
+        t0 = time.perf_counter()
+        make_system("cccae", quick=False).fit(corpus)
+        t = time.perf_counter() - t0
+        res.add(Row("5 train", "cccae pipeline: 10 min", t, "s", "-", None, f"epochs {DNN_BENCH_PARAMS}"))
+        res.add(Row("5 train", "cccae pipeline: 30 min (x3, linear)", 3 * t / 60, "min", "<= 15 min", 3 * t / 60 <= 15,
+                    "extrapolated linearly"))
+
+
+def bench_memory(res: Results, quick: bool):
+    minutes = 10 if quick else 60
+    code = (
+        "import sys; sys.path.insert(0, %r)\n"
+        "from run import planted\n"
+        "from headmotion.systems import create\n"
+        "c = planted(%r, n_recordings=%d, seed=5); list(c)\n"
+        "create('tws-hier').fit(c)\n" % (str(Path(__file__).parent), float(minutes), max(6, minutes // 3))
+    )
+    rss, _ = peak_rss_of(code)
+    res.add(Row("6 memory", f"peak RSS, tws-hier training on {minutes} min", rss, "MB", "<= 2048 MB", rss <= 2048,
+                "fresh process incl. corpus in memory"))
+
+
+def bench_render(res: Results, quick: bool):
+    try:
+        from headmotion.render.offscreen import HeadRenderer
+    except Exception as exc:  # noqa: BLE001 - report, don't crash the table
+        res.add(Row("7 render", "render 640x480", None, "fps", ">= 60", False, f"unavailable: {exc}"))
+        return
+    n = 60 if quick else 300
+    rv = np.zeros((n, 3))
+    rv[:, 0] = 0.2 * np.sin(np.linspace(0, 6, n))
+    try:
+        with HeadRenderer(size=(640, 480), style="textured") as r:
+            r.render(rv[:5])
+            t0 = time.perf_counter()
+            r.render(rv)
+            t = time.perf_counter() - t0
+    except Exception as exc:  # noqa: BLE001
+        res.add(Row("7 render", "render 640x480", None, "fps", ">= 60", False, f"failed: {exc}"))
+        return
+    fps = n / t
+    res.add(Row("7 render", "render 640x480, textured (frames to RAM)", fps, "fps", ">= 60", fps >= 60, f"{n} frames"))
+    try:
+        import tempfile
+
+        from headmotion.render import render_video
+        from headmotion.types import Motion
+
+        with tempfile.TemporaryDirectory() as d:
+            t0 = time.perf_counter()
+            render_video(Motion(rv, 25.0), Path(d) / "b.mp4", size=(640, 480))
+            t = time.perf_counter() - t0
+        res.add(Row("7 render", "render 640x480 to H.264 mp4", n / t, "fps", ">= 60", n / t >= 60, "incl. encoding"))
+    except Exception as exc:  # noqa: BLE001
+        res.add(Row("7 render", "render to mp4", None, "fps", ">= 60", False, f"failed: {exc}"))
+
+
+def bench_video(res: Results, quick: bool):
+    clips = sorted((SHARED / "talking_video" / "sadtalker").glob("*.mp4"))
+    if not clips:
+        res.add(Row("7 video", "video -> pose 512x512", None, "fps", ">= 25", None, f"skipped: no videos in {SHARED}"))
+        return
+    try:
+        from headmotion.video.build import analyse_video
+        from headmotion.video.decode import probe
+    except Exception as exc:  # noqa: BLE001
+        res.add(Row("7 video", "video -> pose 512x512", None, "fps", ">= 25", False, f"unavailable: {exc}"))
+        return
+    clip = clips[0]
+    info = probe(clip)
+    t0 = time.perf_counter()
+    analyse_video(clip)
+    t = time.perf_counter() - t0
+    n = getattr(info, "n_frames", None) or int(round(info.duration * info.fps))
+    fps = n / t
+    res.add(Row("7 video", f"video -> pose, {info.width}x{info.height} ({clip.name})", fps, "fps", ">= 25", fps >= 25,
+                f"{n} frames in {t:.1f} s incl. decoding + FaceMesh"))
+
+
+def bench_evaluate(res: Results, quick: bool):
+    from headmotion.evaluation.protocols import evaluate
+
+    minutes = 3 if quick else 30
+    corpus = planted(minutes, n_recordings=6 if quick else 10, seed=6)
+    list(corpus)
+    systems = ["tws-hier", "tws-basic", "shaped-noise", "desync"]
+    t0 = time.perf_counter()
+    local = evaluate(corpus, systems, protocol="loo", n_jobs=2, seed=0, fig48=False)
+    t = time.perf_counter() - t0
+    res.add(Row("8 evaluate", f"LOO, {minutes} min, {len(systems)} systems, joblib 2 jobs", t / 60, "min",
+                "<= 10 min", t <= 600, ""))
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        res.add(Row("8 evaluate", "same on Dask LocalCluster", None, "min", "-", None, "dask not installed"))
+        return
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        t0 = time.perf_counter()
+        evaluate(corpus, systems, protocol="loo", scheduler=client.scheduler.address, seed=0, fig48=False)
+        t = time.perf_counter() - t0
+    res.add(Row("8 evaluate", f"same on Dask LocalCluster (2 workers)", t / 60, "min", "<= 10 min", t <= 600,
+                ""))
+    del local
+
+
+GROUPS = ("features", "synth", "stream", "train", "memory", "render", "video", "evaluate")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="reduced set, under 3 minutes")
+    ap.add_argument("--out", type=Path, help="write the results as JSON")
+    ap.add_argument("--only", help=f"comma-separated groups out of {','.join(GROUPS)}")
+    args = ap.parse_args(argv)
+    only = set(args.only.split(",")) if args.only else set(GROUPS)
+    unknown = only - set(GROUPS)
+    if unknown:
+        ap.error(f"unknown groups {sorted(unknown)}; choose from {GROUPS}")
+    res = Results()
+    print(f"headmotion benchmarks ({'quick' if args.quick else 'full'}); machine: {res.machine['cores']} cores, "
+          f"{res.machine['cpu']}")
+    print(f"planted-structure corpora from real speech in {speech_dir()}")
+    cache: dict = {}
+    t_all = time.perf_counter()
+    for g in GROUPS:
+        if g not in only:
+            continue
+        if args.quick and g in ("memory", "video"):
+            if g == "video":
+                continue
+        fn = globals()[f"bench_{g}"]
+        kwargs = {"cache": cache} if g in ("synth", "stream") else {}
+        try:
+            fn(res, args.quick, **kwargs)
+        except Exception as exc:  # noqa: BLE001 - one failing group must not hide the others
+            res.add(Row(g, f"{g} group", None, "", "", False, f"error: {type(exc).__name__}: {exc}"[:160]))
+    print()
+    print(res.table())
+    print(f"\ntotal {time.perf_counter() - t_all:.0f} s")
+    if args.out:
+        res.save(args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
