@@ -248,3 +248,31 @@ def test_render_video_audio_file_path(gl, tmp_path):
 
     with pytest.raises(AudioLoadingError):
         render_video(Motion(np.zeros((10, 3)), 20.0), out, audio=tmp_path / "missing.wav")
+
+
+def test_translation_is_about_the_clip_mean(gl, tmp_path):
+    from headmotion.render import render_video
+    from headmotion.render.video import read_frames
+
+    n = 10
+    tr = np.zeros((n, 3))
+    tr[:, 1] = 0.25  # a constant offset from the torso: must not lift the head off the neck
+    tr[5:, 0] += 0.04  # then a 4 cm shift to the speaker's left (image right)
+    m = Motion(np.zeros((n, 3)), 10.0, translation=tr)
+    render_video(m, tmp_path / "t.mp4", style="smooth", size=(160, 120))
+    f = read_frames(tmp_path / "t.mp4")
+    x0, y0, _, _ = _mask_stats(f[0])
+    x1, y1, _, _ = _mask_stats(f[-1])
+    ref = _mask_stats(read_frames_still(tmp_path))
+    assert abs(y0 - ref[1]) < 2 and x1 > x0 + 3
+    render_video(m, tmp_path / "r.mp4", style="smooth", size=(160, 120), translation=False)
+    g = read_frames(tmp_path / "r.mp4")
+    assert abs(_mask_stats(g[-1])[0] - _mask_stats(g[0])[0]) < 0.5
+
+
+def read_frames_still(tmp_path):
+    from headmotion.render import render_video
+    from headmotion.render.video import read_frames
+
+    render_video(Motion(np.zeros((2, 3)), 10.0), tmp_path / "s.mp4", style="smooth", size=(160, 120))
+    return read_frames(tmp_path / "s.mp4")[0]

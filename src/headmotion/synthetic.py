@@ -90,7 +90,9 @@ def planted_rotvec(e: np.ndarray, *, fps: float, rng: np.random.Generator, noise
             d = AXIS_DURATION_S[j] * (1.6 - 0.9 * ctx) * float(np.exp(noise * rng.standard_normal()))
             d = max(d * fps, 0.07 * fps)
             centre = AXIS_CENTRE_RAD[j] * (ctx - 0.4)
-            end = centre + sign * AXIS_AMPLITUDE_RAD[j] * (0.15 + ctx) * float(np.exp(noise * rng.standard_normal()))
+            amp = AXIS_AMPLITUDE_RAD[j] * (0.15 + ctx) * float(np.exp(noise * rng.standard_normal()))
+            # templates alternate: a rising segment must rise (at least a fifth of its amplitude)
+            end = c + sign * max(sign * (centre + sign * amp - c), 0.2 * amp)
             durs.append(d)
             amps.append(end - c)
             c = end

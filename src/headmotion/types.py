@@ -26,8 +26,12 @@ from .errors import ParameterError
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
+    """A read-only contiguous array; copies when ``a`` is someone else's writable array, so
+    building a value never freezes the caller's buffer."""
     a = np.ascontiguousarray(a)
-    a.setflags(write=False)
+    if a.flags.writeable:
+        a = a.copy()
+        a.setflags(write=False)
     return a
 
 

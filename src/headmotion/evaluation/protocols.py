@@ -34,7 +34,8 @@ with motion + Δ, since "in all cases we included the first derivative of the tr
 features = the ``features`` set), ``feat_cca_local`` (motion vs features), ``sd_rx..``,
 ``sdvel_rx..`` (paper Fig 2, rad and rad/s), ``jerk``, ``accel``; every CCA-type score ``m`` also
 has ``m_null_mean``, ``m_null_p95``, ``m_p``, ``m_excess`` (score − null mean).  The ground truth
-additionally gets ``paper_chance`` (local CCA with another speaker's randomised motion),
+additionally gets ``paper_chance`` (local CCA with the randomised motion of another speaker, drawn
+with the seed, resampled to the recording's rate),
 ``featcca_local[<set>]`` for every feature set (paper Table 1; with ``_null_mean``, ``_excess``,
 ``_p`` suffixes for its chance level), and per speaker the local/global
 CCA against window size (thesis Fig 4.8) as ``winlocal[<s>s]`` / ``winglobal[<s>s]``
@@ -273,8 +274,11 @@ def run_fold(task: FoldTask) -> dict:
         vals = score_recording(rec.motion, rec.motion.rotvec, feats[rec.id], window_s=task.window_s,
                                n_shifts=task.n_shifts, seed=rseed)
         if task.others is not None and len(task.others):
-            vals["paper_chance"] = C.paper_chance_score(rec.motion, [o.motion for o in task.others],
-                                                         window=win, seed=rseed)
+            # paper §4.3.2: another subject's motion (one speaker, drawn with the seed), at this rate
+            other_spk = task.others.speakers[rseed % len(task.others.speakers)]
+            other = [o.motion if abs(o.motion.fps - rec.motion.fps) < 1e-9 else o.motion.resample(rec.motion.fps)
+                     for o in task.others.filter(speaker=other_spk)]
+            vals["paper_chance"] = C.paper_chance_score(rec.motion, other, window=win, seed=rseed)
         t1 = time.perf_counter()
         for fs in task.feature_sets:
             try:

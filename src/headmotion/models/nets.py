@@ -454,7 +454,8 @@ def apply_postfilter(dae: StackedAutoencoder, motion: np.ndarray, *, segment: in
     The trajectory is edge-padded by ``hop`` frames in front (and enough at the end), cut into
     blocks every ``hop`` frames (default ``segment // 2``), each block's mean is removed, the
     block goes through the autoencoder, the mean is added back, and the blocks are summed with a
-    periodic Hann window normalised by the summed window (which is exactly 1 for 50 % overlap).
+    Hann window (sampled at half-frame offsets, so never zero) normalised by the summed window
+    (which is exactly 1 for 50 % overlap).
 
     Returns
     -------
@@ -475,7 +476,9 @@ def apply_postfilter(dae: StackedAutoencoder, motion: np.ndarray, *, segment: in
     with torch.no_grad():
         out = dae(torch.from_numpy((blocks - means).reshape(len(blocks), -1))).numpy()
     out = out.reshape(blocks.shape) + means
-    w = (np.sin(np.pi * np.arange(segment) / segment) ** 2).astype(np.float32)  # periodic Hann
+    # Hann window sampled half a frame off its zeros: positive everywhere, and two copies half a
+    # segment apart sum to exactly 1 (sin² + cos²)
+    w = (np.sin(np.pi * (np.arange(segment) + 0.5) / segment) ** 2).astype(np.float32)
     acc = np.zeros_like(yp)
     wsum = np.zeros(len(yp), dtype=np.float32)
     for s, b in zip(starts, out):

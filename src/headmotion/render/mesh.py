@@ -368,10 +368,7 @@ def _build_torso(n_lon: int = 48, n_lat: int = 24) -> MeshPart:
     pos[:, 1] -= 0.06 * (np.abs(pos[:, 0]) / 0.215) ** 2 * (dirs[:, 1] > -0.2)
     nrm = _vertex_normals(pos, idx)
     col = np.tile(_CLOTH_RGB, (len(pos), 1))
-    # a round neckline of skin
-    neckline = (pos[:, 0] ** 2 / 0.075 ** 2 + (pos[:, 2] - 0.0) ** 2 / 0.09 ** 2 < 1) & (pos[:, 1] > -0.18)
-    col[neckline] = _SKIN_RGB * 0.95
-    mat = np.where(neckline, SKIN, CLOTH).astype(np.float32)
+    mat = np.full(len(pos), CLOTH, np.float32)
     return MeshPart("torso", pos.astype(np.float32), nrm.astype(np.float32), col.astype(np.float32),
                     mat, np.zeros(len(pos), np.float32), idx.astype(np.uint32))
 

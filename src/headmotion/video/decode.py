@@ -21,7 +21,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from ..errors import AudioLoadingError, FormatError, ParameterError
+from ..errors import AudioLoadingError, FormatError
 from ..types import Audio
 
 #: Sample rate of the audio written into corpora (thesis §3.4: 16 kHz for features).
@@ -241,10 +241,8 @@ def read_audio_track(path, *, start_time: float = 0.0, sample_rate: int = CORPUS
 
 def load_external_audio(path, *, sample_rate: int = CORPUS_SAMPLE_RATE) -> Audio:
     """Load a separate speech file (e.g. the same-named .wav beside an audio-less video)."""
-    try:
-        from ..io import load_audio
-    except ImportError:  # pragma: no cover - io is part of the package
-        raise
+    from ..io import load_audio
+
     return load_audio(path, sample_rate=sample_rate)
 
 
@@ -256,14 +254,6 @@ def find_sidecar_audio(video_path) -> Path | None:
         if p.exists() and p != video_path:
             return p
     return None
-
-
-def check_max_side(max_side) -> int | None:
-    if max_side is None:
-        return None
-    if int(max_side) < 64:
-        raise ParameterError(f"max_side must be at least 64 pixels (or None); got {max_side!r}")
-    return int(max_side)
 
 
 __all__ = ["VideoInfo", "probe", "iter_frames", "read_audio_track", "load_external_audio",

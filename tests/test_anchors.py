@@ -1,0 +1,58 @@
+"""Evaluation anchors (thesis §4.2.4, §4.3.1)."""
+
+import numpy as np
+import pytest
+
+from headmotion.corpus import Corpus
+from headmotion.errors import ParameterError
+from headmotion.synthetic import planted_corpus
+from headmotion.systems import create
+from headmotion.systems.anchors import shaped_noise
+
+
+@pytest.fixture(scope="module")
+def corpus():
+    return planted_corpus(minutes=1.5, n_recordings=3, speakers=("a", "b"), seed=4)
+
+
+def test_ground_truth_desync_other_still(corpus):
+    rec = corpus[0]
+    gt = create("ground-truth").fit(corpus).predict_for(rec, corpus)
+    np.testing.assert_array_equal(gt.rotvec, rec.motion.rotvec)
+    de = create("desync").fit(corpus).predict_for(rec, corpus, seed=0)
+    assert len(de) == len(rec.motion) and not np.allclose(de.rotvec, rec.motion.rotvec)
+    same = [r for r in corpus if r.speaker == rec.speaker and r.id != rec.id]
+    assert any(np.allclose(de.rotvec[:100], r.motion.rotvec[:100]) for r in same)
+    ot = create("other-speaker").fit(corpus).predict_for(rec, corpus, seed=0)
+    others = [r for r in corpus if r.speaker != rec.speaker]
+    assert any(np.allclose(ot.rotvec[:100], r.motion.rotvec[:100]) for r in others)
+    st = create("still").fit(corpus)
+    s = st.predict_for(rec, corpus)
+    assert np.ptp(s.rotvec, axis=0).max() == 0
+    assert len(st.predict(rec.audio)) == len(rec.motion)
+    with pytest.raises(ParameterError, match="predict_for"):
+        create("desync").fit(corpus).predict(rec.audio)
+
+
+def test_shaped_noise_spectrum_and_smoothness(corpus):
+    sn = create("shaped-noise").fit(corpus)
+    rec = corpus[0]
+    m = sn.predict_for(rec, corpus, seed=1)
+    ref = np.vstack([r.motion.rotvec for r in corpus])
+    np.testing.assert_allclose(m.rotvec.std(axis=0), ref.std(axis=0), rtol=1e-6)
+    # low-pass like head motion: most power below 3 Hz
+    P = np.abs(np.fft.rfft(m.rotvec - m.rotvec.mean(0), axis=0)) ** 2
+    f = np.fft.rfftfreq(len(m), 1 / m.fps)
+    assert P[f < 3].sum() / P.sum() > 0.8
+    assert not np.allclose(m.rotvec, sn.predict_for(rec, corpus, seed=2).rotvec)
+    np.testing.assert_array_equal(m.rotvec, sn.predict_for(rec, corpus, seed=1).rotvec)
+    x = shaped_noise(0, np.ones((5, 3)), rng=np.random.default_rng(0), fps=100, sd=np.ones(3), mean=np.zeros(3))
+    assert x.shape == (0, 3)
+
+
+def test_anchor_errors(corpus):
+    one_speaker = corpus.filter(speaker="a")
+    with pytest.raises(ParameterError, match="another speaker"):
+        create("other-speaker").fit(one_speaker).predict_for(one_speaker[0], one_speaker)
+    with pytest.raises(ParameterError, match="at least one"):
+        create("still").fit(Corpus([]))
