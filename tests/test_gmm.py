@@ -115,3 +115,16 @@ def test_gmeans_finds_four_blobs(rng):
     assert k == 4 and centres.shape == (4, 3) and labels.shape == (800,)
     k1, _, _ = gmeans(rng.normal(size=(500, 2)))
     assert k1 == 1
+
+
+def test_state_dp_viterbi_equals_frame_loop(rng):
+    hs = []
+    for k in range(3):
+        seqs = [rng.normal(k * 0.3, 1, (int(n), 3)) for n in rng.integers(6, 40, 20)]
+        hs.append(LeftToRightHMM(5).fit(np.vstack(seqs), [len(q) for q in seqs]))
+    bank = HMMBank(hs, 2)
+    for L in (1, 2, 7, 45):
+        x = rng.normal(size=(L, 3))
+        fl = bank.frame_loglik(x[:, :2])
+        np.testing.assert_allclose(bank.segment_loglik(fl, x[0, 2:]), bank.segment_loglik_loop(fl, x[0, 2:]),
+                                   rtol=1e-10, atol=1e-9)

@@ -207,6 +207,29 @@ class HMMBank:
         L = len(frame_ll)
         if L == 0:
             return np.zeros(len(self.hmms))
+        # Viterbi for the no-skip left-to-right topology as a dynamic programme over *states*
+        # (S steps of cumulative sums / running maxima over time) instead of over frames.
+        a = self.logA_self  # (K, S)
+        G = np.cumsum(frame_ll + (cpart + a)[None], axis=0)  # (L, K, S)
+        Gp = np.concatenate([np.zeros((1,) + G.shape[1:]), G[:-1]], axis=0)  # G(t-1)
+        V = self.logpi[None, :, 0] + G[:, :, 0] - a[None, :, 0]  # (L, K)
+        best = V[-1]
+        for s in range(1, G.shape[2]):
+            inner = np.empty_like(V)
+            inner[0] = self.logpi[:, s]
+            inner[1:] = V[:-1] + self.logA_next[None, :, s] - Gp[1:, :, s]
+            V = G[:, :, s] - a[None, :, s] + np.maximum.accumulate(inner, axis=0)
+            best = np.maximum(best, V[-1])
+        return best
+
+    def segment_loglik_loop(self, frame_ll: np.ndarray, const_obs: np.ndarray) -> np.ndarray:
+        """Reference frame-by-frame Viterbi (same result as :meth:`segment_loglik`)."""
+        d = self.n_frame_dims
+        diff = np.asarray(const_obs, dtype=np.float64)[None, None, :] - self.means[:, :, d:]
+        cpart = -0.5 * np.sum(self._prec[:, :, d:] * diff * diff, axis=2) + self._const
+        L = len(frame_ll)
+        if L == 0:
+            return np.zeros(len(self.hmms))
         delta = self.logpi + frame_ll[0] + cpart
         shifted = np.empty_like(delta)
         for t in range(1, L):

@@ -455,9 +455,13 @@ class _DnnSystem(Synthesizer):
             rv = self._predict_values(values)
         return Motion(rv, float(self.model_fps), meta={"system": self.name})
 
-    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
-        """Head motion for ``audio`` at the training corpus's frame rate (deterministic; ``seed``
-        is accepted for the common interface and ignored)."""
+    def predict(self, audio: Audio, *, seed: int | None = None, fps: float | None = None) -> Motion:
+        """Head motion for ``audio`` (deterministic; ``seed`` is accepted for the common interface
+        and ignored).
+
+        The frame rate is ``fps`` when given, else the training corpus's frame rate (the model
+        rate, 100 fps, when the training recordings had several rates); the number of frames is
+        :func:`headmotion.align.n_frames` of the audio at that rate."""
         self._check_fitted()
         if not isinstance(audio, Audio):
             raise ParameterError(f"predict needs an Audio; got {type(audio).__name__}")
@@ -466,7 +470,9 @@ class _DnnSystem(Synthesizer):
         feats = self._extract(audio, T)
         with _torch_context(0, None):
             rv = self._predict_values(feats)
-        out_fps = float(self.output_fps_)
+        out_fps = float(self.output_fps_ if fps is None else fps)
+        if not (math.isfinite(out_fps) and out_fps > 0):
+            raise ParameterError(f"fps must be a positive number; got {fps!r}")
         n_out = _n_frames(len(audio.samples), audio.sample_rate, out_fps)
         motion = Motion(rv, fps, meta={"system": self.name})
         if abs(out_fps - fps) > 1e-9 and len(rv) > 0:

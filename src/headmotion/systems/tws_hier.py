@@ -169,11 +169,22 @@ class TwsHier(TwsBase):
         return {"alpha": [self.models_[("lm", j)]["lm"].initial_state() for j in range(3)],
                 "first": [True, True, True]}
 
-    def _hmm_scores(self, j, tau, Fseg, prev, others):
+    def _hmm_scores(self, j, tau, Fseg, prev, others, frame_ll=None):
         m = self.models_[(j, tau)]
         bank: HMMBank = m["bank"]
         o = (np.hstack([prev, others]) - self.oth_mu_) / self.oth_sd_
-        return bank.segment_loglik(bank.frame_loglik(Fseg), o)
+        return bank.segment_loglik(bank.frame_loglik(Fseg) if frame_ll is None else frame_ll, o)
+
+    def _frame_ll(self, g, j, tau, F, lo, hi):
+        """Per-frame HMM emission terms of F[lo:hi], cached per utterance (computed as F grows)."""
+        key = (j, tau)
+        cache = g.setdefault("frame_ll", {})
+        have = cache.get(key)
+        n = 0 if have is None else len(have)
+        if n < len(F):
+            new = self.models_[key]["bank"].frame_loglik(F[n:])
+            cache[key] = new if have is None else np.concatenate([have, new])
+        return cache[key][lo:hi]
 
     def _lm_scores(self, j, tau, alpha, first):
         lmm = self.models_[("lm", j)]
@@ -188,7 +199,8 @@ class TwsHier(TwsBase):
         g = state["gen"]
         m = self.models_[(j, tau)]
         lo = max(int(state["seg_start"]), t - MAX_HMM_FRAMES + 1)
-        score = self._hmm_scores(j, tau, F[lo:t + 1], state["prev"], state["others"])
+        score = self._hmm_scores(j, tau, None, state["prev"], state["others"],
+                                 frame_ll=self._frame_ll(g, j, tau, F, lo, t + 1))
         lms, off = self._lm_scores(j, tau, g["alpha"][j], g["first"][j])
         score = score + self.lm_weight * lms
         if self.stochastic in ("cluster", "both"):
