@@ -262,10 +262,7 @@ class Generator:
         while True:
             j = int(np.argmin(self.next_change))
             t = int(self.next_change[j])
-            if t >= avail:  # the frame at the change point is not here yet
-                if final and total is not None and t < total and avail > 0:
-                    # no more speech will come: nothing beyond the end is needed
-                    pass
+            if t >= avail:  # the speech frame at the change point is not here (yet, or ever)
                 break
             st, n, s, c = self.segs[j][-1]
             c_new = c + s
@@ -282,7 +279,7 @@ class Generator:
             n_new, s_new = self.sys.limits_.clip(j, d, a, c_new, sign, self.fps)
             self.segs[j].append((t, n_new, s_new, c_new))
             self.next_change[j] = t + n_new
-        return int(min(self.next_change.min(), avail if not final else self.next_change.min()))
+        return int(self.next_change.min())
 
     def render(self, a: int, b: int) -> np.ndarray:
         """Frames [a, b) of all axes, (b-a, 3)."""
@@ -413,7 +410,7 @@ class TwsBase(Synthesizer):
         self.sample_rate_ = int(recs[0].audio.sample_rate)
         self.feature_config_ = make_feature_config(self.features, self.fps_)
         total = len(recs) + 2
-        motions, raw = [], []
+        motions, raw, names = [], [], []
         for i, r in enumerate(recs):
             m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
             T = len(m)
@@ -422,6 +419,7 @@ class TwsBase(Synthesizer):
             tr = self.feature_config_.extract(r.audio, n_frames=T)
             motions.append(np.asarray(m.rotvec))
             raw.append(np.asarray(tr.values, dtype=np.float64))
+            names = list(tr.names)
             if progress:
                 progress(i + 1, total, f"features {r.id}")
         if not motions:
@@ -431,7 +429,7 @@ class TwsBase(Synthesizer):
         self.normalizer_ = Normalizer().fit(raw)
         feats = [np.asarray(self.normalizer_.transform(f), dtype=np.float64) for f in raw]
         self.n_features_ = feats[0].shape[1]
-        self.feature_names_ = list(getattr(self.feature_config_.extract(recs[0].audio.slice_seconds(0, 0.5), n_frames=50), "names", []))
+        self.feature_names_ = names
         data = collect(motions, feats, self.fps_, with_frames=self._with_frames)
         n_seg = [len(d.y) for d in data]
         if min(n_seg) < 4:
@@ -450,7 +448,7 @@ class TwsBase(Synthesizer):
 
     # -- synthesis ----------------------------------------------------------------------------
     def _apply_gain(self, rv: np.ndarray, gain: float) -> np.ndarray:
-        g = float(self.gain if gain is None else gain) if gain is not None else float(self.gain)
+        g = float(self.gain if gain is None else gain)
         if g == 1.0:
             return rv
         m = self.limits_.mean
