@@ -8,7 +8,7 @@ python -m pip install -q torch==2.13.0
 python -m pip install -q -e ".[test,video]"
 if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
   need=()
-  for pkg in chromium libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri blender; do
+  for pkg in chromium libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri blender postgresql; do
     dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
   done
   if [ ${#need[@]} -gt 0 ]; then

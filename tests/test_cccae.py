@@ -131,6 +131,7 @@ def test_cccae_prediction_beats_the_mean(corpus, trained):
     test = corpus["env_3"]
     pred = cccae.predict(test.audio)
     assert pred.fps == 25.0 and len(pred) == len(test.motion)
+    assert cccae.predict(test.audio, fps=100.0).fps == 100.0
     score = nmse(test.motion, pred)
     assert score.mean < 1.0, score
     assert score.per_axis[0] < 0.9, score  # pitch is the most predictable axis
@@ -211,6 +212,11 @@ def test_parameters_and_unfitted():
         CccaeSystem(alpha=-1.0).fit(Corpus([]))
     with pytest.raises(ParameterError, match="use the 'cccae' system"):
         AeDnnSystem(alpha=1.0)
+    # the CLI passes only the keyword arguments the signature names
+    import inspect
+
+    for cls in (CccaeSystem, AeDnnSystem):
+        assert {"features", "seed", "alpha"} <= set(inspect.signature(cls.__init__).parameters)
     with pytest.raises(ParameterError, match="layer sizes"):
         create("mfcc-dnn", regressor_hidden=(0,)).fit(Corpus([]))
     assert CccaeSystem().alpha == 1.0 and AeDnnSystem().alpha == 0.0

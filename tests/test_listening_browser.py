@@ -92,8 +92,35 @@ def _wait_trial(page, index: int):
         "document.body.dataset.stage === 'done'")
 
 
+SMALL_MOS = """type: mos_ref
+name: small-mos
+seed: 5
+demographics:
+  - {name: native_language, label: "Native English speaker?", options: ["yes", "no"]}
+  - {name: listening, label: "Headphones or speakers?", options: [headphones, speakers]}
+  - {name: gender, label: Gender, options: [female, male, other]}
+training:
+  - id: train
+    speaker: A
+    reference: {motion: motion/s1_natural.npz, audio: audio/s1.wav}
+    conditions: {system: {motion: motion/s1_system.npz, audio: audio/s1.wav}}
+items:
+""" + "".join(f"""  - id: {s}
+    speaker: {spk}
+    reference: {{motion: motion/{s}_natural.npz, audio: audio/{s}.wav}}
+    conditions:
+      natural: {{motion: motion/{s}_natural.npz, audio: audio/{s}.wav}}
+      noise: {{motion: motion/{s}_noise.npz, audio: audio/{s}.wav}}
+""" for s, spk in (("s2", "A"), ("s3", "B"))) + """attention_checks:
+  - {after: 2, question: "Please choose blue.", options: [red, blue, green], answer: blue}
+"""
+
+
 def test_mos_ref_participant_in_browser(browser, tmp_path, examples_dir):
-    cfg = _example(tmp_path, examples_dir, "config.yaml")
+    # the example stimuli (motion + audio, drawn by the viewer component), fewer trials
+    _example(tmp_path, examples_dir, "config.yaml")
+    cfg = tmp_path / "test" / "small.yaml"
+    cfg.write_text(SMALL_MOS)
     srv = Server(cfg, tmp_path / "mos.sqlite")
     try:
         ctx = browser.new_context()
@@ -107,7 +134,7 @@ def test_mos_ref_participant_in_browser(browser, tmp_path, examples_dir):
         n = page.evaluate("window.__listen.info.n_trials")
         for i in range(n):
             _wait_trial(page, i)
-            if i == 5:  # close the tab and come back: resumes at the same trial
+            if i == 3:  # close the tab and come back: resumes at the same trial
                 page.close()
                 page = ctx.new_page()
                 page.goto(srv.url + "/")
@@ -143,7 +170,8 @@ def test_mos_ref_participant_in_browser(browser, tmp_path, examples_dir):
         got = {a["trial_index"]: (a["condition"] if a["kind"] == "attention" else a["value"])
                for a in ans}
         assert got == clicked
-        assert [a["phase"] for a in ans[:2]] == ["training", "training"]
+        assert [a["phase"] for a in ans] == ["training", "test", "test", "attention", "test",
+                                              "test"]
         assert ans[0]["demo_gender"] == "female"
         # no going back: the page holds no back button and the server refuses a changed rating
         assert res["participants"][0]["stage"] == "done"
@@ -197,30 +225,40 @@ def test_mushra_participant_in_browser_with_mp4(browser, tmp_path):
         srv.stop()
 
 
-def test_ab_participant_in_browser(browser, tmp_path, examples_dir):
-    cfg = _example(tmp_path, examples_dir, "ab.yaml")
-    srv = Server(cfg, tmp_path / "ab.sqlite")
+def test_ab_participant_in_browser(browser, tmp_path):
+    d = tmp_path / "ab"
+    d.mkdir()
+    conds = {"natural": "white", "system": "gray", "desync": "black"}
+    for c, col in conds.items():
+        _make_mp4(d / f"{c}.mp4", col)
+    items = "".join(f"  - id: item{k}\n    conditions:\n" +
+                    "".join(f"      {c}: {c}.mp4\n" for c in conds) for k in range(2))
+    (d / "t.yaml").write_text(f"type: ab\nname: ab\nitems:\n{items}")
+    srv = Server(d / "t.yaml", tmp_path / "ab.sqlite")
     try:
         page = browser.new_page()
         page.goto(srv.url + "/")
         _consent_and_demographics(page, None)
         n = page.evaluate("window.__listen.info.n_trials")
+        assert n == 6
         clicked = {}
         for i in range(n):
             _wait_trial(page, i)
             side = "left" if i % 3 else "right"
+            page.click(f"[data-play='{side.title()}']")
             page.click(f"#choose-{side}")
             clicked[i] = side
             page.click("#submit")
         page.wait_for_selector("#done")
         ans = srv.results()["answers"]
         assert {a["trial_index"]: a["slot"] for a in ans} == clicked
-        # each pair equally often on each side
+        # each pair (2 trials per participant) once on each side
         left = {}
         for a in ans:
             ls = a["condition"] if a["slot"] == "left" else a["other"]
             key = tuple(sorted((a["condition"], a["other"])))
             left.setdefault(key, []).append(ls == key[0])
+        assert len(left) == 3
         for key, v in left.items():
             assert sum(v) * 2 == len(v), (key, v)
     finally:

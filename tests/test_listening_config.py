@@ -150,3 +150,12 @@ def test_public_trial_hides_systems_and_blinds_ids(examples_dir):
         assert unblind_id(i, b"k" * 32) == sid
     assert unblind_id("zz", b"k" * 32) is None
     assert blind_id("00" * 8, "a", b"k") != blind_id("00" * 8, "b", b"k")
+
+
+def test_cli_serve_with_malformed_config_names_the_line(test_dir, capsys):
+    from headmotion.cli import main
+
+    p = _write(test_dir, GOOD.replace("speaker: A", "speaker: [A"))
+    assert main(["listen", "serve", str(p), "--port", "1"]) == 5
+    err = capsys.readouterr().err
+    assert "bad.yaml, line" in err and "invalid YAML" in err

@@ -34,6 +34,7 @@ def encode_error(
     speaker: Optional[str] = typer.Option(None, "--speaker"),
     by_axis: bool = typer.Option(False, "--by-axis", help="Also per rotation component."),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Write the numbers as JSON."),
+    fps: Optional[float] = typer.Option(None, "--fps", help="Resample the motion first (the thesis used 100 Hz)."),
 ):
     """Table 5.1: RMS error of encoding with cosine vs piecewise-linear templates (radians)."""
     from rich.table import Table
@@ -41,7 +42,7 @@ def encode_error(
     from ..motion.templates import corpus_encoding_errors
 
     c = _load_corpus(corpus, speaker)
-    res = corpus_encoding_errors([r.motion for r in c], by_axis=by_axis)
+    res = corpus_encoding_errors([r.motion if fps is None else r.motion.resample(fps) for r in c], by_axis=by_axis)
     t = Table(title=f"Template encoding error ({res['segments']} segments, {res['frames']} samples)")
     t.add_column("")
     t.add_column("RMS error (rad)", justify="right")

@@ -345,11 +345,22 @@ def summarize(test: dict[str, Any], rows: list[dict[str, Any]], *, window: int =
                          "curves": windowed_differences(win_rows, reference=ref, compare=cmp_,
                                                         window=window)}
         # Table 4.1-style key statistics per group after the first window (training)
+        # (thesis: "pairs 10 to 40" — the first window of trials counts as training)
+        trials_of: dict[Any, list[int]] = defaultdict(list)
+        for r in win_rows:
+            trials_of[r["participant"]].append(r["trial_index"])
+        position = {p: {t: i for i, t in enumerate(sorted(set(ts)))}
+                    for p, ts in trials_of.items()}
+        after = [r for r in win_rows if position[r["participant"]][r["trial_index"]] >= window]
+        if not after:
+            after = win_rows
+            res["warnings"].append(f"fewer than {window} trials per participant: key statistics "
+                                   "use all trials")
         key = []
-        for g in sorted({r["group"] for r in win_rows}):
+        for g in sorted({r["group"] for r in after}):
             parts = defaultdict(lambda: defaultdict(list))
             rts = []
-            for r in win_rows:
+            for r in after:
                 if r["group"] == g and r["condition"] in (ref, cmp_):
                     parts[r["participant"]][r["condition"]].append(r["norm"])
                     if r.get("response_ms") not in (None, "") and math.isfinite(
@@ -537,7 +548,8 @@ def _figures(res: dict, out: Path) -> dict[str, str]:
         for i in range(len(s)):
             for j in range(len(s)):
                 if np.isfinite(pct[i, j]):
-                    ax.text(j, i, f"{pct[i, j]:.0f}%", ha="center", va="center")
+                    ax.text(j, i, f"{pct[i, j]:.0f}%", ha="center", va="center",
+                            color="white" if abs(pct[i, j] - 50) > 30 else "black")
         ax.set_xticks(range(len(s)), s, rotation=20)
         ax.set_yticks(range(len(s)), s)
         ax.set_title("% of times the row system was preferred to the column system")
@@ -629,7 +641,7 @@ def _markdown(res: dict, figs: dict[str, str], source: str) -> str:
                   "(training included), scores normalised by participant and speaker.\n")
         md.append("![windowed difference](window_difference.png)\n\n"
                   "![windowed difference with standard deviation](window_difference_std.png)\n")
-        md.append("Key statistics (Table 4.1):\n")
+        md.append(f"Key statistics from trial {w['size'] + 1} on (Table 4.1):\n")
         md.append(_table(["group", "mean difference", "variance", "mean time for decision (s)",
                           "variance (s²)"],
                          [[k["group"], _f(k["mean_difference"]), _f(k["variance"]),

@@ -85,8 +85,18 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
     """
     url = database_url or cfg.database or cfg.default_database_url()
     db = Database(url)
+    previous = db.get_meta("config")
+    if previous and previous.get("digest") != cfg.digest and db.progress():
+        import warnings
+
+        warnings.warn(f"the configuration {cfg.path} changed since participants started this test "
+                      f"(database {url}); their stored trial order is kept", stacklevel=2)
     db.set_meta("config", {"name": cfg.name, "type": cfg.type, "digest": cfg.digest,
-                           "path": str(cfg.path)})
+                           "path": str(cfg.path), "hidden_reference": cfg.hidden_reference,
+                           "anchor": cfg.anchor, "screening_threshold": cfg.screening_threshold,
+                           "screening_fraction": cfg.screening_fraction,
+                           "scale_points": cfg.scale_points,
+                           "demographics": [q.name for q in cfg.demographics]})
     secret_hex = db.get_meta("secret")
     if secret_hex is None:
         secret_hex = secrets.token_hex(32)
@@ -155,8 +165,13 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
         out: dict[str, Any] = {"stage": p["stage"],
                                "progress": {"done": p["next_trial"], "total": p["n_trials"]}}
         if p["stage"] == "trials" and p["next_trial"] < p["n_trials"]:
-            out["trial"] = public_trial(p["plan"][p["next_trial"]], cfg, secret=secret,
-                                        participant=p["id"])
+            try:
+                out["trial"] = public_trial(p["plan"][p["next_trial"]], cfg, secret=secret,
+                                            participant=p["id"])
+            except KeyError:
+                raise HTTPException(status_code=409, detail=(
+                    "this participant's trials name stimuli that are no longer in the test "
+                    "configuration (was it edited after the test started?)")) from None
         return out
 
     @app.post("/api/p/{token}/demographics")

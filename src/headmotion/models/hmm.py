@@ -116,6 +116,13 @@ def _baum_welch_batched(X, lengths, means, var, trans, start, *, n_iter: int, mi
     mask = np.arange(L)[None, :] < lengths[:, None]  # (N, L)
     Xp[mask] = X
     maskf = mask.astype(np.float64)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
+        return _bw_loop(Xp, mask, maskf, lengths, means, var, trans, start, n_iter, min_covar)
+
+
+def _bw_loop(Xp, mask, maskf, lengths, means, var, trans, start, n_iter, min_covar):
+    N, L, D = Xp.shape
+    S = len(start)
     for _ in range(max(0, int(n_iter))):
         logB = _diag_loglik(Xp, means, var)  # (N, L, S)
         mx = logB.max(axis=2, keepdims=True)

@@ -30,12 +30,17 @@ Defaults (all exposed as parameters of the systems in :mod:`headmotion.systems.d
 ======================  ===========================================  ==========================
 network                 layers                                       activation
 ======================  ===========================================  ==========================
-autoencoder (A)         100 → 256 → 128 → **30** → 128 → 256 → 100   tanh; linear code/output
+autoencoder (A)         100 → 256 → 128 → **30** → 128 → 256 → 100   ReLU; linear code/output
 regressor (B)           51·D → 256 → 256 → 3                          ReLU, dropout 0.1
 post-filter (C)         150 → 256 → 64 → 256 → 150                    tanh; linear code/output
 ======================  ===========================================  ==========================
 
-The embedding width is 30 as chosen in §4.2 (15 and 60 selectable).  Every optimiser is Adam with
+The embedding width is 30 as chosen in §4.2 (15 and 60 selectable).  The autoencoder's hidden
+activation is ReLU in the systems (``ae_activation``; tanh and sigmoid selectable): what correlates
+with head motion is an *even* function of the waveform (its envelope), and a linear code over ReLU
+units represents ``|w·x|`` exactly (``relu(w·x) + relu(−w·x)``) whereas odd tanh units need many
+biased copies; on the planted-envelope corpus of ``tests/test_cccae.py`` (40 epochs, same seed) the
+CCCAE's validation CCA reached 0.57 with ReLU against 0.41 with tanh.  Every optimiser is Adam with
 learning rate 0.0002 (§4.2); every training loop keeps the parameters of the epoch with the best
 validation loss and stops after ``patience`` epochs without improvement (early stopping).
 

@@ -129,14 +129,17 @@ class _DnnSystem(Synthesizer):
     default_feature: ClassVar[str] = "wav"
     #: whether the system learns a waveform embedding (CCCAE / AE) before the regressor
     uses_embedding: ClassVar[bool] = False
+    #: the weight of the CCA term when ``alpha`` is not given, and whether it may be changed
+    default_alpha: ClassVar[float | None] = None
+    alpha_fixed: ClassVar[bool] = False
 
-    _PARAMS = ("feature", "feature_params", "alpha", "embedding_dim", "ae_hidden", "ae_activation", "regressor_hidden",
+    _PARAMS = ("features", "feature_params", "alpha", "embedding_dim", "ae_hidden", "ae_activation", "regressor_hidden",
                "context", "dropout", "postfilter", "postfilter_hidden", "postfilter_code", "segment",
                "postfilter_noise", "model_fps", "batch_size", "cca_batch_size", "cca_reg",
                "learning_rate", "max_epochs", "ae_max_epochs", "pretrain_epochs", "patience",
                "valid_fraction", "holdout_test", "seed", "n_threads")
 
-    def __init__(self, *, feature: str | None = None, feature_params: dict | None = None,
+    def __init__(self, *, features: str | None = None, feature_params: dict | None = None,
                  alpha: float | None = None, embedding_dim: int = 30,
                  ae_hidden: tuple[int, ...] = (256, 128), ae_activation: str = "relu",
                  regressor_hidden: tuple[int, ...] = (256, 256),
@@ -147,9 +150,13 @@ class _DnnSystem(Synthesizer):
                  max_epochs: int = 30, ae_max_epochs: int = 30, pretrain_epochs: int = 3, patience: int = 4,
                  valid_fraction: float = 0.15, holdout_test: bool = True, seed: int = 0,
                  n_threads: int | None = None):
-        self.feature = feature
+        self.features = features
         self.feature_params = feature_params
-        self.alpha = alpha
+        if self.alpha_fixed and alpha not in (None, self.default_alpha):
+            raise ParameterError(
+                f"{self.name} is the autoencoder with alpha = {self.default_alpha:g}; use the 'cccae' system for "
+                f"another alpha (got {alpha!r})")
+        self.alpha = self.default_alpha if alpha is None else alpha
         self.embedding_dim = embedding_dim
         self.ae_hidden = ae_hidden
         self.ae_activation = ae_activation
@@ -234,7 +241,7 @@ class _DnnSystem(Synthesizer):
 
     @property
     def feature_name(self) -> str:
-        return self.feature or self.default_feature
+        return self.features or self.default_feature
 
     def _feature_config(self):
         from ..features import FeatureConfig
@@ -465,8 +472,8 @@ class _DnnSystem(Synthesizer):
         self._check_fitted()
         if not isinstance(audio, Audio):
             raise ParameterError(f"predict needs an Audio; got {type(audio).__name__}")
-        fps = float(self.model_fps)
-        T = _n_frames(len(audio.samples), audio.sample_rate, fps)
+        mfps = float(self.model_fps)
+        T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
         with _torch_context(0, None):
             rv = self._predict_values(feats)
@@ -474,11 +481,11 @@ class _DnnSystem(Synthesizer):
         if not (math.isfinite(out_fps) and out_fps > 0):
             raise ParameterError(f"fps must be a positive number; got {fps!r}")
         n_out = _n_frames(len(audio.samples), audio.sample_rate, out_fps)
-        motion = Motion(rv, fps, meta={"system": self.name})
-        if abs(out_fps - fps) > 1e-9 and len(rv) > 0:
+        motion = Motion(rv, mfps, meta={"system": self.name})
+        if abs(out_fps - mfps) > 1e-9 and len(rv) > 0:
             motion = motion.resample(out_fps)
         rv_out = _fit_length(np.asarray(motion.rotvec), n_out)
-        return Motion(rv_out, out_fps, meta={"system": self.name, "model_fps": fps})
+        return Motion(rv_out, out_fps, meta={"system": self.name, "model_fps": mfps})
 
     def embed(self, audio: Audio, *, fps: float | None = None, n_frames: int | None = None) -> FeatureTrack:
         """The learned waveform embedding (Wav_CCCAE / Wav_AE, paper Table 1) of ``audio``.
@@ -591,9 +598,7 @@ class CccaeSystem(_DnnSystem):
     name = "cccae"
     default_feature = "wav"
     uses_embedding = True
-
-    def __init__(self, *, alpha: float = 1.0, **params):
-        super().__init__(alpha=alpha, **params)
+    default_alpha = 1.0
 
 
 class AeDnnSystem(_DnnSystem):
@@ -602,11 +607,8 @@ class AeDnnSystem(_DnnSystem):
     name = "ae-dnn"
     default_feature = "wav"
     uses_embedding = True
-
-    def __init__(self, **params):
-        if params.pop("alpha", 0.0) not in (0, 0.0, None):
-            raise ParameterError("ae-dnn is the autoencoder with alpha = 0; use the 'cccae' system for alpha > 0")
-        super().__init__(alpha=0.0, **params)
+    default_alpha = 0.0
+    alpha_fixed = True
 
 
 class MfccDnnSystem(_DnnSystem):

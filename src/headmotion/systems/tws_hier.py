@@ -211,10 +211,14 @@ class TwsHier(TwsBase):
         lmm = self.models_[("lm", j)]
         g["alpha"][j] = lmm["lm"].update(g["alpha"][j], off + c, first=g["first"][j])
         g["first"][j] = False
-        x = self._xreg(state["prev"][None], state["others"][None], F[t][None],
-                       context_frames(F, t)[None], self.n_features_)
-        method = "sample" if self.stochastic in ("params", "both") else self.method
-        y = m["regs"][c].predict(x, method=method, rng=rng)[0]
+        lo_c = t - CONTEXT + 1
+        cm = F[lo_c:t + 1].mean(axis=0) if lo_c >= 0 else context_frames(F, t).reshape(CONTEXT, -1).mean(axis=0)
+        x = np.concatenate([state["prev"], state["others"], F[t], cm])
+        reg = m["regs"][c]
+        # one Gaussian: ML = MMSE = the conditional mean mu_y + A (x - mu_x) (eq 2.7)
+        y = reg._my[0] + reg._A[0] @ (x - reg._mx[0])
+        if self.stochastic in ("params", "both") or self.method == "sample":
+            y = y + reg._chol_c[0] @ rng.standard_normal(len(y))
         return float(y[0]), float(y[1])
 
     # -- analysis -----------------------------------------------------------------------------

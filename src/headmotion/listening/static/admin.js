@@ -11,7 +11,16 @@ async function show() {
   $("#summary").textContent =
     `${d.test} (${d.type}): ${d.n_participants} participants, ${d.n_finished} finished, ${d.n_answers} answers`;
   for (const [id, ext] of [["#dl-csv", "csv"], ["#dl-json", "json"]]) {
-    $(id).href = `/api/admin/results.${ext}?token=${encodeURIComponent(token)}`;
+    // fetched with the token in a header (not in the URL, which would land in the history)
+    $(id).onclick = async (e) => {
+      e.preventDefault();
+      const resp = await fetch(`/api/admin/results.${ext}`, { headers: { Authorization: `Bearer ${token}` } });
+      if (!resp.ok) { $("#summary").textContent = `Error ${resp.status}`; return; }
+      const url = URL.createObjectURL(await resp.blob());
+      const a = Object.assign(document.createElement("a"), { href: url, download: `${d.test}-results.${ext}` });
+      document.body.append(a); a.click(); a.remove();
+      setTimeout(() => URL.revokeObjectURL(url), 10000);
+    };
   }
   $("#downloads").hidden = false;
   const rows = d.participants.map((p) =>

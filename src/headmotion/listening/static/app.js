@@ -2,7 +2,7 @@
 // One page app: consent -> demographics -> instructions -> trials -> done.  The participant token
 // is kept in localStorage so a closed tab resumes at the next unanswered trial; the server only
 // accepts the next trial, so ratings cannot be changed afterwards.
-import { createPlayer, stopAll } from "/static/player.js";
+import { createPlayer, destroyAll, stopAll } from "/static/player.js";
 
 const $ = (s, root = document) => root.querySelector(s);
 const main = $("#main");
@@ -60,7 +60,7 @@ function setProgress(p) {
 }
 
 async function refresh() {
-  stopAll();
+  destroyAll();
   let st;
   try { st = await api("GET", `/api/p/${encodeURIComponent(token)}/state`); } catch (e) {
     if (e.status === 404) { localStorage.removeItem(storageKey); token = null; return renderConsent(); }

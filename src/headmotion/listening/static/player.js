@@ -10,6 +10,12 @@ export function stopAll(except = null) {
   for (const p of players) if (p !== except) p.stop();
 }
 
+// Free every player of the previous trial (WebGL contexts, decoders) before drawing the next.
+export function destroyAll() {
+  for (const p of players) p.destroy();
+  players.clear();
+}
+
 function loadViewer() {
   if (viewerModule === null) {
     viewerModule = fetch("/api/test").then((r) => r.json()).then((info) =>
@@ -32,6 +38,7 @@ function videoPlayer(info, onplay) {
     element: box,
     play() { stopAll(p); v.currentTime = 0; v.play().catch(() => {}); onplay(); },
     stop() { v.pause(); },
+    destroy() { v.pause(); v.removeAttribute("src"); v.load(); },
   };
   players.add(p);
   return p;
@@ -68,6 +75,10 @@ function motionPlayer(info, onplay) {
       audio.play().catch(() => {});
     },
     stop() { if (viewer) viewer.pause(); else audio.pause(); },
+    destroy() {
+      audio.pause();
+      ready.then(() => { if (viewer && viewer.destroy) viewer.destroy(); viewer = null; }).catch(() => {});
+    },
   };
   players.add(p);
   return p;
