@@ -268,7 +268,7 @@ export async function mountViewer(element, options = {}) {
   }
   resize();
   const duration = Math.max(...motions.map((m) => m.n / m.fps), audio && isFinite(audio.duration) ? audio.duration : 0);
-  const state = { playing: false, clockStart: 0, clockOffset: 0, raf: 0, destroyed: false,
+  const state = { playing: false, clockStart: 0, clockOffset: 0, raf: 0, destroyed: false, dirty: true,
     rendered: { time: 0, frames: motions.map(() => 0), count: 0 } };
 
   const frameAt = (m, t) => Math.max(0, Math.min(m.n - 1, Math.floor(t * m.fps + 1e-6)));
@@ -303,13 +303,22 @@ export async function mountViewer(element, options = {}) {
     if (timeText) timeText.textContent = `${fmt(t)} / ${fmt(dur)}`;
     if (!audio && state.playing && t >= duration) pause();
   }
+  // Redraw only while playing or after something changed (seek, pause, resize): a paused
+  // viewer costs nothing, which matters with several software-WebGL viewers on one page.
+  let lastWidth = -1;
   function loop() {
     if (state.destroyed) return;
-    draw();
+    const width = element.clientWidth;
+    if (state.playing || state.dirty || width !== lastWidth) {
+      state.dirty = false;
+      lastWidth = width;
+      draw();
+    }
     state.raf = requestAnimationFrame(loop);
   }
   function setPlaying(p) {
     state.playing = p;
+    state.dirty = true;
     if (playBtn) playBtn.textContent = p ? "❚❚ pause" : "▶ play";
   }
   function play() {
@@ -365,6 +374,9 @@ export async function mountViewer(element, options = {}) {
     destroy() {
       state.destroyed = true;
       cancelAnimationFrame(state.raf);
+      const list = window.headmotionViewers || [];
+      const k = list.indexOf(viewer);
+      if (k >= 0) list.splice(k, 1);
       if (audio) audio.pause();
       renderer.dispose();
       root.remove();
