@@ -1,6 +1,6 @@
 """``headmotion train``, ``headmotion synth`` and ``headmotion stream`` (DESIGN.md "CLI").
 
-* ``train CORPUS --system NAME -o MODEL.hmz [--speaker S] [--features f0e] [--seed N]`` — fit any
+* ``train CORPUS --system NAME -o MODEL.hmz [--speaker S] [--features f0e] [--seed N] [--fps F]`` — fit any
   registered system on a corpus directory (optionally one speaker) with a progress bar.
 * ``synth SPEECH [-m MODEL] -o OUT.{bvh,csv,json,npz} [--seed N] [--gain G] [--samples K]
   [--fps F] [--video OUT.mp4]`` — without ``-m`` the default model shipped in the package
@@ -52,6 +52,8 @@ def train(
     speaker: Optional[str] = typer.Option(None, "--speaker", help="Train on this speaker only."),
     features: Optional[str] = typer.Option(None, "--features", help="Feature set (f0e, mfcc, lsp, ...)."),
     seed: Optional[int] = typer.Option(None, "--seed", help="Random seed for training."),
+    fps: Optional[float] = typer.Option(None, "--fps", help="Model frame rate (motion is resampled; "
+                                        "tws systems default to the corpus rate)."),
 ):
     """Train a synthesis system on a corpus and save it."""
     from ..corpus import Corpus
@@ -63,7 +65,7 @@ def train(
     c = Corpus.load(corpus)
     if speaker is not None:
         c = c.filter(speaker=speaker)
-    model = cls(**_init_kwargs(cls, features=features, seed=seed, random_state=seed))
+    model = cls(**_init_kwargs(cls, features=features, seed=seed, random_state=seed, fps=fps))
     t0 = time.perf_counter()
     with progress_bar(f"training {system}") as update:
         def progress(done, total, description=None):

@@ -42,8 +42,11 @@ computed on the right sets.
 
 Determinism — ``fit`` seeds torch inside ``torch.random.fork_rng`` (the caller's global generator
 is left untouched), enables ``torch.use_deterministic_algorithms`` for the duration of ``fit``, and
-uses ``n_threads`` intra-op threads when given (default: torch's setting); the same seed and
-thread count give the same model bit for bit on CPU.
+uses ``n_threads`` intra-op threads in ``fit`` and ``predict`` (``None``: torch's setting); the same
+seed and thread count give the same model bit for bit on CPU.  The default is **one** thread: the
+networks are small (mini-batches of 256–1000 frames × a few hundred units), so a second thread
+gains little on an idle machine and loses badly on a shared one — on this 2-core machine with other
+jobs running, fitting ``cccae`` on 5 minutes of speech took 59 s with one thread and 134 s with two.
 
 Libraries considered: PyTorch for the networks (DESIGN.md); scikit-learn's ``MLPRegressor`` has no
 custom loss or layer-wise pre-training.
@@ -149,7 +152,7 @@ class _DnnSystem(Synthesizer):
                  cca_batch_size: int = 1000, cca_reg: float = 1e-3, learning_rate: float = 2e-4,
                  max_epochs: int = 30, ae_max_epochs: int = 30, pretrain_epochs: int = 3, patience: int = 4,
                  valid_fraction: float = 0.15, holdout_test: bool = True, seed: int = 0,
-                 n_threads: int | None = None):
+                 n_threads: int | None = 1):
         self.features = features
         self.feature_params = feature_params
         if self.alpha_fixed and alpha not in (None, self.default_alpha):
@@ -458,7 +461,7 @@ class _DnnSystem(Synthesizer):
         if abs(fps - float(self.model_fps)) > 1e-6:
             raise ParameterError(
                 f"this {self.name} model works at {float(self.model_fps):g} frames/s; the feature track is at {fps:g}")
-        with _torch_context(0, None):
+        with _torch_context(0, getattr(self, "n_threads", None)):
             rv = self._predict_values(values)
         return Motion(rv, float(self.model_fps), meta={"system": self.name})
 
@@ -475,7 +478,7 @@ class _DnnSystem(Synthesizer):
         mfps = float(self.model_fps)
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
-        with _torch_context(0, None):
+        with _torch_context(0, getattr(self, "n_threads", None)):
             rv = self._predict_values(feats)
         out_fps = float(self.output_fps_ if fps is None else fps)
         if not (math.isfinite(out_fps) and out_fps > 0):
@@ -510,7 +513,7 @@ class _DnnSystem(Synthesizer):
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
         self._check_features(feats, "the feature track")
-        with _torch_context(0, None):
+        with _torch_context(0, getattr(self, "n_threads", None)):
             z = self._embed_values(np.asarray(self.feature_norm_.transform(feats), dtype=np.float32))
         names = tuple(f"e{i:02d}" for i in range(z.shape[1]))
         track = FeatureTrack(z, mfps, names)
