@@ -62,8 +62,10 @@ def evaluate_cmd(
         console.print(f"  {s:16s} NMSE {result.mean(s, 'nmse'):6.3f}  local CCA {result.mean(s, 'cca_local'):5.3f} "
                       f"(chance {result.mean(s, 'cca_local_null_mean'):5.3f})  FCCA {result.mean(s, 'fcca'):5.3f} "
                       f"(chance {result.mean(s, 'fcca_null_mean'):5.3f})", highlight=False, soft_wrap=True)
-    for w in result.warnings:
+    for w in result.warnings[:5]:
         console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
+    if len(result.warnings) > 5:
+        console.print(f"[yellow]… {len(result.warnings) - 5} more warnings in report.md[/]")
     console.print(f"wrote {out['report']} and {out['metrics']}")
 
 

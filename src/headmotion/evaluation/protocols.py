@@ -147,7 +147,7 @@ def _system_spec(s) -> tuple[str, Any]:
 
 
 def _make_system(name: str, factory, seed: int):
-    from ..systems.base import create, system_class
+    from ..systems.base import system_class
 
     if factory is None:
         cls = system_class(name)

@@ -34,12 +34,14 @@ EMBED_LABELS = {"ae-dnn": "Wav_AE", "cccae": "Wav_CCCAE"}
 
 
 def write_metrics_csv(result: EvaluationResult, path) -> Path:
-    """``system,recording,metric,value`` — one row per system × recording × metric."""
+    """``system,recording,metric,value`` — one row per system × recording × metric (values with 12
+    significant digits)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["system", "recording", "metric", "value"])
     for r in result.rows:
-        w.writerow([r["system"], r["recording"], r["metric"], repr(float(r["value"]))])
+        # 12 significant digits: last-bit differences of BLAS kernels do not change the file
+        w.writerow([r["system"], r["recording"], r["metric"], f"{float(r['value']):.12g}"])
     atomic_write_text(Path(path), buf.getvalue())
     return Path(path)
 

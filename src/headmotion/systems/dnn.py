@@ -40,6 +40,16 @@ speaker speaks (:meth:`~headmotion.corpus.Recording.speaking_mask`); prediction 
 Fitted models record which recording went where (``splits_``) so the paper's tables can be
 computed on the right sets.
 
+Beyond the common interface: ``predict(audio, fps=...)`` chooses the output frame rate;
+``predict_features(track)`` runs the model on an already extracted 100-fps feature track and
+raises :class:`~headmotion.errors.ParameterError` when its dimension or rate is not the one the
+model was trained on; ``embed(audio, fps=..., n_frames=...)`` (CCCAE / AE systems) returns the
+learned embedding as a :class:`~headmotion.types.FeatureTrack` for the paper's Table 1.
+
+Training length — Adam (lr 0.0002) for at most ``ae_max_epochs`` (60) autoencoder epochs after
+``pretrain_epochs`` (3) per pre-training layer, ``max_epochs`` (30) regressor and post-filter
+epochs, each stopped after ``patience`` (4) epochs without a better validation loss.
+
 Determinism — ``fit`` seeds torch inside ``torch.random.fork_rng`` (the caller's global generator
 is left untouched), enables ``torch.use_deterministic_algorithms`` for the duration of ``fit``, and
 uses ``n_threads`` intra-op threads in ``fit`` and ``predict`` (``None``: torch's setting); the same
@@ -150,7 +160,7 @@ class _DnnSystem(Synthesizer):
                  postfilter_hidden: tuple[int, ...] = (256,), postfilter_code: int = 64, segment: int = 50,
                  postfilter_noise: float = 0.3, model_fps: float = MODEL_FPS, batch_size: int = 256,
                  cca_batch_size: int = 1000, cca_reg: float = 1e-3, learning_rate: float = 2e-4,
-                 max_epochs: int = 30, ae_max_epochs: int = 30, pretrain_epochs: int = 3, patience: int = 4,
+                 max_epochs: int = 30, ae_max_epochs: int = 60, pretrain_epochs: int = 3, patience: int = 4,
                  valid_fraction: float = 0.15, holdout_test: bool = True, seed: int = 0,
                  n_threads: int | None = 1):
         self.features = features
