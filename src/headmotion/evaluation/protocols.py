@@ -36,8 +36,10 @@ features = the ``features`` set), ``feat_cca_local`` (motion vs features), ``sd_
 has ``m_null_mean``, ``m_null_p95``, ``m_p``, ``m_excess`` (score − null mean).  The ground truth
 additionally gets ``paper_chance`` (local CCA with the randomised motion of another speaker, drawn
 with the seed, resampled to the recording's rate),
-``featcca_local[<set>]`` for every feature set (paper Table 1; with ``_null_mean``, ``_excess``,
-``_p`` suffixes for its chance level), and per speaker the local/global
+``featcca_local[<set>]`` for every feature set on *every* recording of the corpus, held out or
+not (paper Table 1, computed by :func:`.parallel.feature_table`; with ``_null_mean``,
+``_excess``, ``_p`` suffixes for its chance level; ``config["splits"]`` / ``result.splits`` say
+which recordings are train / valid / test), and per speaker the local/global
 CCA against window size (thesis Fig 4.8) as ``winlocal[<s>s]`` / ``winglobal[<s>s]``
 (recording ``speaker:<name>``).  A system with an ``embed(audio)`` method (CCCAE, AE) adds
 ``embed_cca_local`` — its embedding's local CCA with the recorded motion (paper Table 1 Wav_AE /
@@ -45,8 +47,9 @@ Wav_CCCAE rows).
 
 Parallelism and determinism
 ---------------------------
-Folds run in parallel with joblib (``n_jobs``), or on a Dask cluster when ``scheduler`` is a
-scheduler address (``tcp://host:8786``) or a ``distributed.Client``.  Every random choice is
+Folds, and then the corpus-wide feature table (one task per recording: extract every feature set,
+score it), run in parallel with joblib (``n_jobs``), or on a Dask cluster when ``scheduler`` is a
+scheduler address (``tcp://host:8786``) or a ``distributed.Client`` (:mod:`.parallel`).  Every random choice is
 seeded from ``(seed, recording, system)``, so a re-run, any ``n_jobs`` and Dask give identical
 numbers.
 
@@ -60,7 +63,6 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import time
-import zlib
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
@@ -71,6 +73,7 @@ from ..errors import LengthMismatchError, ParameterError
 from ..types import FeatureTrack, Motion
 from . import chance as C
 from . import metrics as M
+from .parallel import _sub_seed, dask_client, extract_one, feature_set_name, feature_table, run_map
 
 GROUND_TRUTH = "ground-truth"
 #: local CCA window (paper §4.3: 300 frames = 3 s at 100 fps)
@@ -94,7 +97,6 @@ class FoldTask:
     seed: int
     window_s: float
     n_shifts: int
-    feature_sets: tuple
     trajectory_recording: str | None
     fig48: bool
     strict: bool = False
@@ -114,6 +116,8 @@ class EvaluationResult:
     timings: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     speakers: dict[str, str] = field(default_factory=dict)
+    #: paper §4.1 split of every corpus recording (labels the paper Table 1 columns)
+    splits: dict[str, str] = field(default_factory=dict)
 
     def values(self, system: str, metric: str) -> np.ndarray:
         """All values of ``metric`` for ``system`` over recordings (NaNs kept)."""
@@ -132,10 +136,6 @@ class EvaluationResult:
         return list(seen)
 
 
-def _sub_seed(*parts) -> int:
-    """A 32-bit seed from the global seed and names (stable across processes, unlike hash())."""
-    ints = [p if isinstance(p, int) else zlib.crc32(str(p).encode()) for p in parts]
-    return int(np.random.SeedSequence(ints).generate_state(1)[0])
 
 
 def _system_spec(s) -> tuple[str, Any]:
@@ -170,11 +170,7 @@ def _needs_other_speakers(name: str, cls) -> bool:
 
 
 def _extract(features, audio, fps: float, n_frames: int) -> FeatureTrack | np.ndarray:
-    if callable(features):
-        return features(audio, fps=fps, n_frames=n_frames)
-    from .. import features as F
-
-    return F.extract(features, audio, fps=fps, n_frames=n_frames)
+    return extract_one(features, audio, fps=fps, n_frames=n_frames)
 
 
 def _conform(pred: Motion, ref: Motion, system: str, rec_id: str) -> np.ndarray:
@@ -263,7 +259,6 @@ def run_fold(task: FoldTask) -> dict:
     tests = list(task.test)
     feats = {}
     t0 = time.perf_counter()
-    t_table = 0.0
     for rec in tests:
         feats[rec.id] = _extract(task.features, rec.audio, float(rec.motion.fps), len(rec.motion))
     timings["features"] = time.perf_counter() - t0
@@ -279,31 +274,11 @@ def run_fold(task: FoldTask) -> dict:
             other = [o.motion if abs(o.motion.fps - rec.motion.fps) < 1e-9 else o.motion.resample(rec.motion.fps)
                      for o in task.others.filter(speaker=other_spk)]
             vals["paper_chance"] = C.paper_chance_score(rec.motion, other, window=win, seed=rseed)
-        t1 = time.perf_counter()
-        for fs in task.feature_sets:
-            try:
-                ft = _extract(fs, rec.audio, float(rec.motion.fps), len(rec.motion))
-                dims = 3 + M.as_array(ft)[0].shape[1]
-                if win < dims + 10:
-                    warns.append(f"feature set {fs!r} on {rec.id}: a {win}-frame window is too short for CCA of "
-                                 f"{dims} dimensions (local CCA would be ~1 whatever the data); left out — use a "
-                                 f"longer --window")
-                    continue
-                r = C.local_cca_null(rec.motion, ft, window=win, n_shifts=task.n_shifts,
-                                     seed=_sub_seed(task.seed, rec.id, "features", fs))
-                vals[f"featcca_local[{fs}]"] = r.score
-                vals[f"featcca_local[{fs}]_null_mean"] = r.null_mean
-                vals[f"featcca_local[{fs}]_excess"] = r.excess
-                vals[f"featcca_local[{fs}]_p"] = r.p_value
-            except Exception as exc:  # a feature set that fails must not sink the evaluation
-                warns.append(f"feature set {fs!r} on {rec.id}: {type(exc).__name__}: {exc}")
-        t_table += time.perf_counter() - t1
         rows += _rows(GROUND_TRUTH, rec.id, vals)
         gt_out[rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats[rec.id])[0], dtype=np.float32),
                           rec.speaker, float(rec.motion.fps))
         if rec.id == task.trajectory_recording:
             traj[GROUND_TRUTH] = np.asarray(rec.motion.rotvec)
-    timings["feature table"] = t_table
     for spec in task.systems:
         name, factory = _system_spec(spec)
         if name == GROUND_TRUTH:
@@ -442,12 +417,16 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     features : str | callable — the feature set used by FCCA (``f0e`` as in the thesis' choice of
         F0 + energy) or ``callable(audio, fps=, n_frames=) -> FeatureTrack``.
     n_jobs : int — parallel folds with joblib (``-1`` = all cores); ignored with ``scheduler``.
-    scheduler : str | distributed.Client | None — run the folds on a Dask cluster.
+    scheduler : str | distributed.Client | None — run the folds and the feature table (feature
+        extraction + scoring per recording) on a Dask cluster.
     seed : int — everything random derives from it.
     window_s : float — local CCA window in seconds (3 s: the paper's 300 frames at 100 fps, §4.3;
         in seconds so that clips at 25 or 30 fps get the same time span).
     n_shifts : int — circular shifts per chance level (≥ 200 recommended).
-    feature_sets : feature sets for paper Table 1 (default: every registered set; ``[]`` = none).
+    feature_sets : feature sets for paper Table 1 (default: every registered set; ``[]`` = none):
+        registry names or ``callable(audio, fps=, n_frames=)``.  Scored on *every* recording of the
+        corpus (not only held-out ones); :attr:`EvaluationResult.splits` labels each recording
+        train / valid / test with :func:`~headmotion.corpus.paper_split` for the report's columns.
     trajectory_recording : recording whose trajectories are kept for the figure (default: first
         held-out recording).
     strict : bool — re-raise when a system fails to train or synthesise; by default the failure
@@ -474,18 +453,35 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
             feature_sets = tuple(F.available())
         except ImportError:
             feature_sets = ()
+    feature_sets = tuple(feature_sets)
     folds = make_folds(corpus, protocol, seed=seed)
     if trajectory_recording is None:
         trajectory_recording = folds[0][2].entries[0].recording
     tasks = [FoldTask(fold=name, train=tr, test=te, others=ot, systems=tuple(specs), features=features, seed=int(seed),
-                      window_s=float(window_s), n_shifts=int(n_shifts), feature_sets=tuple(feature_sets),
+                      window_s=float(window_s), n_shifts=int(n_shifts),
                       trajectory_recording=trajectory_recording, fig48=fig48, strict=bool(strict))
              for name, tr, te, ot in folds]
-    results = _run_tasks(tasks, n_jobs=n_jobs, scheduler=scheduler, progress=progress)
+    timings: dict[str, float] = {}
+    with dask_client(scheduler) as client:  # one connection for the folds and the feature table
+        if progress:
+            progress(0, len(tasks), f"{len(tasks)} folds")
+        results = run_map(run_fold, tasks, n_jobs=n_jobs, scheduler=client, progress=progress,
+                          describe=lambda t: f"fold {t.fold}")
+        table: dict = {}
+        table_warns: list[str] = []
+        if feature_sets:
+            # paper Table 1 over every recording of the corpus (train / valid / test columns)
+            t0 = time.perf_counter()
+            if progress:
+                progress(0, len(corpus), "feature table")
+            table, table_warns = feature_table(
+                corpus, feature_sets, window_s=window_s, n_shifts=n_shifts, seed=int(seed), n_jobs=n_jobs,
+                scheduler=client,
+                progress=(lambda d, t, desc: progress(d, t, f"feature table {desc}")) if progress else None)
+            timings["feature table (wall)"] = time.perf_counter() - t0
     rows: list[dict] = []
     traj: dict[str, np.ndarray] = {}
     gt: dict = {}
-    timings: dict[str, float] = {}
     warns: list[str] = []
     for res in results:  # in fold order, whatever order they finished in
         rows += res["rows"]
@@ -494,60 +490,24 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         warns += res["warnings"]
         for k, v in res["timings"].items():
             timings[k] = timings.get(k, 0.0) + v
+    for rid in corpus.ids:
+        if table.get(rid):
+            rows += _rows(GROUND_TRUTH, rid, table[rid])
+    warns += table_warns
     if fig48:
         rows += _fig48_rows(gt)
     recs = [rid for rid in corpus.ids if rid in gt]
     fps = gt[trajectory_recording][3] if trajectory_recording in gt else 100.0
     timings["total_wall"] = time.perf_counter() - t_start
-    config = {"protocol": protocol, "features": features if isinstance(features, str) else getattr(features, "__name__", "callable"),
+    fs_names = [feature_set_name(f) for f in feature_sets]
+    splits = paper_split(corpus, seed=seed)
+    config = {"protocol": protocol, "features": feature_set_name(features),
               "seed": seed, "window_s": window_s, "n_shifts": n_shifts, "systems": [GROUND_TRUTH] + [n for n, _ in specs],
-              "folds": len(tasks), "feature_sets": list(feature_sets)}
+              "folds": len(tasks), "feature_sets": fs_names, "splits": splits}
     return EvaluationResult(rows=rows, config=config, systems=[GROUND_TRUTH] + [n for n, _ in specs], recordings=recs,
                             trajectories=traj, trajectory_recording=trajectory_recording, trajectory_fps=fps,
-                            timings=timings, warnings=warns, speakers={rid: gt[rid][2] for rid in recs})
-
-
-def _run_tasks(tasks: list[FoldTask], *, n_jobs: int, scheduler, progress) -> list[dict]:
-    total = len(tasks)
-    if progress:
-        progress(0, total, f"{total} folds")
-    if scheduler is not None:
-        try:
-            from distributed import Client, as_completed
-        except ImportError as exc:
-            from ..errors import MissingDependencyError
-
-            raise MissingDependencyError("--scheduler needs dask.distributed: pip install 'dask[distributed]'") from exc
-        own = not isinstance(scheduler, Client)
-        client = Client(scheduler) if own else scheduler
-        try:
-            futures = client.map(run_fold, tasks, pure=False)
-            index = {f.key: i for i, f in enumerate(futures)}
-            out: list = [None] * total
-            for done, fut in enumerate(as_completed(futures), 1):
-                out[index[fut.key]] = fut.result()
-                if progress:
-                    progress(done, total, f"fold {tasks[index[fut.key]].fold}")
-            return out
-        finally:
-            if own:
-                client.close()
-    if n_jobs == 1 or total == 1:
-        out = []
-        for i, t in enumerate(tasks):
-            out.append(run_fold(t))
-            if progress:
-                progress(i + 1, total, f"fold {t.fold}")
-        return out
-    from joblib import Parallel, delayed
-
-    out = []
-    gen = Parallel(n_jobs=n_jobs, return_as="generator")(delayed(run_fold)(t) for t in tasks)
-    for i, res in enumerate(gen):
-        out.append(res)
-        if progress:
-            progress(i + 1, total, f"fold {tasks[i].fold}")
-    return out
+                            timings=timings, warnings=warns, speakers={e.recording: e.speaker for e in corpus.entries},
+                            splits=splits)
 
 
 __all__ = ["evaluate", "EvaluationResult", "FoldTask", "make_folds", "run_fold", "score_recording", "GROUND_TRUTH"]
