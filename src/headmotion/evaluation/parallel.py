@@ -226,6 +226,7 @@ def _recording_table(rec, feature_sets: tuple, window_s: float, n_shifts: int, s
 
     vals: dict[str, float] = {}
     warns: list[str] = []
+    short: list[tuple[str, int, int]] = []  # (feature set, window frames, CCA dimensions)
     fps, T = float(rec.motion.fps), len(rec.motion)
     win = max(3, min(int(round(window_s * fps)), T))
     tracks, errors = _recording_features(rec, feature_sets, None, True)
@@ -235,9 +236,7 @@ def _recording_table(rec, feature_sets: tuple, window_s: float, n_shifts: int, s
         try:
             dims = 3 + M.as_array(ft)[0].shape[1]
             if win < dims + 10:
-                warns.append(f"feature set {name!r} on {rec.id}: a {win}-frame window is too short for CCA of "
-                             f"{dims} dimensions (local CCA would be ~1 whatever the data); left out — use a "
-                             f"longer --window")
+                short.append((name, win, dims))
                 continue
             r = C.local_cca_null(rec.motion, ft, window=win, n_shifts=n_shifts,
                                  seed=_sub_seed(seed, rec.id, "features", name))
@@ -247,7 +246,7 @@ def _recording_table(rec, feature_sets: tuple, window_s: float, n_shifts: int, s
             vals[f"featcca_local[{name}]_p"] = r.p_value
         except Exception as exc:  # a feature set that fails must not sink the evaluation
             warns.append(f"feature set {name!r} on {rec.id}: {type(exc).__name__}: {exc}")
-    return vals, warns
+    return vals, warns, short
 
 
 def feature_table(corpus: Corpus, feature_sets: Sequence, *, window_s: float = 3.0, n_shifts: int = 200,
@@ -267,9 +266,19 @@ def feature_table(corpus: Corpus, feature_sets: Sequence, *, window_s: float = 3
     res = map_recordings(_recording_table, corpus, args=(fsets, float(window_s), int(n_shifts), int(seed)),
                          n_jobs=n_jobs, scheduler=scheduler, progress=progress)
     table, warns = {}, []
-    for rid, (vals, w) in zip(corpus.ids, res):
+    short: dict[str, list[tuple[str, int, int]]] = {}
+    for rid, (vals, w, sh) in zip(corpus.ids, res):
         table[rid] = vals
         warns += w
+        for name, win, dims in sh:
+            short.setdefault(name, []).append((rid, win, dims))
+    for name, items in short.items():  # one warning per feature set, not one per recording
+        wins = sorted({w for _, w, _ in items})
+        span = f"{wins[0]}" if len(wins) == 1 else f"{wins[0]}–{wins[-1]}"
+        which = items[0][0] if len(items) == 1 else f"{len(items)} of {len(table)} recordings"
+        warns.append(f"feature set {name!r} left out on {which}: a {span}-frame window is too short for CCA of "
+                     f"{items[0][2]} dimensions (needs > {items[0][2] + 9} frames; local CCA would be ~1 whatever the "
+                     f"data) — use a longer --window")
     return table, warns
 
 

@@ -426,6 +426,7 @@ class TwsBase(Synthesizer):
             raise ParameterError(
                 f"no recording in the corpus is long enough to train {self.name} "
                 f"(need at least {2 * min_segment_frames(self.fps_)} frames)")
+        self.train_seconds_ = sum(len(m) for m in motions) / self.fps_
         self.normalizer_ = Normalizer().fit(raw)
         feats = [np.asarray(self.normalizer_.transform(f), dtype=np.float64) for f in raw]
         self.n_features_ = feats[0].shape[1]

@@ -27,11 +27,21 @@ clusters so far)`` is chosen (or sampled from the normalised scores with ``stoch
 "both"); the warping parameters come from the cluster's Gaussian by ML (= the conditional mean for
 one Gaussian), MMSE or sampling; the template is warped and appended.
 
+Little data (short folds): a cluster's full-covariance regression Gaussian over ``[x; (d, a)]``
+(21 dimensions with f0e) is of full rank only with more vectors than dimensions.  So k is first
+capped at ``n // (dim x + 4)`` change points, and then, while k-means leaves a cluster with fewer
+than ``dim x + 3`` vectors, k-means is re-run with one cluster fewer (down to one).  Every such
+reduction is reported with a ``UserWarning`` and in ``fit_warnings_`` (the evaluation protocol
+copies it into its report).  With fewer than 2 change points for an axis and template, ``fit``
+raises :class:`~headmotion.errors.ParameterError` naming how many there were and how many are needed.
+
 :meth:`TwsHier.cluster_confusion` gives Tables 5.6 (HMM + LM recogniser) and 5.7 (regression
 Gaussians alone).
 """
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 
@@ -39,6 +49,11 @@ from ..errors import ParameterError
 from ..models.gmm import GMMRegression
 from ..models.hmm import ErgodicLM, HMMBank, LeftToRightHMM
 from .tws_common import CONTEXT, TwsBase, collect
+
+AXIS_NAMES = ("rx", "ry", "rz")
+TEMPLATE_NAMES = ("rising", "falling")
+#: fewest change points per axis and template that can train (a Gaussian needs two vectors)
+MIN_CHANGE_POINTS = 2
 
 
 class TwsHier(TwsBase):
@@ -95,6 +110,7 @@ class TwsHier(TwsBase):
         D = self.n_features_
         self.models_ = {}
         self.fit_info_ = {"k": {}, "bic": {}, "counts": {}}
+        self.fit_warnings_ = []
         # scale of the "other axes" part of HMM observations (unit variance like the features)
         allo = np.vstack([np.hstack([np.asarray(d.prev).reshape(-1, 3), np.asarray(d.others).reshape(-1, 4)])
                           for d in data])
@@ -113,20 +129,44 @@ class TwsHier(TwsBase):
                 Zs = (Z - zmu) / zsd
                 xr = self._xreg(a["prev"][idx], a["others"][idx], a["frame"][idx], a["ctx"][idx], D)
                 min_per = xr.shape[1] + 4
+                # a cluster's regression Gaussian over [x; (d, a)] has a full-rank covariance only
+                # with more vectors than dimensions
+                min_size = xr.shape[1] + 2 + 1
+                where = f"axis {AXIS_NAMES[j]}, {TEMPLATE_NAMES[tau]} template"
+                if len(idx) < MIN_CHANGE_POINTS:
+                    raise ParameterError(
+                        f"too little motion to train {self.name}: {where} has {len(idx)} change point(s) in "
+                        f"{getattr(self, 'train_seconds_', float('nan')):.1f} s of training motion; it needs at "
+                        f"least {MIN_CHANGE_POINTS} per axis and template ({min_size} per cluster for a full-rank "
+                        f"regression Gaussian) — give longer recordings or more of them")
                 if self.n_clusters is None and len(Zs) >= 2 * min_per:
                     from ..models.gmeans import gmeans
 
                     k, _, _ = gmeans(Zs, max_k=8, min_size=2 * min_per, random_state=self.random_state)
                 else:
                     k = self.n_clusters or 1
+                k_wanted = int(k)
                 k = int(max(1, min(k, len(idx) // min_per)))
-                if k > 1:
-                    km = KMeans(k, n_init=self.n_init, random_state=self.random_state).fit(Zs)
-                    lab, cen = km.labels_, km.cluster_centers_
-                else:
-                    lab, cen = np.zeros(len(idx), dtype=np.int64), Zs.mean(axis=0, keepdims=True)
+                while True:
+                    if k > 1:
+                        km = KMeans(k, n_init=self.n_init, random_state=self.random_state).fit(Zs)
+                        lab, cen = km.labels_, km.cluster_centers_
+                    else:
+                        lab, cen = np.zeros(len(idx), dtype=np.int64), Zs.mean(axis=0, keepdims=True)
+                    counts = np.bincount(lab, minlength=k)
+                    if k == 1 or counts.min() >= min_size:
+                        break
+                    k -= 1  # a cluster too small for its Gaussian: fewer clusters (documented reduction)
+                if k < k_wanted:
+                    msg = (f"{self.name}: {where}: {len(idx)} change points "
+                           f"({getattr(self, 'train_seconds_', float('nan')):.1f} s of training motion) support "
+                           f"{k} cluster(s) instead of {k_wanted} (each cluster needs >= {min_size} change points "
+                           f"for its {xr.shape[1] + 2}-dimensional regression Gaussian)")
+                    if len(idx) < min_size:
+                        msg += "; the single Gaussian is regularised (ridge), expect a crude model"
+                    self.fit_warnings_.append(msg)
+                    warnings.warn(msg, UserWarning, stacklevel=3)
                 # index clusters by increasing size
-                counts = np.bincount(lab, minlength=k)
                 order = np.argsort(counts, kind="stable")
                 remap = np.empty(k, dtype=np.int64)
                 remap[order] = np.arange(k)
