@@ -42,12 +42,42 @@ def _fmt_list(xs, limit=12) -> str:
     return s + (f", … ({len(xs)} in all)" if len(xs) > limit else "")
 
 
+def _model_info(file: Path, as_json: bool) -> None:
+    """A model file: system, version, features, training corpus (read without unpickling)."""
+    from ..models.serialization import load_model_file
+
+    config, arrays = load_model_file(file)
+    d = {"kind": "model", "system": config.get("system"), "headmotion_version": config.get("headmotion_version"),
+         "corpus": config.get("corpus"), "arrays": len(arrays),
+         "parameters": sum(int(a.size) for a in arrays.values())}
+    for key in ("features", "feature_config", "feature"):
+        if key in config:
+            d["features"] = config[key]
+            break
+    if as_json:
+        console.print_json(json.dumps(d, default=str))
+        return
+    console.print(f"[bold]{file}[/]  (model, {d['system']})", highlight=False)
+    console.print(f"  saved by   headmotion {d['headmotion_version']}", highlight=False)
+    if "features" in d:
+        console.print(f"  features   {d['features']}", highlight=False)
+    console.print(f"  arrays     {d['arrays']} ({d['parameters']:,} numbers)", highlight=False)
+    c = d.get("corpus") or {}
+    if c:
+        spk = c.get("speakers") or []
+        console.print(f"  trained on {c.get('recordings')} recordings, {c.get('minutes')} min, "
+                      f"{len(spk)} speaker(s), fps {c.get('fps')}", highlight=False)
+
+
 @app.command("info")
 def info(
     file: Path = typer.Argument(..., help="a motion file (bvh, csv, json, npz, c3d) or an audio/video file"),
     as_json: bool = typer.Option(False, "--json", help="print the information as JSON"),
 ):
-    """What a motion or audio file holds: format, duration, rate, joints/markers, frames."""
+    """What a motion, audio or model file holds: format, duration, rate, joints/markers, frames."""
+    if file.suffix.lower() == ".hmz":
+        _model_info(file, as_json)
+        return
     if file.suffix.lower() in AUDIO_EXT:
         d = _audio_info(file)
         d = {"kind": "audio", **d}

@@ -111,6 +111,7 @@ class TwsHier(TwsBase):
         self.models_ = {}
         self.fit_info_ = {"k": {}, "bic": {}, "counts": {}}
         self.fit_warnings_ = []
+        reduced = []  # (axis/template, change points, clusters used, clusters wanted, per-cluster minimum)
         # scale of the "other axes" part of HMM observations (unit variance like the features)
         allo = np.vstack([np.hstack([np.asarray(d.prev).reshape(-1, 3), np.asarray(d.others).reshape(-1, 4)])
                           for d in data])
@@ -158,14 +159,7 @@ class TwsHier(TwsBase):
                         break
                     k -= 1  # a cluster too small for its Gaussian: fewer clusters (documented reduction)
                 if k < k_wanted:
-                    msg = (f"{self.name}: {where}: {len(idx)} change points "
-                           f"({getattr(self, 'train_seconds_', float('nan')):.1f} s of training motion) support "
-                           f"{k} cluster(s) instead of {k_wanted} (each cluster needs >= {min_size} change points "
-                           f"for its {xr.shape[1] + 2}-dimensional regression Gaussian)")
-                    if len(idx) < min_size:
-                        msg += "; the single Gaussian is regularised (ridge), expect a crude model"
-                    self.fit_warnings_.append(msg)
-                    warnings.warn(msg, UserWarning, stacklevel=3)
+                    reduced.append((f"{AXIS_NAMES[j]}{'+-'[tau]}", len(idx), k, k_wanted, min_size))
                 # index clusters by increasing size
                 order = np.argsort(counts, kind="stable")
                 remap = np.empty(k, dtype=np.int64)
@@ -203,6 +197,16 @@ class TwsHier(TwsBase):
             lengths = lengths[lengths > 0]
             lm = ErgodicLM(self.n_states, 2 * K, random_state=self.random_state).fit(sym, lengths)
             self.models_[("lm", j)] = dict(lm=lm, K=K)
+        if reduced:
+            n = [r[1] for r in reduced]
+            msg = (f"{self.name}: too little training data for {max(r[3] for r in reduced)} clusters "
+                   f"({getattr(self, 'train_seconds_', float('nan')):.1f} s of motion; {min(n)}–{max(n)} change "
+                   f"points per axis and template, each cluster needs >= {reduced[0][4]} for its regression "
+                   f"Gaussian): clusters used " + ", ".join(f"{r[0]} {r[2]}" for r in reduced))
+            if min(n) < reduced[0][4]:
+                msg += "; clusters with fewer vectors than dimensions are regularised (ridge): expect a crude model"
+            self.fit_warnings_.append(msg)
+            warnings.warn(msg, UserWarning, stacklevel=3)
 
     # -- synthesis ----------------------------------------------------------------------------
     def _init_generation(self):
