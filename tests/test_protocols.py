@@ -205,3 +205,136 @@ def test_evaluate_cli_writes_report(corpus, tmp_path):
     assert "paper Table 2" in md and "Tables 5.3 / 5.8" in md
     assert {p.name for p in (out / "figures").iterdir()} >= {"sd_bars.png", "fcca_per_condition.png", "trajectories.png"}
     assert main(["evaluate", str(tmp_path / "corpus"), "--systems", "nonsense", "-o", str(out)]) != 0
+
+
+# -- corpus-wide feature extraction and paper Table 1 (evaluation/parallel.py) ----------------------
+@pytest.fixture(scope="module")
+def dask_cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as c:
+        yield c
+
+
+def _assert_same_features(a, b, ids, names):
+    assert set(a.tracks) == set(b.tracks) == set(ids)
+    for rid in ids:
+        assert set(a[rid]) == set(b[rid]) == set(names)
+        for fs in names:
+            np.testing.assert_array_equal(a[rid][fs].values, b[rid][fs].values)
+            assert a[rid][fs].fps == b[rid][fs].fps
+
+
+def test_extract_corpus_features_local_joblib_and_dask(corpus, dask_cluster):
+    from headmotion.evaluation.parallel import extract_corpus_features
+
+    fsets = ["fbank", envelope]
+    local = extract_corpus_features(corpus, fsets)
+    for r in corpus:  # aligned with the motion by default
+        assert local[r.id]["fbank"].values.shape == (len(r.motion), 27)
+        np.testing.assert_array_equal(local[r.id]["envelope"].values,
+                                      envelope(r.audio, fps=FPS, n_frames=len(r.motion)).values)
+    _assert_same_features(local, extract_corpus_features(corpus, fsets, n_jobs=2), corpus.ids, ["fbank", "envelope"])
+    _assert_same_features(local, extract_corpus_features(corpus, fsets, scheduler=dask_cluster.scheduler_address),
+                          corpus.ids, ["fbank", "envelope"])
+    at100 = extract_corpus_features(corpus, ["fbank"], fps=100.0)
+    assert at100[corpus.ids[0]]["fbank"].values.shape == (1200, 27)  # 12 s at 100 fps
+    assert at100[corpus.ids[0]]["fbank"].fps == 100.0
+
+
+def test_extract_corpus_features_from_disk_on_dask(corpus, dask_cluster, tmp_path):
+    """An on-disk corpus travels to the workers as manifest entries and is read there."""
+    from headmotion.evaluation.parallel import extract_corpus_features
+
+    corpus.subset([0, 1, 3]).save(tmp_path / "c")
+    disk = Corpus.load(tmp_path / "c", sample_rate=SR)
+    remote = extract_corpus_features(disk, ["mfcc"], scheduler=dask_cluster.scheduler_address)
+    assert not disk._cache  # nothing was loaded in this process
+    _assert_same_features(extract_corpus_features(disk, ["mfcc"]), remote, disk.ids, ["mfcc"])
+
+
+def test_extract_corpus_features_errors(corpus):
+    from headmotion.evaluation.parallel import extract_corpus_features
+
+    def broken(audio, *, fps, n_frames):
+        raise ValueError("no such thing")
+
+    with pytest.raises(ValueError, match="no such thing"):
+        extract_corpus_features(corpus.subset([0]), [broken])
+    res = extract_corpus_features(corpus.subset([0, 1]), [envelope, broken], on_error="skip")
+    assert set(res[corpus.ids[0]]) == {"envelope"}
+    assert res.errors[(corpus.ids[1], "broken")] == "ValueError: no such thing"
+    with pytest.raises(ParameterError, match="on_error"):
+        extract_corpus_features(corpus, [envelope], on_error="ignore")
+
+
+TABLE_KW = dict(protocol="split", features=envelope, n_shifts=20, seed=5, window_s=3.0, fig48=False)
+
+
+def test_feature_table_on_dask_equals_local(corpus, dask_cluster):
+    local = P.evaluate(corpus, SYSTEMS[:1], feature_sets=["fbank", envelope], **TABLE_KW)
+    remote = P.evaluate(corpus, SYSTEMS[:1], feature_sets=["fbank", envelope], scheduler=dask_cluster.scheduler_address,
+                        **TABLE_KW)
+    assert remote.rows == local.rows
+    assert remote.splits == local.splits
+    # the table covers every recording of the corpus, not only the 2 held-out ones
+    assert len(local.recordings) == 2
+    for fs in ("fbank", "envelope"):
+        recs = {r["recording"] for r in local.rows if r["metric"] == f"featcca_local[{fs}]"}
+        assert recs == set(corpus.ids)
+
+
+def test_table1_train_valid_test_columns(corpus):
+    from headmotion.corpus import paper_split
+    from headmotion.evaluation import metrics as M
+    from headmotion.evaluation.report import render_report
+
+    res = P.evaluate(corpus, SYSTEMS[:1], feature_sets=[envelope], **TABLE_KW)
+    split = paper_split(corpus, seed=5)
+    assert res.splits == split and res.config["splits"] == split
+    assert sorted(split.values()) == ["test"] * 2 + ["train"] * 2 + ["valid"] * 2
+    md = render_report(res)
+    assert "| Feature | Speaker | train (n=2) | valid (n=2) | test (n=2) | chance |" in md
+    assert "No recordings in" not in md
+    # each column is mean ± SD over its recordings of the one local CCA implementation
+    for name in ("train", "valid", "test"):
+        ids = [rid for rid, s in split.items() if s == name]
+        v = [M.local_cca(corpus[rid].motion, envelope(corpus[rid].audio, fps=FPS, n_frames=len(corpus[rid].motion)),
+                         window=150) for rid in ids]
+        assert f"{np.mean(v):.3f} ± {np.std(v, ddof=1):.3f}" in md, name
+    # per-speaker rows (2 speakers) under the pooled row; the excess table follows
+    assert "| envelope | A |" in md and "| envelope | all |" in md
+    assert "Excess over chance" in md
+
+
+def test_table1_says_when_a_split_is_empty():
+    from headmotion.evaluation.report import render_report
+
+    small = make_corpus(n_per_speaker=2, seconds=8.0, seed=4)  # 2 recordings per speaker: train + test
+    res = P.evaluate(small, SYSTEMS[1:], protocol="loo", features=envelope, n_shifts=10, seed=0, window_s=0.6,
+                     feature_sets=[envelope, "fbank"], fig48=False)
+    assert sorted(res.splits.values()) == ["test", "test", "train", "train"]
+    md = render_report(res)
+    assert "valid (n=0)" in md and "| no recordings |" in md
+    assert "No recordings in the valid split" in md
+    # fbank (27 + 3 dims) does not fit a 30-frame window: one warning for all recordings, not four
+    short = [w for w in res.warnings if "'fbank'" in w]
+    assert len(short) == 1 and "4 of 4 recordings" in short[0] and "30-frame window" in short[0]
+    assert not [r for r in res.rows if r["metric"].startswith("featcca_local[fbank]")]
+
+
+class Warner(EnergyFollower):
+    name = "warner"
+
+    def fit(self, corpus, *, progress=None):
+        import warnings
+
+        super().fit(corpus)
+        self.fit_warnings_ = ["used fewer clusters"]
+        warnings.warn("used fewer clusters", UserWarning)
+        return self
+
+
+def test_training_warnings_reach_the_report(corpus):
+    res = P.evaluate(corpus.filter(speaker="A"), [("warner", Warner)], features=envelope, n_shifts=10, window_s=3.0,
+                     feature_sets=[], fig48=False)
+    assert res.warnings == [f"warner, fold A{k}: used fewer clusters" for k in range(3)]

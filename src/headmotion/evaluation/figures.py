@@ -71,7 +71,9 @@ def sd_bars(result: EvaluationResult, path) -> Path:
                 means.append(np.mean(v) if len(v) else np.nan)
                 sds.append(np.std(v) if len(v) > 1 else 0.0)
             x = np.arange(3) + (i - (len(systems) - 1) / 2) * width
-            ax.bar(x, means, width, yerr=sds, capsize=2, color=cols[i], label=s)
+            # an SD is never negative: the lower whisker stops at 0
+            lower = np.minimum(np.nan_to_num(means), sds)
+            ax.bar(x, means, width, yerr=[lower, sds], capsize=2, color=cols[i], label=s)
         ax.set_xticks(range(3))
         ax.set_xticklabels(["X (pitch)", "Y (yaw)", "Z (roll)"] if prefix == "sd" else ["ΔX", "ΔY", "ΔZ"])
         ax.set_ylabel(f"SD ({unit})")
@@ -167,7 +169,8 @@ def trajectories(result: EvaluationResult, path, *, seconds: float | None = 20.0
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time (s)")
     axes[0].legend(fontsize=8, ncol=min(4, len(order)), loc="upper right")
-    fig.suptitle(f"Head rotation, recording {result.trajectory_recording} (first {m / fps:.0f} s)")
+    span = f"first {m / fps:.0f} s of {n / fps:.1f} s" if m < n else f"{n / fps:.1f} s"
+    fig.suptitle(f"Head rotation, recording {result.trajectory_recording} ({span})")
     fig.tight_layout()
     return _save(fig, path)
 

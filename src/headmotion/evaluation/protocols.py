@@ -63,6 +63,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
@@ -292,7 +293,17 @@ def run_fold(task: FoldTask) -> dict:
             train = task.others
         t0 = time.perf_counter()
         try:
-            model.fit(train)
+            # warnings of training (e.g. tws-hier using fewer clusters on a short fold) go into the
+            # report, once each, instead of the console
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                model.fit(train)
+            msgs = list(getattr(model, "fit_warnings_", None) or [])
+            for w in caught:
+                m = str(w.message) if issubclass(w.category, UserWarning) else f"{w.category.__name__}: {w.message}"
+                if m not in msgs:
+                    msgs.append(m)
+            warns += [f"{name}, fold {task.fold}: {m.removeprefix(f'{name}: ')}" for m in msgs]
         except Exception as exc:
             if task.strict:
                 raise
@@ -401,6 +412,17 @@ def _fig48_rows(gt: dict, windows_s=FIG48_WINDOWS_S) -> list[dict]:
     return rows
 
 
+def _longest_held_out(corpus: Corpus, folds) -> str:
+    """The held-out recording with the most motion frames (the first of equals), loading only
+    what the folds need anyway."""
+    best, best_n = None, -1
+    for _, _, test, _ in folds:
+        for rec in test:
+            if len(rec.motion) > best_n:
+                best, best_n = rec.id, len(rec.motion)
+    return best
+
+
 def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", features="f0e", n_jobs: int = 1,
              scheduler=None, seed: int = 0, window_s: float = DEFAULT_WINDOW_S, n_shifts: int = C.DEFAULT_SHIFTS,
              feature_sets: Sequence[str] | None = None, trajectory_recording: str | None = None,
@@ -427,8 +449,8 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         registry names or ``callable(audio, fps=, n_frames=)``.  Scored on *every* recording of the
         corpus (not only held-out ones); :attr:`EvaluationResult.splits` labels each recording
         train / valid / test with :func:`~headmotion.corpus.paper_split` for the report's columns.
-    trajectory_recording : recording whose trajectories are kept for the figure (default: first
-        held-out recording).
+    trajectory_recording : recording whose trajectories are kept for the figure (default: the
+        longest held-out recording).
     strict : bool — re-raise when a system fails to train or synthesise; by default the failure
         is recorded in ``warnings`` and the evaluation goes on without that system's rows for the
         fold (e.g. a template-warping model cannot be trained from one 10-second clip).
@@ -455,8 +477,8 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
             feature_sets = ()
     feature_sets = tuple(feature_sets)
     folds = make_folds(corpus, protocol, seed=seed)
-    if trajectory_recording is None:
-        trajectory_recording = folds[0][2].entries[0].recording
+    if trajectory_recording is None:  # the longest held-out recording shows the most
+        trajectory_recording = _longest_held_out(corpus, folds)
     tasks = [FoldTask(fold=name, train=tr, test=te, others=ot, systems=tuple(specs), features=features, seed=int(seed),
                       window_s=float(window_s), n_shifts=int(n_shifts),
                       trajectory_recording=trajectory_recording, fig48=fig48, strict=bool(strict))

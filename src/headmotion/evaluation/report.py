@@ -96,7 +96,9 @@ def _feature_table_md(result: EvaluationResult) -> str:
     excess over the circular-shift chance level."""
     feat_metrics = [m for m in result.metrics() if m.startswith("featcca_local[") and m.endswith("]")]
     embed = [s for s in result.systems if len(_vals(result, s, "embed_cca_local"))]
-    if not feat_metrics and not embed:
+    # requested sets with no score at all (e.g. a window too short for their dimension)
+    missing = [fs for fs in result.config.get("feature_sets", []) if f"featcca_local[{fs}]" not in feat_metrics]
+    if not feat_metrics and not embed and not missing:
         return ""
     splits = dict(result.splits or result.config.get("splits") or {})
     scored = sorted({r["recording"] for r in result.rows if r["system"] == GROUND_TRUTH and r["metric"] in feat_metrics})
@@ -131,6 +133,10 @@ def _feature_table_md(result: EvaluationResult) -> str:
             p = _vals(result, GROUND_TRUTH, f"{m}_p", [r for sp in SPLITS for r in recs(sp, g)])
             rows_ex.append([label, gname] + [cell(GROUND_TRUTH, f"{m}_excess", sp, g) for sp in SPLITS]
                            + ["–" if len(p) == 0 else f"{np.mean(p < 0.05):.0%}"])
+    for fs in missing:
+        note = "left out"
+        rows_cca.append([FEATURE_LABELS.get(fs, fs), "all", note, note, note, "–"])
+        rows_ex.append([FEATURE_LABELS.get(fs, fs), "all", note, note, note, "–"])
     for s in embed:
         label = EMBED_LABELS.get(s, f"{s} embedding")
         v = _vals(result, s, "embed_cca_local")
@@ -154,6 +160,8 @@ def _feature_table_md(result: EvaluationResult) -> str:
     if empty:
         out.append(f"No recordings in the {' or '.join(empty)} split: "
                    f"{'that column is' if len(empty) == 1 else 'those columns are'} empty.\n\n")
+    if missing:
+        out.append(f"Left out everywhere (see Warnings): {', '.join(FEATURE_LABELS.get(f, f) for f in missing)}.\n\n")
     if embed:
         out.append("Embedding rows (learnt features) are scored on held-out recordings only, by the model of their "
                    "fold, and shown under *test*.\n\n")
@@ -264,7 +272,7 @@ def render_report(result: EvaluationResult, *, title: str = "headmotion evaluati
         md.append(_table(["step", "seconds"], [[k, f"{v:.1f}"] for k, v in sorted(result.timings.items())]))
     if result.warnings:
         md.append("\n## Warnings\n")
-        md += [f"- {w}\n" for w in result.warnings]
+        md.append("".join(f"- {w}\n" for w in result.warnings))
     return "\n".join(md)
 
 

@@ -24,6 +24,8 @@ import numpy as np
 from ..errors import ParameterError
 
 _LOG2PI = np.log(2 * np.pi)
+#: floor of log self-transition probabilities in :class:`HMMBank` (exp(-1e4) is 0 in float64)
+_LOG_FLOOR = -1e4
 
 
 def _quiet_hmmlearn():
@@ -182,7 +184,9 @@ class HMMBank:
         with np.errstate(divide="ignore"):
             self.logA = np.log(np.stack([h.transmat_ for h in hmms]))  # (K, S, S)
             self.logpi = np.log(np.stack([h.startprob_ for h in hmms]))  # (K, S)
-        self.logA_self = np.einsum("kss->ks", self.logA)
+        # a state that never stays (self-transition 0, seen with a few very short training
+        # segments) gets a finite floor: -inf in the cumulative sums below turns into -inf - -inf = NaN
+        self.logA_self = np.maximum(np.einsum("kss->ks", self.logA), _LOG_FLOOR)
         S = self.means.shape[1]
         self.logA_next = np.full_like(self.logA_self, -np.inf)
         for s in range(S - 1):

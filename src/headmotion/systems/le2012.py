@@ -64,6 +64,8 @@ class Le2012(Synthesizer):
     step : float, step size (in standardised units)
     max_train_frames : int, frames sampled for EM (speed)
     random_state : int
+    compiled : bool, run the per-frame ascent as a compiled numba kernel (same arithmetic as the
+        numpy reference loop, ~100× faster); False uses the numpy loop
     """
 
     name = "le2012"
@@ -71,8 +73,10 @@ class Le2012(Synthesizer):
 
     def __init__(self, features="prosody", *, fps: float | None = None, n_components: int = 10,
                  joint: bool = False, n_steps: int = 12, step: float = 0.05,
-                 max_train_frames: int = 10000, random_state: int = 0, seed: int | None = 0):
+                 max_train_frames: int = 10000, random_state: int = 0, seed: int | None = 0,
+                 compiled: bool = True):
         self.features = features
+        self.compiled = compiled
         self.fps = fps
         self.n_components = n_components
         self.joint = joint
@@ -84,7 +88,7 @@ class Le2012(Synthesizer):
 
     def get_params(self):
         return {k: getattr(self, k) for k in ("features", "fps", "n_components", "joint", "n_steps", "step",
-                                              "max_train_frames", "random_state", "seed")}
+                                              "max_train_frames", "random_state", "seed", "compiled")}
 
     def _config(self):
         from .tws_common import make_feature_config
@@ -175,27 +179,10 @@ class Le2012(Synthesizer):
         r = np.exp(lp - lp.max())
         return -(r[:, None] * pd).sum(axis=0) / r.sum()
 
-    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
-        """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``)."""
-        from ..align import n_frames as _n
-
-        self._check_fitted()
-        if audio.sample_rate != self.sample_rate_:
-            from ..io.audio import resample
-
-            audio = Audio(resample(audio.samples, audio.sample_rate, self.sample_rate_), self.sample_rate_)
-        T = _n(len(audio.samples), audio.sample_rate, self.fps_)
-        if T == 0:
-            return Motion(np.zeros((0, 3)), self.fps_)
-        F = np.asarray(self.normalizer_.transform(np.asarray(self._config().extract(audio, n_frames=T).values,
-                                                                   dtype=np.float64)), dtype=np.float64)
-        Fs = (F - self.z_mu_[5:]) / self.z_sd_[5:]
-        cond = self._conditionals(Fs)
-        mu, sd = self.z_mu_, self.z_sd_
-        out = np.empty((T, 3))
-        out[0] = out[min(1, T - 1)] = self.start_
-        span = self.hi_ - self.lo_
-        lo, hi = self.lo_ - 0.1 * span, self.hi_ + 0.1 * span
+    def _ascent_reference(self, out, cond, mu, sd, lo, hi):
+        """Plain-numpy per-frame gradient ascent (the reference the compiled kernels are tested
+        against; ``compiled=False`` uses it)."""
+        T = len(out)
         if not self.joint:
             # stack the five univariate conditional mixtures: (T, 5, M), (5, M)
             keys = ["angle0", "angle1", "angle2", "vel", "acc"]
@@ -223,6 +210,46 @@ class Le2012(Synthesizer):
                 dz = np.clip(self.step * grad * sd[:3], -self.step, self.step)
                 theta = np.minimum(np.maximum(theta + dz * sd[:3], lo), hi)
             out[t] = theta
+
+
+    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
+        """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``)."""
+        from ..align import n_frames as _n
+
+        self._check_fitted()
+        if audio.sample_rate != self.sample_rate_:
+            from ..io.audio import resample
+
+            audio = Audio(resample(audio.samples, audio.sample_rate, self.sample_rate_), self.sample_rate_)
+        T = _n(len(audio.samples), audio.sample_rate, self.fps_)
+        if T == 0:
+            return Motion(np.zeros((0, 3)), self.fps_)
+        F = np.asarray(self.normalizer_.transform(np.asarray(self._config().extract(audio, n_frames=T).values,
+                                                                   dtype=np.float64)), dtype=np.float64)
+        Fs = (F - self.z_mu_[5:]) / self.z_sd_[5:]
+        cond = self._conditionals(Fs)
+        mu, sd = self.z_mu_, self.z_sd_
+        out = np.empty((T, 3))
+        out[0] = out[min(1, T - 1)] = self.start_
+        span = self.hi_ - self.lo_
+        lo, hi = self.lo_ - 0.1 * span, self.hi_ + 0.1 * span
+        if self.compiled:
+            from ._le2012_kernel import ascent_independent, ascent_joint
+
+            args = (np.ascontiguousarray(mu, dtype=np.float64), np.ascontiguousarray(sd, dtype=np.float64),
+                    np.ascontiguousarray(lo, dtype=np.float64), np.ascontiguousarray(hi, dtype=np.float64),
+                    float(self.step), int(self.n_steps))
+            if self.joint:
+                lw, cm, P = cond["joint"]
+                ascent_joint(out, np.ascontiguousarray(lw), np.ascontiguousarray(cm), np.ascontiguousarray(P), *args)
+            else:
+                keys = ["angle0", "angle1", "angle2", "vel", "acc"]
+                LW = np.ascontiguousarray(np.stack([cond[k][0] for k in keys], axis=1))
+                CM = np.ascontiguousarray(np.stack([cond[k][1][..., 0] for k in keys], axis=1))
+                PR = np.ascontiguousarray(np.stack([cond[k][2][:, 0, 0] for k in keys], axis=0))
+                ascent_independent(out, LW, CM, PR, *args)
+        else:
+            self._ascent_reference(out, cond, mu, sd, lo, hi)
         rv = pitch_yaw_roll_to_rotvec(out[:, 0], out[:, 1], out[:, 2])
         return Motion(rv, self.fps_, meta={"system": self.name})
 

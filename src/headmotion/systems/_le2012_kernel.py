@@ -1,0 +1,128 @@
+"""Compiled per-frame gradient ascent of the Le et al. (2012) baseline (thesis eq 2.21, eq 5.15).
+
+The causal optimiser visits every frame and takes ``n_steps`` gradient steps on a few 3–5 dim
+quantities; in numpy each step costs ~10 small-array calls, so the Python overhead dominated
+synthesis (17× real time, the slowest row of the benchmarks).  These numba kernels do the same
+arithmetic in compiled loops.  numba is already a dependency of librosa; kernels are cached on disk
+after the first compilation.  :mod:`headmotion.systems.le2012` documents the algorithm; the tests
+check these kernels against the plain-numpy reference implementation there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _clip(x, lo, hi):
+    return min(max(x, lo), hi)
+
+
+@njit(cache=True)
+def _motion_terms(theta, p1, p2, mu, sd, z, gv, ga):
+    v2 = 0.0
+    a2 = 0.0
+    for k in range(3):
+        du = theta[k] - p1[k]
+        dd = theta[k] - 2.0 * p1[k] + p2[k]
+        gv[k] = du
+        ga[k] = dd
+        v2 += du * du
+        a2 += dd * dd
+    v = np.sqrt(v2)
+    a = np.sqrt(a2)
+    for k in range(3):
+        gv[k] = gv[k] / v if v > 1e-12 else 0.0
+        ga[k] = ga[k] / a if a > 1e-12 else 0.0
+        z[k] = (theta[k] - mu[k]) / sd[k]
+    z[3] = (v - mu[3]) / sd[3]
+    z[4] = (a - mu[4]) / sd[4]
+
+
+@njit(cache=True)
+def ascent_independent(out, LW, CM, PR, mu, sd, lo, hi, step, n_steps):
+    """Five univariate conditional mixtures (eq 2.21). ``out`` (T, 3) holds frames 0 and 1."""
+    T = out.shape[0]
+    M = LW.shape[2]
+    z = np.empty(5)
+    gv = np.empty(3)
+    ga = np.empty(3)
+    g = np.empty(5)
+    theta = np.empty(3)
+    for t in range(2, T):
+        for k in range(3):
+            theta[k] = 2.0 * out[t - 1, k] - out[t - 2, k]
+        for _ in range(n_steps):
+            _motion_terms(theta, out[t - 1], out[t - 2], mu, sd, z, gv, ga)
+            for i in range(5):
+                best = -1e300
+                for m in range(M):
+                    d = z[i] - CM[t, i, m]
+                    lp = LW[t, i, m] - 0.5 * d * d * PR[i, m]
+                    if lp > best:
+                        best = lp
+                num = 0.0
+                den = 0.0
+                for m in range(M):
+                    d = z[i] - CM[t, i, m]
+                    r = np.exp(LW[t, i, m] - 0.5 * d * d * PR[i, m] - best)
+                    num += r * d * PR[i, m]
+                    den += r
+                g[i] = -num / den
+            for k in range(3):
+                grad = g[k] / sd[k] + g[3] / sd[3] * gv[k] + g[4] / sd[4] * ga[k]
+                dz = _clip(step * grad * sd[k], -step, step)
+                theta[k] = _clip(theta[k] + dz * sd[k], lo[k], hi[k])
+        for k in range(3):
+            out[t, k] = theta[k]
+
+
+@njit(cache=True)
+def ascent_joint(out, LW, CM, P, mu, sd, lo, hi, step, n_steps):
+    """One joint conditional mixture over (angles, v, a) (eq 5.15)."""
+    T = out.shape[0]
+    M = LW.shape[1]
+    z = np.empty(5)
+    gv = np.empty(3)
+    ga = np.empty(3)
+    g = np.empty(5)
+    theta = np.empty(3)
+    d = np.empty(5)
+    pd = np.empty((M, 5))
+    lp = np.empty(M)
+    for t in range(2, T):
+        for k in range(3):
+            theta[k] = 2.0 * out[t - 1, k] - out[t - 2, k]
+        for _ in range(n_steps):
+            _motion_terms(theta, out[t - 1], out[t - 2], mu, sd, z, gv, ga)
+            best = -1e300
+            for m in range(M):
+                for i in range(5):
+                    d[i] = z[i] - CM[t, m, i]
+                q = 0.0
+                for i in range(5):
+                    s = 0.0
+                    for j in range(5):
+                        s += P[m, i, j] * d[j]
+                    pd[m, i] = s
+                    q += d[i] * s
+                lp[m] = LW[t, m] - 0.5 * q
+                if lp[m] > best:
+                    best = lp[m]
+            den = 0.0
+            for i in range(5):
+                g[i] = 0.0
+            for m in range(M):
+                r = np.exp(lp[m] - best)
+                den += r
+                for i in range(5):
+                    g[i] -= r * pd[m, i]
+            for i in range(5):
+                g[i] /= den
+            for k in range(3):
+                grad = g[k] / sd[k] + g[3] / sd[3] * gv[k] + g[4] / sd[4] * ga[k]
+                dz = _clip(step * grad * sd[k], -step, step)
+                theta[k] = _clip(theta[k] + dz * sd[k], lo[k], hi[k])
+        for k in range(3):
+            out[t, k] = theta[k]
