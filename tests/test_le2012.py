@@ -52,6 +52,12 @@ def test_compiled_ascent_equals_numpy_reference(joint):
     slow = model.predict(audio, seed=0).rotvec
     # identical arithmetic up to summation order: equal until rounding differences (1e-16) meet a
     # clipping decision of the causal recursion, after which the trajectories may drift apart
-    np.testing.assert_allclose(fast[:50], slow[:50], atol=1e-6)
-    np.testing.assert_allclose(fast.std(axis=0), slow.std(axis=0), rtol=0.15)
+    # (measured: the independent variant stays identical; the joint one first differs by 1e-12 at
+    # frame ~67 and the difference then grows ~100x every 13 frames — chaos, not a kernel bug)
+    np.testing.assert_allclose(fast[:50], slow[:50], atol=1e-9)
+    if not joint:
+        np.testing.assert_allclose(fast, slow, atol=1e-9)
+    else:
+        ratio = fast.std(axis=0) / slow.std(axis=0)
+        assert np.all((ratio > 0.5) & (ratio < 2.0)), ratio
     assert np.degrees(fast.std(axis=0)).max() > 0.05  # it does move
