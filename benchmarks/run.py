@@ -88,7 +88,9 @@ def bench_synth(res: Results, quick: bool, cache: dict):
         cache[name] = s
         t = time_median(lambda: s.predict(audio, seed=0), repeats=2 if quick else 3)
         rt = audio.duration / t
-        res.add(Row("2 synth", f"{name}: features + synthesis, 60 s", rt, "x RT", ">= 200x", rt >= 200,
+        targeted = name != "le2012"  # issue 9 sets targets for tws-* and the DNN systems
+        res.add(Row("2 synth", f"{name}: features + synthesis, 60 s", rt, "x RT", ">= 200x" if targeted else "-",
+                    (rt >= 200) if targeted else None,
                     f"{t * 1000:.0f} ms; trained in {fit_s:.0f} s"))
         # the model's own cost: predict minus extracting its features
         cfg = getattr(s, "feature_config_", None)
@@ -143,9 +145,11 @@ def bench_train(res: Results, quick: bool):
         corpus = planted(10.0, n_recordings=10, seed=4)
         list(corpus)
         t0 = time.perf_counter()
-        make_system("cccae", quick=False).fit(corpus)
+        from headmotion.systems import create
+
+        create("cccae").fit(corpus)  # default epochs / early stopping: the real training cost
         t = time.perf_counter() - t0
-        res.add(Row("5 train", "cccae pipeline: 10 min", t, "s", "-", None, f"epochs {DNN_BENCH_PARAMS}"))
+        res.add(Row("5 train", "cccae pipeline: 10 min", t, "s", "-", None, "default parameters"))
         res.add(Row("5 train", "cccae pipeline: 30 min (x3, linear)", 3 * t / 60, "min", "<= 15 min", 3 * t / 60 <= 15,
                     "extrapolated linearly"))
 
