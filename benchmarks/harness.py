@@ -80,6 +80,8 @@ class Results:
     rows: list[Row] = field(default_factory=list)
 
     def add(self, row: Row) -> Row:
+        row.figure = None if row.figure is None else float(row.figure)  # numpy scalars → JSON
+        row.passed = None if row.passed is None else bool(row.passed)
         self.rows.append(row)
         print("  " + " | ".join(row.cells()), flush=True)
         return row

@@ -4,6 +4,8 @@
   SD, jerk/acceleration, distribution statistics).
 * :mod:`.chance` — chance levels of CCA-type scores by circular shifts; the paper's chance score.
 * :mod:`.protocols` — cross-validation (leave-one-recording-out, the paper split) of systems.
+* :mod:`.parallel` — per-recording work (feature extraction, the paper Table 1) and folds on
+  joblib or a Dask cluster.
 * :mod:`.report`, :mod:`.figures` — metrics.csv, report.md and PNG figures in the seeds' layouts.
 * :mod:`.corpus_stats` — thesis §3.5 dataset statistics (lengths, speaking rate, cross-entropy
   distance, MDS, speaker/task dependency).

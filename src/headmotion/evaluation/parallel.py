@@ -112,14 +112,23 @@ def _one_recording_corpora(corpus: Corpus) -> list[Corpus]:
 def map_recordings(fn: Callable, corpus: Corpus, *, args: tuple = (), n_jobs: int = 1, scheduler=None,
                    progress: Callable | None = None) -> list:
     """``[fn(recording, *args) for recording in corpus]`` with :func:`run_map` (order kept)."""
-    items = [(c, fn, tuple(args)) for c in _one_recording_corpora(corpus)]
+    items = [_RecordingCall(c, fn, tuple(args)) for c in _one_recording_corpora(corpus)]
     return run_map(_call_on_recording, items, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
-                   describe=lambda it: it[0].entries[0].recording)
+                   describe=lambda it: it.corpus.entries[0].recording)
 
 
-def _call_on_recording(item):
-    one, fn, args = item
-    return fn(one[0], *args)
+@dataclass(frozen=True)
+class _RecordingCall:
+    """One task of :func:`map_recordings` (a dataclass, not a tuple: Dask reads tuples that start
+    with a callable as tasks)."""
+
+    corpus: Corpus  # one recording, lazy when the corpus is on disk
+    fn: Callable
+    args: tuple
+
+
+def _call_on_recording(item: _RecordingCall):
+    return item.fn(item.corpus[0], *item.args)
 
 
 # -- features --------------------------------------------------------------------------------------
