@@ -338,3 +338,18 @@ def test_training_warnings_reach_the_report(corpus):
     res = P.evaluate(corpus.filter(speaker="A"), [("warner", Warner)], features=envelope, n_shifts=10, window_s=3.0,
                      feature_sets=[], fig48=False)
     assert res.warnings == [f"warner, fold A{k}: used fewer clusters" for k in range(3)]
+
+
+def test_trajectory_default_is_the_longest_held_out_recording(tmp_path):
+    import dataclasses
+
+    short = make_corpus(n_per_speaker=2, speakers=("A",), seconds=8.0, seed=1)
+    long = dataclasses.replace(make_corpus(n_per_speaker=1, speakers=("A",), seconds=14.0, seed=2)[0], id="A2")
+    mem = Corpus(list(short) + [long], sample_rate=SR)
+    res = P.evaluate(mem, SYSTEMS[1:], features=envelope, n_shifts=10, window_s=3.0, feature_sets=[], fig48=False)
+    assert res.trajectory_recording == "A2"
+    mem.save(tmp_path / "c")
+    disk = Corpus.load(tmp_path / "c", sample_rate=SR)
+    folds = P.make_folds(disk, "loo")
+    assert P._longest_held_out(disk, folds) == "A2"
+    assert not any(test._cache for _, _, test, _ in folds)  # the fold tasks stay lazy

@@ -413,13 +413,22 @@ def _fig48_rows(gt: dict, windows_s=FIG48_WINDOWS_S) -> list[dict]:
 
 
 def _longest_held_out(corpus: Corpus, folds) -> str:
-    """The held-out recording with the most motion frames (the first of equals), loading only
-    what the folds need anyway."""
-    best, best_n = None, -1
+    """The held-out recording with the longest motion (the first of equals).  Recordings of an
+    on-disk corpus are not loaded for this (only their motion files are read), so the fold tasks
+    still ship lazy manifest entries to the workers."""
+    from ..errors import HeadMotionError
+    from ..io import load_motion
+
+    best, best_s = None, -1.0
     for _, _, test, _ in folds:
-        for rec in test:
-            if len(rec.motion) > best_n:
-                best, best_n = rec.id, len(rec.motion)
+        for i, e in enumerate(test.entries):
+            try:
+                m = test[i].motion if test.root is None else load_motion(test.root / e.motion)
+                secs = len(m) / float(m.fps)
+            except HeadMotionError:  # the fold will report it
+                secs = 0.0
+            if best is None or secs > best_s:
+                best, best_s = e.recording, secs
     return best
 
 
