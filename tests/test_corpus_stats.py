@@ -150,3 +150,29 @@ def test_stats_cli(tmp_path):
     assert main(["stats", str(tmp_path / "corpus"), "-o", str(tmp_path / "out"), "--no-figures"]) == 0
     assert "Table 3.5" in (tmp_path / "out" / "stats.md").read_text()
     assert main(["stats", str(tmp_path / "nothing"), "-o", str(tmp_path / "out2")]) != 0
+
+
+def test_corpus_stats_feature_table(tmp_path):
+    """Paper Table 1 (thesis §5.7.1) in stats.md: one row per feature set, with chance and excess
+    columns, the same numbers as ``feature_table`` gives."""
+    from headmotion.synthetic import planted_corpus
+
+    corpus = planted_corpus(minutes=0.4, n_recordings=3, fps=50.0, seed=1)
+    st = CS.corpus_stats(corpus, speaking_rate=False, feature_sets=["f0e", "prosody"], window_s=3.0, n_shifts=20)
+    assert set(st.feature_table) == set(corpus.ids)
+    for vals in st.feature_table.values():
+        assert {"featcca_local[f0e]", "featcca_local[f0e]_null_mean", "featcca_local[f0e]_excess",
+                "featcca_local[prosody]_p"} <= set(vals)
+        assert 0.0 < vals["featcca_local[f0e]"] <= 1.0 and 0.0 < vals["featcca_local[f0e]_null_mean"] <= 1.0
+        assert vals["featcca_local[f0e]_excess"] == pytest.approx(
+            vals["featcca_local[f0e]"] - vals["featcca_local[f0e]_null_mean"])
+    md = CS.write_stats(st, tmp_path / "stats", figures=False)["report"].read_text()
+    section = md[md.index("paper Table 1 layout"):]
+    cca_table, excess_table = [b.strip() for b in section.split("\n\n") if b.strip().startswith("| Feature |")][:2]
+    assert "| chance |" in cca_table and "| p<.05 |" in excess_table
+    for table in (cca_table, excess_table):
+        rows = [ln for ln in table.splitlines()[2:] if ln.startswith("| ")]
+        assert [r.split("|")[1].strip() for r in rows] == ["F0+Energy", "Pitch+Loudness"]
+    assert "held-out" not in section.split("##")[1]
+    none = CS.corpus_stats(corpus, speaking_rate=False, feature_sets=[])
+    assert "paper Table 1" not in CS.render_stats(none)

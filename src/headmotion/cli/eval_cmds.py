@@ -75,20 +75,33 @@ def stats_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="report directory (stats.md, CSVs, figures/)"),
     jobs: int = typer.Option(1, "--jobs", "-j", help="recordings analysed in parallel (-1 = all cores)"),
     no_speaking_rate: bool = typer.Option(False, "--no-speaking-rate", help="skip syllable-nuclei speaking rates"),
-    seed: int = typer.Option(0, "--seed", help="seed of the iterative MDS"),
+    seed: int = typer.Option(0, "--seed", help="seed of the iterative MDS and of the chance levels"),
+    feature_table: Optional[str] = typer.Option(
+        None, "--feature-table", help="comma-separated feature sets for the paper Table 1 (default: all; 'none' to skip)"),
+    window: float = typer.Option(3.0, "--window", help="local CCA window in seconds for the feature table"),
+    shifts: int = typer.Option(200, "--shifts", help="circular shifts per chance level of the feature table"),
     no_figures: bool = typer.Option(False, "--no-figures", help="skip the PNG figures"),
 ):
-    """Thesis §3.5 corpus statistics: lengths, speaking rate, distributions, cross-entropy distances, MDS."""
+    """Thesis §3.5 corpus statistics: lengths, speaking rate, distributions, cross-entropy distances, MDS,
+    and the feature ↔ motion local CCA of every feature set (paper Table 1)."""
     from ..corpus import Corpus
     from ..evaluation.corpus_stats import corpus_stats, write_stats
 
+    fsets = None
+    if feature_table is not None:
+        fsets = [] if feature_table.strip().lower() == "none" else [f.strip() for f in feature_table.split(",") if f.strip()]
     corpus = Corpus.load(corpus_dir)
     with progress_bar("statistics", total=len(corpus) + 1) as update:
-        st = corpus_stats(corpus, speaking_rate=not no_speaking_rate, n_jobs=jobs, seed=seed,
+        st = corpus_stats(corpus, speaking_rate=not no_speaking_rate, n_jobs=jobs, seed=seed, feature_sets=fsets,
+                          window_s=window, n_shifts=shifts,
                           progress=lambda done, total, desc: update(done, total=total, description=desc))
     out = write_stats(st, output, figures=not no_figures)
     rows = {p["condition"]: p for p in st.pairs}
     console.print(f"{len(st.recordings)} recordings; MDS stress-1 {st.stress1:.3f}; within-speaker distance "
                   f"{rows['Within speaker']['mean']:.3f} vs between speakers {rows['Between speakers']['mean']:.3f}",
                   highlight=False, soft_wrap=True)
+    for w in st.warnings[:5]:
+        console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
+    if len(st.warnings) > 5:
+        console.print(f"[yellow]… {len(st.warnings) - 5} more warnings in {out['report'].name}[/]")
     console.print(f"wrote {out['report']}")

@@ -16,6 +16,11 @@
 * Speaker / task dependency (Table 3.5), per-speaker heat maps overall and per task (Figs
   3.4–3.6), and the Pearson correlation of speaking-rate difference with motion distance
   (Table 3.6).
+* Feature ↔ motion correlation for every registered feature set (paper Table 1, thesis §5.7.1):
+  local CCA of each feature set with the recorded motion and its circular-shift chance level, by
+  :func:`headmotion.evaluation.parallel.feature_table` (the same computation as ``headmotion
+  evaluate``) and written by :func:`headmotion.evaluation.report.feature_table_section` (the same
+  table layout).
 
 Libraries considered: Praat's own ``syllable nuclei`` script (de Jong & Wempe) needs Praat
 scripting; here the same steps run on parselmouth's intensity and pitch objects (intensity peaks
@@ -307,6 +312,11 @@ class CorpusStats:
     rate_correlation: list[dict]            # Table 3.6
     histograms: dict = field(default_factory=dict)  # Fig 3.2: column -> (edges, counts)
     timings: dict = field(default_factory=dict)
+    #: paper Table 1: {recording: {"featcca_local[fs]" (+ _null_mean, _excess, _p): value}}
+    feature_table: dict = field(default_factory=dict)
+    #: its settings: feature_sets, window_s, n_shifts, seed, splits {recording: train|valid|test}
+    feature_config: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
 
 
 @M.single_threaded
@@ -321,7 +331,8 @@ def _one_recording(corpus: Corpus, i: int, speaking_rate: bool) -> dict:
 
 
 def corpus_stats(corpus: Corpus, *, n_bins: int = N_BINS, speaking_rate: bool = True, n_jobs: int = 1,
-                 seed: int = 0, progress: Callable | None = None) -> CorpusStats:
+                 seed: int = 0, feature_sets: Sequence | None = None, window_s: float = 3.0, n_shifts: int = 200,
+                 progress: Callable | None = None) -> CorpusStats:
     """Thesis §3.5 statistics of ``corpus`` (see the module docstring).
 
     Parameters
@@ -330,6 +341,11 @@ def corpus_stats(corpus: Corpus, *, n_bins: int = N_BINS, speaking_rate: bool = 
     n_bins : int — histogram bins for the cross-entropy distance (50)
     speaking_rate : bool — compute syllable-nuclei speaking rates (needs parselmouth)
     n_jobs : int — recordings are loaded and analysed in parallel with joblib
+    seed : int — seed of the iterative MDS and of the chance levels' circular shifts
+    feature_sets : feature sets for the paper Table 1 (default: every registered set, as
+        ``headmotion evaluate``; ``[]`` = none): names or ``callable(audio, fps=, n_frames=)``
+    window_s : float — local CCA window in seconds for the feature table (3 s)
+    n_shifts : int — circular shifts per chance level (200)
     progress : callable ``(done, total, description)``
     """
     if len(corpus) < 2:
@@ -372,9 +388,39 @@ def corpus_stats(corpus: Corpus, *, n_bins: int = N_BINS, speaking_rate: bool = 
     if progress:
         progress(n + 1, n + 1, "distances and MDS")
     t2 = time.perf_counter()
+    timings = {"recordings": t1 - t0, "distances+mds": t2 - t1}
+    table, fconfig, warns = _feature_table(corpus, feature_sets, window_s=window_s, n_shifts=n_shifts, seed=seed,
+                                           n_jobs=n_jobs, progress=progress)
+    if fconfig:
+        timings["feature table"] = time.perf_counter() - t2
     return CorpusStats(recordings=rows, distances=dist, mds=X, stress1=s1, stress_eq32=s2, distribution=dstats,
                        pairs=pair_statistics(dist, spk, tsk), rate_correlation=rc, histograms=hists,
-                       timings={"recordings": t1 - t0, "distances+mds": t2 - t1})
+                       timings=timings, feature_table=table, feature_config=fconfig, warnings=warns)
+
+
+def _feature_table(corpus: Corpus, feature_sets, *, window_s: float, n_shifts: int, seed: int, n_jobs: int,
+                   progress: Callable | None) -> tuple[dict, dict, list[str]]:
+    """Paper Table 1 of the whole corpus: ``(table, settings, warnings)``; empty when there are no
+    feature sets."""
+    from ..corpus import paper_split
+    from .parallel import feature_set_name, feature_table
+
+    if feature_sets is None:
+        from .. import features as F
+
+        feature_sets = tuple(F.available())
+    feature_sets = tuple(feature_sets)
+    if not feature_sets:
+        return {}, {}, []
+    if progress:
+        progress(0, len(corpus), "feature table")
+    table, warns = feature_table(
+        corpus, feature_sets, window_s=window_s, n_shifts=n_shifts, seed=int(seed), n_jobs=n_jobs,
+        progress=(lambda d, t, desc: progress(d, t, f"feature table {desc}")) if progress else None)
+    config = {"feature_sets": [feature_set_name(f) for f in feature_sets], "window_s": float(window_s),
+              "n_shifts": int(n_shifts), "seed": int(seed), "splits": paper_split(corpus, seed=seed),
+              "speakers": {e.recording: e.speaker for e in corpus.entries}}
+    return table, config, warns
 
 
 # -- writing --------------------------------------------------------------------------------------
@@ -441,6 +487,14 @@ def render_stats(st: CorpusStats, *, figures: Sequence[str] = ()) -> str:
         md.append(_md_table(["Task", "pairs", "Correlation", "p"],
                             [[c["task"], c["pairs"], f"{c['correlation']:.3f}", f"{c['p']:.3g}"]
                              for c in st.rate_correlation]))
+    # paper Table 1 (thesis §5.7.1)
+    if st.feature_config:
+        from .report import feature_table_section
+
+        fc = st.feature_config
+        md.append(feature_table_section(st.feature_table, feature_sets=fc["feature_sets"], splits=fc["splits"],
+                                        speakers=fc["speakers"], window_s=fc["window_s"], seed=fc["seed"],
+                                        n_shifts=fc["n_shifts"]))
     # Appendix A tables
     names, H = speaker_means(st.distances, [r["speaker"] for r in rows])
     if len(names) > 1:
@@ -451,6 +505,9 @@ def render_stats(st: CorpusStats, *, figures: Sequence[str] = ()) -> str:
         md += [f"![{Path(f).stem}]({f})\n" for f in figures]
     md.append("\n## Timings (s)\n")
     md.append(_md_table(["step", "seconds"], [[k, f"{v:.1f}"] for k, v in st.timings.items()]))
+    if st.warnings:
+        md.append("\n## Warnings\n")
+        md.append("".join(f"- {w}\n" for w in st.warnings))
     return "\n".join(md)
 
 
@@ -556,7 +613,10 @@ def write_stats(st: CorpusStats, out_dir, *, figures: bool = True) -> dict:
     atomic_write_text(out / "distances.csv", buf.getvalue())
     atomic_write_text(out / "stats.json", json.dumps({
         "distribution": st.distribution, "pairs": st.pairs, "rate_correlation": st.rate_correlation,
-        "stress1": st.stress1, "stress_eq32": st.stress_eq32, "timings": st.timings}, indent=2))
+        "stress1": st.stress1, "stress_eq32": st.stress_eq32, "timings": st.timings,
+        "feature_table": st.feature_table,
+        "feature_config": {k: v for k, v in st.feature_config.items() if k != "speakers"},
+        "warnings": st.warnings}, indent=2))
     atomic_write_text(out / "stats.md", render_stats(st, figures=[f"figures/{p.name}" for p in figs]))
     return {"report": out / "stats.md", "figures": figs}
 

@@ -90,10 +90,11 @@ SPLITS = ("train", "valid", "test")
 MAX_SPEAKER_ROWS = 4
 
 
-def _feature_table_md(result: EvaluationResult) -> str:
+def _feature_table_md(result: EvaluationResult, *, held_out_note: bool = True) -> str:
     """Paper Table 1: local CCA of each feature set with the recorded motion, columns train / valid
     / test (the paper §4.1 split of every corpus recording, ``result.splits``), then the same as
-    excess over the circular-shift chance level."""
+    excess over the circular-shift chance level.  ``held_out_note`` says that the table covers more
+    than the held-out recordings (an evaluation report; not ``headmotion stats``)."""
     feat_metrics = [m for m in result.metrics() if m.startswith("featcca_local[") and m.endswith("]")]
     embed = [s for s in result.systems if len(_vals(result, s, "embed_cca_local"))]
     # requested sets with no score at all (e.g. a window too short for their dimension)
@@ -150,7 +151,8 @@ def _feature_table_md(result: EvaluationResult) -> str:
     n_spk = len(speakers)
     out.append(
         f"Local CCA ({result.config.get('window_s')} s windows) between each feature set and the recorded motion on "
-        f"every recording of the corpus ({len(splits)} recordings of {n_spk} speaker(s), not only the held-out ones), "
+        f"every recording of the corpus ({len(splits)} recordings of {n_spk} speaker(s)"
+        f"{', not only the held-out ones' if held_out_note else ''}), "
         f"grouped by the paper §4.1 split (per speaker 60 / 20 / 20 % of the recordings, seed "
         f"{result.config.get('seed')}, or the manifest's `split` column; a speaker with one recording is all train). "
         f"Mean ± SD over recordings; *chance* = mean over all splits of the same score with the motion circularly "
@@ -171,6 +173,28 @@ def _feature_table_md(result: EvaluationResult) -> str:
     out.append(_table(["Feature", "Speaker"] + hdr_splits + ["p<.05"], rows_ex))
     return "\n".join(out)
 
+
+def feature_table_section(table: dict[str, dict[str, float]], *, feature_sets, splits: dict[str, str],
+                          speakers: dict[str, str], window_s: float, seed: int, n_shifts: int) -> str:
+    """The paper Table 1 section (same layout as in ``report.md`` of ``headmotion evaluate``) from
+    the output of :func:`.parallel.feature_table`, for reports without an evaluation
+    (``headmotion stats``).
+
+    Parameters
+    ----------
+    table : ``{recording: {metric: value}}`` — :func:`.parallel.feature_table`'s first return value
+    feature_sets : the requested feature sets (names; sets with no score are listed as left out)
+    splits : ``{recording: "train" | "valid" | "test"}`` (:func:`headmotion.corpus.paper_split`)
+    speakers : ``{recording: speaker}``
+    window_s, seed, n_shifts : the settings the table was computed with
+    """
+    rows = [{"system": GROUND_TRUTH, "recording": rid, "metric": k, "value": float(v)}
+            for rid, vals in table.items() for k, v in vals.items()]
+    result = EvaluationResult(
+        rows=rows, config={"window_s": window_s, "seed": seed, "n_shifts": n_shifts,
+                           "feature_sets": [str(f) for f in feature_sets]},
+        systems=[GROUND_TRUTH], recordings=list(splits), speakers=dict(speakers), splits=dict(splits))
+    return _feature_table_md(result, held_out_note=False)
 
 
 def render_report(result: EvaluationResult, *, title: str = "headmotion evaluation", figures: list[str] = ()) -> str:
@@ -297,4 +321,4 @@ def write_report(result: EvaluationResult, out_dir, *, figures: bool = True, tit
     return {"metrics": out / "metrics.csv", "report": out / "report.md", "figures": figs}
 
 
-__all__ = ["write_metrics_csv", "read_metrics_csv", "render_report", "write_report"]
+__all__ = ["write_metrics_csv", "read_metrics_csv", "render_report", "feature_table_section", "write_report"]
