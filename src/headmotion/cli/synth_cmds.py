@@ -159,7 +159,7 @@ def stream(
 ):
     """Stream: raw 16-bit PCM (mono, little-endian) on stdin → JSON lines of head rotation on stdout.
 
-    Each line: {"frame": i, "time": s, "rotvec": [rx, ry, rz], "pitch_yaw_roll_deg": [p, y, r]}."""
+    Each line: {"frame": i, "time": s, "rotvec": (rx, ry, rz) as a list, "pitch_yaw_roll_deg": (p, y, r) as a list}."""
     import numpy as np
 
     from ..io.audio import resample
