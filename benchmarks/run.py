@@ -143,8 +143,9 @@ def bench_train(res: Results, quick: bool):
             res.add(Row("5 train", f"{name}: {m} min", times[-1], "s", "-", None,
                         f"median of {len(runs)} corpora: " + ", ".join(f"{r:.1f}" for r in runs)))
         slope = float(np.polyfit(np.log(minutes), np.log(times), 1)[0])
+        tail = float(np.log(times[-1] / times[-2]) / np.log(minutes[-1] / minutes[-2]))
         res.add(Row("5 train", f"{name}: log-log slope", slope, "", "<= 1.2", slope <= 1.2,
-                    f"minutes {minutes}"))
+                    f"minutes {minutes}; last doubling alone {tail:.2f}"))
         t30 = float(np.exp(np.polyval(np.polyfit(np.log(minutes), np.log(times), 1), np.log(30))))
         res.add(Row("5 train", f"{name}: 30 min (from the fit)", t30, "s", "<= 120 s", t30 <= 120,
                     "interpolated" if max(minutes) >= 30 else "extrapolated"))
