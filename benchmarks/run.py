@@ -81,6 +81,13 @@ def bench_synth(res: Results, quick: bool, cache: dict):
     audio = speech_audio(60.0, seed=1)
     corpus = planted(2.0 if quick else 5.0)
     systems = ("tws-basic", "tws-hier") if quick else SYNTH_SYSTEMS
+    from headmotion.cli.synth_cmds import default_model_path
+    from headmotion.systems import load_model
+
+    default = load_model(default_model_path())
+    t = time_median(lambda: default.predict(audio, seed=0), repeats=2 if quick else 3)
+    res.add(Row("2 synth", "shipped default model (tws-hier): features + synthesis, 60 s", audio.duration / t,
+                "x RT", ">= 200x", audio.duration / t >= 200, f"{t * 1000:.0f} ms; model load excluded"))
     for name in systems:
         t0 = time.perf_counter()
         s = make_system(name, quick).fit(corpus)
