@@ -145,7 +145,9 @@ def synth(
             from ..render import render_video
         except ImportError as exc:
             raise ParameterError(f"--video needs headmotion.render, which is not available here ({exc})") from exc
-        render_video(outs[0][1], video, audio=audio)
+        # a preview plays at a video rate: motion above 60 fps (e.g. 100) is resampled to 25 fps
+        motion_fps = float(outs[0][1].fps)
+        render_video(outs[0][1], video, audio=audio, fps=motion_fps if motion_fps <= 60 else 25.0)
         console.print(f"video → {video}")
 
 
