@@ -280,9 +280,8 @@ def main(argv=None) -> int:
     for g in GROUPS:
         if g not in only:
             continue
-        if args.quick and g in ("memory", "video"):
-            if g == "video":
-                continue
+        if args.quick and g == "video":
+            continue
         fn = globals()[f"bench_{g}"]
         kwargs = {"cache": cache} if g in ("synth", "stream") else {}
         try:

@@ -33,3 +33,14 @@ def examples_dir() -> Path:
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture
+def torch_one_thread():
+    """Tiny tensors: one intra-op torch thread avoids OpenMP overhead on a busy machine."""
+    import torch
+
+    prev = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(prev)

@@ -21,12 +21,7 @@ from headmotion.types import Audio, FeatureTrack, Motion  # noqa: E402
 SR = 16000
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    prev = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(prev)
+pytestmark = pytest.mark.usefixtures("torch_one_thread")
 
 
 def envelope_motion(audio: Audio, *, fps: float = 25.0, delay_s: float = 0.1, noise: float = 0.25,

@@ -10,13 +10,7 @@ torch = pytest.importorskip("torch")
 from headmotion.models.dcca import canonical_correlations, cca_objective  # noqa: E402
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    """Tiny tensors: one intra-op thread avoids OpenMP overhead on a busy machine."""
-    prev = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(prev)
+pytestmark = pytest.mark.usefixtures("torch_one_thread")
 
 
 def svd_cca(x: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -11,12 +11,7 @@ torch = pytest.importorskip("torch")
 from headmotion.models import nets  # noqa: E402
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    prev = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(prev)
+pytestmark = pytest.mark.usefixtures("torch_one_thread")
 
 
 def clean_motion(T: int, seed: int) -> np.ndarray:

@@ -130,11 +130,9 @@ class Corpus(Sequence[Recording]):
         """Read ``root/corpus.csv`` (files are loaded when first used)."""
         root = Path(root)
         manifest = root / MANIFEST if root.is_dir() else root
-        if root.is_dir():
-            pass
-        elif root.name == MANIFEST:
+        if root.name == MANIFEST and not root.is_dir():
             root = root.parent
-        else:
+        elif not root.is_dir():
             raise FormatError(f"not a corpus directory (expected a folder containing {MANIFEST})", path=root)
         if not manifest.exists():
             raise FormatError(f"no {MANIFEST} in the corpus directory", path=root)
@@ -230,15 +228,15 @@ class Corpus(Sequence[Recording]):
     def _load_entry(self, e: CorpusEntry) -> Recording:
         from .io import load_audio, load_motion
 
-        assert_root = self.root if self.root is not None else Path()
-        audio = load_audio(assert_root / e.audio, sample_rate=self.sample_rate)
-        motion = load_motion(assert_root / e.motion)
+        base = self.root if self.root is not None else Path()
+        audio = load_audio(base / e.audio, sample_rate=self.sample_rate)
+        motion = load_motion(base / e.motion)
         audio, motion = align_tracks(audio, motion, names=(str(e.audio), str(e.motion)))
         speaking = None
         if e.speaking is not None:
             from .features.vad import load_speaking_annotation
 
-            speaking = load_speaking_annotation(assert_root / e.speaking, fps=motion.fps, n_frames=len(motion))
+            speaking = load_speaking_annotation(base / e.speaking, fps=motion.fps, n_frames=len(motion))
         return Recording(e.recording, e.speaker, e.task, audio, motion, speaking=speaking, split=e.split)
 
     def subset(self, indices_or_ids) -> "Corpus":

@@ -25,14 +25,15 @@ from . import rotations
 from .errors import ParameterError
 
 
-def _readonly(a: np.ndarray) -> np.ndarray:
-    """A read-only contiguous array; copies when ``a`` is someone else's writable array, so
-    building a value never freezes the caller's buffer."""
-    a = np.ascontiguousarray(a)
-    if a.flags.writeable:
-        a = a.copy()
-        a.setflags(write=False)
-    return a
+def _readonly(a: np.ndarray, source) -> np.ndarray:
+    """A read-only contiguous array.  ``a`` is copied only when it is still the caller's buffer
+    (``source``), so building a value never freezes the caller's array and an array the
+    constructor already converted (a fresh ``astype``) is not copied twice."""
+    c = np.ascontiguousarray(a)
+    if c.flags.writeable and np.may_share_memory(c, np.asarray(source)):
+        c = c.copy()
+    c.setflags(write=False)
+    return c
 
 
 def _check_rate(name: str, value: float) -> float:
@@ -68,7 +69,7 @@ class Audio:
         rate = _check_rate("sample_rate", self.sample_rate)
         if rate != int(rate):
             raise ParameterError(f"sample_rate must be a whole number of Hz; got {self.sample_rate!r}")
-        object.__setattr__(self, "samples", _readonly(s))
+        object.__setattr__(self, "samples", _readonly(s, self.samples))
         object.__setattr__(self, "sample_rate", int(rate))
 
     @property
@@ -117,7 +118,7 @@ class Motion:
         if not self.allow_nan and not np.all(np.isfinite(r)):
             bad = int(np.sum(~np.all(np.isfinite(r), axis=1)))
             raise ParameterError(f"Motion.rotvec contains NaN or inf in {bad} of {len(r)} frames")
-        object.__setattr__(self, "rotvec", _readonly(r))
+        object.__setattr__(self, "rotvec", _readonly(r, self.rotvec))
         object.__setattr__(self, "fps", _check_rate("fps", self.fps))
         if self.translation is not None:
             t = np.asarray(self.translation, dtype=np.float64)
@@ -127,7 +128,7 @@ class Motion:
                 )
             if not self.allow_nan and not np.all(np.isfinite(t)):
                 raise ParameterError("Motion.translation contains NaN or inf")
-            object.__setattr__(self, "translation", _readonly(t))
+            object.__setattr__(self, "translation", _readonly(t, self.translation))
         object.__setattr__(self, "meta", dict(self.meta))
 
     # -- basic properties -------------------------------------------------------------------
@@ -251,7 +252,7 @@ class FeatureTrack:
             raise ParameterError(
                 f"FeatureTrack has {v.shape[1]} columns but {len(names)} names: {names!r}"
             )
-        object.__setattr__(self, "values", _readonly(v))
+        object.__setattr__(self, "values", _readonly(v, self.values))
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "fps", _check_rate("fps", self.fps))
 

@@ -7,32 +7,28 @@ import sys
 from ..errors import HeadMotionError
 from .app import app, err_console
 
-# each module attaches its commands to the app (imports are for their side effect)
-_COMMAND_MODULES = (
-    "io_cmds",         # info, convert
-    "features_cmds",   # features
-    "corpus_cmds",     # corpus check / import
-    "video_cmds",      # corpus from-video
-    "synth_cmds",      # train, synth, stream
-    "templates_cmds",  # templates encode-error / analyse
-    "eval_cmds",       # evaluate, stats
-    "render_cmds",     # render, view, plot
-    "listen_cmds",     # listen serve / analyze
+# each module attaches its commands to the app (imported for that side effect, in the order the
+# commands are listed by --help)
+from . import io_cmds  # noqa: E402,F401,I001  info, convert
+from . import features_cmds  # noqa: E402,F401  features
+from . import corpus_cmds  # noqa: E402,F401  corpus check / import
+from . import video_cmds  # noqa: E402,F401  corpus from-video
+from . import synth_cmds  # noqa: E402,F401  train, synth, stream
+from . import templates_cmds  # noqa: E402,F401  templates encode-error / analyse / confusion
+from . import eval_cmds  # noqa: E402,F401  evaluate, stats
+from . import render_cmds  # noqa: E402,F401  render, view, plot
+from . import listen_cmds  # noqa: E402,F401  listen serve / analyze
+from . import (  # noqa: E402,F401
+    corpus_cmds,     # corpus check / import
+    eval_cmds,       # evaluate, stats
+    features_cmds,   # features
+    io_cmds,         # info, convert
+    listen_cmds,     # listen serve / analyze
+    render_cmds,     # render, view, plot
+    synth_cmds,      # train, synth, stream
+    templates_cmds,  # templates encode-error / analyse / confusion
+    video_cmds,      # corpus from-video
 )
-
-
-def _attach_commands() -> None:
-    import importlib
-
-    for name in _COMMAND_MODULES:
-        try:
-            importlib.import_module(f"{__name__}.{name}")
-        except ModuleNotFoundError as exc:  # during development a module may not exist yet
-            if exc.name != f"{__name__}.{name}":
-                raise
-
-
-_attach_commands()
 
 
 def main(argv: list[str] | None = None) -> int:

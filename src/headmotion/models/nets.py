@@ -173,6 +173,22 @@ class _EarlyStopping:
     def restore(self) -> None:
         self.module.load_state_dict(self.state)
 
+    def end_epoch(self, hist: dict, epoch: int, max_epochs: int, train_loss: float, valid_loss: float,
+                  progress=None) -> bool:
+        """Record the epoch's losses, report progress; True when training should stop."""
+        hist["train"].append(train_loss)
+        hist["valid"].append(valid_loss)
+        if progress is not None:
+            progress(epoch + 1, int(max_epochs), valid_loss)
+        return self.step(valid_loss, epoch)
+
+    def finish(self, hist: dict) -> dict:
+        """Restore the best weights, switch to eval mode and record the best epoch."""
+        self.restore()
+        self.module.eval()
+        hist["best_epoch"] = self.best_epoch
+        return hist
+
 
 def pretrain_layerwise(ae: StackedAutoencoder, x: torch.Tensor, *, epochs: int = 3,
                        batch_size: int = 256, lr: float = LEARNING_RATE) -> list[float]:
@@ -250,18 +266,11 @@ def train_autoencoder(ae: StackedAutoencoder, x_train: torch.Tensor, y_train: to
         ae.eval()
         with torch.no_grad():
             v, rec, corr = cccae_loss(ae, x_valid, y_valid if use_cca else None, alpha, reg=reg)
-        hist["train"].append(tot / max(cnt, 1))
-        hist["valid"].append(float(v))
         hist["valid_rec"].append(rec)
         hist["valid_cca"].append(corr)
-        if progress is not None:
-            progress(epoch + 1, int(max_epochs), float(v))
-        if stopper.step(float(v), epoch):
+        if stopper.end_epoch(hist, epoch, max_epochs, tot / max(cnt, 1), float(v), progress):
             break
-    stopper.restore()
-    ae.eval()
-    hist["best_epoch"] = stopper.best_epoch
-    return hist
+    return stopper.finish(hist)
 
 
 # -- (B) regressor ----------------------------------------------------------------------------------
@@ -369,16 +378,9 @@ def train_regressor(net: ContextRegressor, train: PaddedSequences, train_starts:
                 vl += float(torch.sum((p - vy[s:s + 4096]) ** 2)) / vy.shape[1]
                 vc += len(p)
             v = vl / max(vc, 1)
-        hist["train"].append(tot / max(cnt, 1))
-        hist["valid"].append(v)
-        if progress is not None:
-            progress(epoch + 1, int(max_epochs), v)
-        if stopper.step(v, epoch):
+        if stopper.end_epoch(hist, epoch, max_epochs, tot / max(cnt, 1), v, progress):
             break
-    stopper.restore()
-    net.eval()
-    hist["best_epoch"] = stopper.best_epoch
-    return hist
+    return stopper.finish(hist)
 
 
 # -- (C) post-filter ----------------------------------------------------------------------------------
@@ -440,16 +442,9 @@ def train_postfilter(dae: StackedAutoencoder, train_segments: np.ndarray, valid_
         dae.eval()
         with torch.no_grad():
             v = float(torch.mean((dae(xv_noisy) - xv) ** 2)) if len(xv) else tot / max(cnt, 1)
-        hist["train"].append(tot / max(cnt, 1))
-        hist["valid"].append(v)
-        if progress is not None:
-            progress(epoch + 1, int(max_epochs), v)
-        if stopper.step(v, epoch):
+        if stopper.end_epoch(hist, epoch, max_epochs, tot / max(cnt, 1), v, progress):
             break
-    stopper.restore()
-    dae.eval()
-    hist["best_epoch"] = stopper.best_epoch
-    return hist
+    return stopper.finish(hist)
 
 
 def apply_postfilter(dae: StackedAutoencoder, motion: np.ndarray, *, segment: int = DEFAULT_SEGMENT,

@@ -41,6 +41,15 @@ def _motion_terms(theta, p1, p2, mu, sd, z, gv, ga):
 
 
 @njit(cache=True)
+def _ascent_update(theta, g, gv, ga, sd, lo, hi, step):
+    """One clipped gradient step on the angles from the gradient ``g`` over (angles, v, a)."""
+    for k in range(3):
+        grad = g[k] / sd[k] + g[3] / sd[3] * gv[k] + g[4] / sd[4] * ga[k]
+        dz = _clip(step * grad * sd[k], -step, step)
+        theta[k] = _clip(theta[k] + dz * sd[k], lo[k], hi[k])
+
+
+@njit(cache=True)
 def ascent_independent(out, LW, CM, PR, mu, sd, lo, hi, step, n_steps):
     """Five univariate conditional mixtures (eq 2.21). ``out`` (T, 3) holds frames 0 and 1."""
     T = out.shape[0]
@@ -70,10 +79,7 @@ def ascent_independent(out, LW, CM, PR, mu, sd, lo, hi, step, n_steps):
                     num += r * d * PR[i, m]
                     den += r
                 g[i] = -num / den
-            for k in range(3):
-                grad = g[k] / sd[k] + g[3] / sd[3] * gv[k] + g[4] / sd[4] * ga[k]
-                dz = _clip(step * grad * sd[k], -step, step)
-                theta[k] = _clip(theta[k] + dz * sd[k], lo[k], hi[k])
+            _ascent_update(theta, g, gv, ga, sd, lo, hi, step)
         for k in range(3):
             out[t, k] = theta[k]
 
@@ -120,9 +126,6 @@ def ascent_joint(out, LW, CM, P, mu, sd, lo, hi, step, n_steps):
                     g[i] -= r * pd[m, i]
             for i in range(5):
                 g[i] /= den
-            for k in range(3):
-                grad = g[k] / sd[k] + g[3] / sd[3] * gv[k] + g[4] / sd[4] * ga[k]
-                dz = _clip(step * grad * sd[k], -step, step)
-                theta[k] = _clip(theta[k] + dz * sd[k], lo[k], hi[k])
+            _ascent_update(theta, g, gv, ga, sd, lo, hi, step)
         for k in range(3):
             out[t, k] = theta[k]
