@@ -27,7 +27,10 @@ fixed-point steps so that the styled motion's band shares equal the target share
 crossovers); then one overall gain per axis sets the SD to the target (shares are invariant to
 it), and the target mean is added.  Zero-phase filtering and pure gains change no
 timing: every nod stays where the speech put it.  A gain is clipped to ``max_gain`` so a band the
-candidate barely has is not blown up from numerical dust.
+candidate barely has is not blown up from numerical dust.  Like any zero-phase filter, the bank
+has end effects: the mirror extension puts a kink at each end, which the slow bands smear over
+the first and last few seconds (a band holding under ~1% of the power is measured a few tenths of
+a percent too high on a 40-s clip).
 
 ``strength`` in [0, 1] interpolates the targets (geometric for SD and shares, linear for the mean),
 0 giving the candidate back unchanged.  With ``match_mean=False`` the candidate keeps its own
