@@ -52,7 +52,7 @@ def test_bvh_writer_head_channels_are_scipy_euler(tmp_path):
     """Independent reader: the Head joint's channels are intrinsic Euler angles in the channel order."""
     m = _motion(n=10)
     p = tmp_path / "a.bvh"
-    save_motion(m, p)
+    save_motion(m, p, neck_share=0.0)
     lines = p.read_text().splitlines()
     k = lines.index("MOTION")
     frame = np.array(lines[k + 3 + 4].split(), float)

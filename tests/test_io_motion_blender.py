@@ -2,7 +2,8 @@
 
 Blender (Debian's ``blender`` package, run headless) imports the files with
 ``bpy.ops.import_anim.bvh`` and reports the Head bone's rotation relative to the Spine bone, in
-world space, at a few frames; we map Blender's Z-up axes back (the importer's default
+world space, at a few frames (and the Neck bone's, which must hold ``neck_share`` of the
+rotation: the default share, 0.5 and 0); we map Blender's Z-up axes back (the importer's default
 ``axis_forward='-Z', axis_up='Y'`` sends BVH (x, y, z) to Blender (x, −z, y)) and compare with the
 motion we wrote, within 0.1°.  Skipped when ``blender`` is not installed.
 """
@@ -17,6 +18,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from headmotion.io.bvh import DEFAULT_NECK_SHARE
 from headmotion.io.motion import save_motion
 from headmotion.types import Motion
 
@@ -43,13 +45,15 @@ for path in files:
     for f in frames:
         scene.frame_set(scene.frame_start + f)
         d = {}
-        for name in ("Spine", "Head"):
+        for name in ("Spine", "Neck", "Head"):
             pb = obj.pose.bones[name]
             cur = (obj.matrix_world @ pb.matrix).to_3x3()
             rest = (obj.matrix_world @ pb.bone.matrix_local).to_3x3()
             d[name] = cur @ rest.inverted()
         rel = d["Spine"].inverted() @ d["Head"]
+        neck = d["Spine"].inverted() @ d["Neck"]
         res["frames"][str(f)] = [list(r) for r in rel]
+        res.setdefault("neck", {})[str(f)] = [list(r) for r in neck]
     result[path] = res
 json.dump(result, _open(out, "w"))
 '''
@@ -66,7 +70,9 @@ def test_blender_imports_our_bvh(tmp_path):
     rv = np.stack([0.4 * np.sin(2 * np.pi * t), 0.6 * np.sin(np.pi * t + 1), 0.3 * np.cos(1.4 * np.pi * t)], 1)
     m = Motion(rv.copy(), fps)  # (Motion makes the array it is given read-only)
     files = {}
-    for name, kw in (("zxy", {}), ("yxz", {"channel_order": "YXZ"}), ("neck", {"neck_share": 0.5})):
+    shares = {"zxy": DEFAULT_NECK_SHARE, "yxz": DEFAULT_NECK_SHARE, "neck": 0.5, "head_only": 0.0}
+    for name, kw in (("zxy", {}), ("yxz", {"channel_order": "YXZ"}), ("neck", {"neck_share": 0.5}),
+                     ("head_only", {"neck_share": 0.0})):
         files[name] = tmp_path / f"{name}.bvh"
         save_motion(m, files[name], **kw)
     script = tmp_path / "check.py"
@@ -88,3 +94,7 @@ def test_blender_imports_our_bvh(tmp_path):
             rel = G.T @ np.array(r["frames"][str(f)]) @ G
             err = (Rotation.from_matrix(rel).inv() * Rotation.from_rotvec(rv[f])).magnitude()
             assert np.degrees(err) < 0.1, (name, f, np.degrees(err))
+            # the neck bone holds its share of the rotation (the rig bends at the neck too)
+            neck = G.T @ np.array(r["neck"][str(f)]) @ G
+            err = (Rotation.from_matrix(neck).inv() * Rotation.from_rotvec(shares[name] * rv[f])).magnitude()
+            assert np.degrees(err) < 0.1, (name, "neck", f, np.degrees(err))

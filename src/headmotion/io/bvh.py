@@ -28,9 +28,11 @@ A minimal skeleton Hips → Spine → Neck → Head (→ End Site), Y-up, facing
 (hips 95 cm above the floor, spine 10 cm, neck 45 cm above the spine joint, head 10 cm above the
 neck, head top 18 cm).  The root has 6 channels (position, then rotation); the others 3.  Channel
 order ``"ZXY"`` (default; what Blender and MotionBuilder write) or ``"YXZ"``, angles in degrees
-with 6 decimals; Frame Time = 1/fps.  The motion is carried by **Head**; Neck carries a share
-``neck_share`` (default 0: the neck stays at zero) of the rotation — with ``neck_share=s`` the
-neck holds ``exp(s·r)`` and the head the rest, so neck ∘ head is exactly the motion.  Re-reading
+with 6 decimals; Frame Time = 1/fps.  The rotation is spread over **Neck** and **Head**: with
+``neck_share=s`` the neck holds ``exp(s·r)`` and the head the rest, so neck ∘ head is exactly the
+motion.  The default ``s = 0.93`` (:data:`DEFAULT_NECK_SHARE`) is what the ZEGGS mocap take shows
+(:mod:`headmotion.motion.neck_share`: its Neck and Neck1 make 93% of the head's movement);
+``neck_share=0`` puts it all on the head joint.  Re-reading
 gives the same rotations (< 1e-6 rad).  The root stays still (``Motion.translation`` is not
 written).  Blender 3.4's ``import_anim.bvh`` reads it and shows the same head rotation within
 1e-5° (tests/test_io_motion_blender.py).
@@ -377,9 +379,12 @@ _SKELETON = (  # name, offset (cm), Y-up, facing +Z
     ("Head", (0.0, 10.0, 0.0)),
 )
 _HEAD_TOP = (0.0, 18.0, 0.0)
+#: Share of the rotation the Neck joint carries by default: measured on the ZEGGS take
+#: (:func:`headmotion.motion.neck_share.measure_neck_share`, 0.93; quarters 0.92–0.96).
+DEFAULT_NECK_SHARE = 0.93
 
 
-def save_bvh(motion: Motion, path, *, channel_order: str = "ZXY", neck_share: float = 0.0,
+def save_bvh(motion: Motion, path, *, channel_order: str = "ZXY", neck_share: float = DEFAULT_NECK_SHARE,
              euler_order: str | None = None) -> None:
     """Write ``motion`` as a BVH file (Hips → Spine → Neck → Head; see the module docstring).
 
@@ -390,7 +395,8 @@ def save_bvh(motion: Motion, path, *, channel_order: str = "ZXY", neck_share: fl
     channel_order : {"ZXY", "YXZ"}
         Order of the rotation channels of every joint (``euler_order`` is an alias).
     neck_share : float in [0, 1]
-        Fraction of the rotation (of the rotation vector) carried by the neck joint.
+        Fraction of the rotation (of the rotation vector) carried by the neck joint (default
+        :data:`DEFAULT_NECK_SHARE`, measured on real mocap; 0 = all on the head joint).
     """
     if euler_order is not None:
         channel_order = euler_order
