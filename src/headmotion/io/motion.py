@@ -4,8 +4,8 @@
 :func:`load_motion` picks the reader from ``format=`` or the extension; a ``.csv`` is sniffed
 from its first lines: ``Format Version`` → OptiTrack Motive, ``Timecode``…``HeadYaw`` → Live Link
 Face, ``pose_Rx`` → OpenFace, ``# headmotion-motion`` or ``rx,ry,rz`` columns → native.
-:func:`save_motion` writes ``bvh``, ``csv``, ``json``, ``npz`` (by extension) or ``livelink``
-(``format="livelink"``).  Every reader maps the file's axes onto the one convention of
+:func:`save_motion` writes ``bvh``, ``csv``, ``json``, ``npz``, ``glb``/``gltf`` (by extension) or
+``livelink`` (``format="livelink"``).  Every reader maps the file's axes onto the one convention of
 :mod:`headmotion.rotations`; see each module's docstring for how.
 
 ========== ===================== ============================== =======
@@ -19,6 +19,7 @@ livelink   .csv (sniffed)        :mod:`headmotion.io.livelink`  yes
 csv        .csv                  :mod:`headmotion.io.native`    yes
 json       .json                 :mod:`headmotion.io.native`    yes
 npz        .npz                  :mod:`headmotion.io.native`    yes
+gltf       .glb, .gltf           :mod:`headmotion.io.gltf`      only
 ========== ===================== ============================== =======
 
 Errors: a missing, empty or directory path, an unknown extension or an unrecognised CSV raise
@@ -39,7 +40,7 @@ from ..errors import FormatError, ParameterError
 from ..types import Motion
 
 READ_FORMATS = ("bvh", "optitrack", "c3d", "openface", "livelink", "csv", "json", "npz")
-WRITE_FORMATS = ("bvh", "csv", "json", "npz", "livelink")
+WRITE_FORMATS = ("bvh", "csv", "json", "npz", "livelink", "gltf")
 _EXT = {".bvh": "bvh", ".c3d": "c3d", ".json": "json", ".npz": "npz", ".csv": "csv"}
 _ALIASES = {"motive": "optitrack", "live-link": "livelink", "live_link": "livelink", "native": "csv"}
 
@@ -151,7 +152,7 @@ def save_motion(motion: Motion, path, *, format: str | None = None, **options) -
     format : str, optional
         ``bvh, csv, json, npz, livelink``; from the extension when omitted.
     **options
-        ``channel_order="ZXY"|"YXZ"``, ``neck_share`` (BVH); ``degrees=True``,
+        ``channel_order="ZXY"|"YXZ"``, ``neck_share`` (BVH, glTF); ``degrees=True``,
         ``euler_order="YXZ"`` (CSV, JSON).
     """
     if not isinstance(motion, Motion):
@@ -159,10 +160,10 @@ def save_motion(motion: Motion, path, *, format: str | None = None, **options) -
     p = Path(path)
     if format is None:
         ext = p.suffix.lower()
-        if ext not in (".bvh", ".csv", ".json", ".npz"):
+        if ext not in (".bvh", ".csv", ".json", ".npz", ".glb", ".gltf"):
             raise FormatError(f"unknown extension {ext or '(none)'!r} for writing motion; supported: "
-                              f".bvh, .csv, .json, .npz (and format='livelink')", path=p)
-        fmt = ext[1:]
+                              f".bvh, .csv, .json, .npz, .glb, .gltf (and format='livelink')", path=p)
+        fmt = "gltf" if ext in (".glb", ".gltf") else ext[1:]
     else:
         fmt = _norm_format(format, WRITE_FORMATS)
     try:
@@ -174,6 +175,10 @@ def save_motion(motion: Motion, path, *, format: str | None = None, **options) -
             from .livelink import save_livelink
 
             save_livelink(motion, p, **options)
+        elif fmt == "gltf":
+            from .gltf import save_gltf
+
+            save_gltf(motion, p, **options)
         elif fmt == "csv":
             from .native import save_csv
 
