@@ -15,7 +15,9 @@ chain makes.  The slope is also reported per axis and per quarter of the take (i
 
 On the ZEGGS take in ``../shared/data/mocap_speech/zeggs`` (2065 frames, 30 fps; chain Spine3 →
 Neck → Neck1 → Head) it is **0.93** (quarters 0.92–0.96; per axis pitch 1.00, yaw 0.89, roll 1.09;
-Neck alone 0.52, Neck1 alone 0.38, the Head joint itself 0.03): the neck makes nearly all the movement and the head rides on it.
+Neck alone 0.52, Neck1 alone 0.38, the Head joint itself 0.03): the neck makes nearly all the
+movement and the head rides on it.  One take of one (retargeted) actor: a measured default, not a
+law; ``save_bvh(neck_share=...)`` sets another.
 
 Libraries considered: none measures this; the rotation maths is scipy's.
 """
