@@ -273,3 +273,17 @@ def test_blender_imports_our_glb(tmp_path):
         rel = G.T @ np.array(res["frames"][str(f)]) @ G
         err = (Rotation.from_matrix(rel).inv() * Rotation.from_rotvec(np.array(m.rotvec[f]))).magnitude()
         assert np.degrees(err) < 0.1, (f, np.degrees(err))
+
+
+def test_cli_convert_real_bvh_to_glb(tmp_path, shared_data):
+    """``headmotion convert take.bvh out.glb``: the ZEGGS take as a glTF animation."""
+    from headmotion.cli import main
+    from headmotion.io.motion import load_motion
+
+    src = shared_data / "mocap_speech" / "zeggs" / "067_Speech_2_x_1_0.bvh"
+    dst = tmp_path / "zeggs.glb"
+    assert main(["convert", str(src), str(dst)]) == 0
+    m, r = load_motion(src), load_gltf(dst)
+    assert r.fps == m.fps and len(r) == len(m) == 2065
+    err = (Rotation.from_rotvec(np.array(r.rotvec)).inv() * Rotation.from_rotvec(np.array(m.rotvec))).magnitude()
+    assert np.max(err) < 1e-6

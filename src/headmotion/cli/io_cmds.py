@@ -133,9 +133,9 @@ def _parse_options(opts: list[str] | None) -> dict:
 @app.command("convert")
 def convert(
     src: Path = typer.Argument(..., help="input motion file (bvh, csv, json, npz, c3d, Motive/OpenFace/Live Link csv)"),
-    dst: Path = typer.Argument(..., help="output file (.bvh, .csv, .json, .npz)"),
+    dst: Path = typer.Argument(..., help="output file (.bvh, .csv, .json, .npz, .glb, .gltf)"),
     fmt: Optional[str] = typer.Option(None, "--format", "-f",
-                                      help="output format: bvh, csv, json, npz, livelink (default: from the extension)"),
+                                      help="output format: bvh, csv, json, npz, livelink, gltf (default: from the extension)"),
     in_format: Optional[str] = typer.Option(None, "--in-format", help="input format (default: detected)"),
     degrees: bool = typer.Option(False, "--degrees", help="CSV/JSON: write degrees instead of radians"),
     euler_order: Optional[str] = typer.Option(
@@ -146,7 +146,7 @@ def convert(
     option: Optional[List[str]] = typer.Option(None, "--option",
                                                help="reader option KEY=VALUE (e.g. head=Head, head_markers=A,B,C)"),
 ):
-    """Convert head motion between formats (BVH, CSV, JSON, NPZ, Live Link Face CSV)."""
+    """Convert head motion between formats (BVH, CSV, JSON, NPZ, Live Link Face CSV; glTF out)."""
     import warnings
 
     from ..io.motion import load_motion, save_motion
