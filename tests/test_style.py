@@ -166,3 +166,13 @@ def test_style_reference_from_a_talking_video(shared_data, default_model_output)
     assert reference.duration > 3.0 and reference.meta["source"] == str(video)
     styled = apply_style(default_model_output, reference)
     _moved_half_way(style_profile(default_model_output), style_profile(styled), style_profile(reference))
+
+
+def test_a_still_candidate_stays_still_at_the_reference_pose():
+    fps = 25.0
+    _, q = _sines((3.0, 1.0, 0.5, 0.1), fps, 10.0)
+    ref = _motion_deg(-4.0 + q, 2.0 + q, 1.0 + q, fps)
+    out = apply_style(Motion(np.zeros((100, 3)), fps), ref)
+    ang = out.as_pitch_yaw_roll(degrees=True)
+    np.testing.assert_allclose(ang.std(axis=0), 0.0, atol=1e-9)
+    np.testing.assert_allclose(ang[0], style_profile(ref).mean, atol=1e-9)

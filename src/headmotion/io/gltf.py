@@ -91,14 +91,13 @@ def _rest_positions() -> np.ndarray:
 def _body_mesh():
     """Positions, joint indices, weights and triangle indices of the boxes, bound rigidly."""
     pos = _rest_positions()
-    chest, neck, head = pos[2], pos[3], pos[4]
+    neck, head = pos[3], pos[4]
     parts = [  # (lo, hi, joint index in SKELETON)
         ((-0.18, pos[1][1], -0.10), (0.18, neck[1] + 0.01, 0.10), 2),
         ((-0.05, neck[1] - 0.01, -0.05), (0.05, head[1] + 0.02, 0.05), 3),
         ((-0.09, head[1] - 0.01, -0.10), (0.09, head[1] + 0.23, 0.11), 4),
         ((-0.015, head[1] + 0.07, 0.11), (0.015, head[1] + 0.11, 0.15), 4),  # the nose: +Z is forward
     ]
-    del chest
     vs, fs, js = [], [], []
     n = 0
     for lo, hi, j in parts:

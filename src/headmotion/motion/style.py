@@ -40,7 +40,8 @@ camera's angle, not the speaker's posture).
 Alternatives considered: matching the reference's power spectrum bin by bin (a Wiener-style
 spectral shaping) over-fits to the reference's length and noise; re-fitting the model's
 parameters to the reference needs a trainable model per system; quantile mapping of the angles
-changes shape but not tempo.  Libraries: scipy.signal for the filters; no maintained package does
+changes shape but not tempo.  Libraries: numpy's FFT for the filters (scipy.signal's Butterworth
+bank was the first try, above); no maintained package does
 head-motion style transfer.
 """
 
@@ -50,7 +51,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy import signal
 
 from ..errors import FormatError, ParameterError
 from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
