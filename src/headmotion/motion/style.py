@@ -1,7 +1,8 @@
 """Style from a reference: make a motion move like a given recording (issue 17 item 2).
 
-The seeds are silent on style transfer (the thesis varies amplitude only through its listening
-tests, §4.2).  What is chosen here, and why:
+The seeds do not transfer style, but the thesis's corpus analysis finds head motion more speaker-
+than task-dependent (§3.5.1: speakers lie further apart than tasks), which is why a user may want
+a given speaker's way of moving rather than the model's average.  What is chosen here, and why:
 
 **What "style" is.**  Three figures per axis (pitch, yaw, roll, in degrees, intrinsic yaw → pitch
 → roll as :func:`headmotion.rotations.rotvec_to_pitch_yaw_roll`):
@@ -41,8 +42,7 @@ Alternatives considered: matching the reference's power spectrum bin by bin (a W
 spectral shaping) over-fits to the reference's length and noise; re-fitting the model's
 parameters to the reference needs a trainable model per system; quantile mapping of the angles
 changes shape but not tempo.  Libraries: numpy's FFT for the filters (scipy.signal's Butterworth
-bank was the first try, above); no maintained package does
-head-motion style transfer.
+bank was the first try, above); no maintained package does head-motion style transfer.
 """
 
 from __future__ import annotations
