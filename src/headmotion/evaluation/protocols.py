@@ -20,11 +20,10 @@ Conditions
 ----------
 ``ground-truth`` is the held-out recording's own motion (scored against itself: NMSE 0, and the
 reference values of FCCA, SD, jerk).  Other anchors (``desync``, ``other-speaker``,
-``shaped-noise``, ``still``; :mod:`headmotion.systems.anchors`) are fitted on the fold's training
-recordings like systems and make their motion with ``predict_for(recording, seed=)`` (a system
-without that method gets ``predict(audio, seed=)``); an anchor that needs *other* speakers' motion
-(class attribute ``training_data = "other-speakers"``, or the name ``other-speaker``) is fitted on
-the other speakers' recordings.
+``shaped-noise``, ``still``; :mod:`.anchors`) are fitted on the fold's training recordings and make
+their motion with ``motion_for(recording, seed=)``; systems get ``predict(audio, seed=)``.  A
+condition declaring that it needs *other* speakers' motion (an anchor's ``needs_other_speakers``,
+a system's ``needs_other_speakers`` capability) is fitted on the other speakers' recordings.
 
 Metrics per (system, recording) — names as in ``metrics.csv``
 --------------------------------------------------------------
@@ -41,7 +40,7 @@ not (paper Table 1, computed by :func:`.parallel.feature_table`; with ``_null_me
 ``_excess``, ``_p`` suffixes for its chance level; ``config["splits"]`` / ``result.splits`` say
 which recordings are train / valid / test), and per speaker the local/global
 CCA against window size (thesis Fig 4.8) as ``winlocal[<s>s]`` / ``winglobal[<s>s]``
-(recording ``speaker:<name>``).  A system with an ``embed(audio)`` method (CCCAE, AE) adds
+(recording ``speaker:<name>``).  A system with the ``embedding`` capability (CCCAE, AE) adds
 ``embed_cca_local`` — its embedding's local CCA with the recorded motion (paper Table 1 Wav_AE /
 Wav_CCCAE rows).
 
@@ -61,7 +60,6 @@ joblib and dask.distributed run the folds.
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -69,6 +67,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from ..align import fit_length
 from ..corpus import Corpus, leave_one_out, paper_split
 from ..errors import LengthMismatchError, ParameterError
 from ..types import FeatureTrack, Motion
@@ -147,27 +146,43 @@ def _system_spec(s) -> tuple[str, Any]:
     raise ParameterError(f"a system must be a registry name or a (name, factory) pair; got {s!r}")
 
 
-def _make_system(name: str, factory, seed: int):
-    from ..systems.base import system_class
+def _make_condition(name: str, factory, seed: int):
+    """A new system or anchor for one fold, its training seed set through the contract."""
+    from ..systems.base import Synthesizer, create
+
+    from .anchors import ANCHORS, create_anchor
 
     if factory is None:
-        cls = system_class(name)
-        factory = cls
+        model = create_anchor(name) if name in ANCHORS else create(name)
     else:
-        cls = factory
-    params = {}
-    try:
-        sig = inspect.signature(factory)
-        for key in ("random_state", "seed"):
-            if key in sig.parameters:
-                params[key] = seed
-    except (TypeError, ValueError):
-        pass
-    return factory(**params), cls
+        model = factory()
+    if isinstance(model, Synthesizer) and "random_state" in model.get_params():
+        model.set_params(random_state=seed)
+    return model
 
 
-def _needs_other_speakers(name: str, cls) -> bool:
-    return getattr(cls, "training_data", None) == "other-speakers" or name == "other-speaker"
+def _needs_other_speakers(model) -> bool:
+    from ..systems.base import NEEDS_OTHER_SPEAKERS
+
+    from .anchors import Anchor
+
+    if isinstance(model, Anchor):
+        return model.needs_other_speakers
+    return NEEDS_OTHER_SPEAKERS in model.capabilities
+
+
+def _has_embedding(model) -> bool:
+    from ..systems.base import EMBEDDING
+
+    return EMBEDDING in getattr(model, "capabilities", ())
+
+
+def _make_motion(model, rec, seed: int) -> Motion:
+    from .anchors import Anchor
+
+    if isinstance(model, Anchor):
+        return model.motion_for(rec, seed=seed)
+    return model.predict(rec.audio, seed=seed)
 
 
 def _extract(features, audio, fps: float, n_frames: int) -> FeatureTrack | np.ndarray:
@@ -188,9 +203,7 @@ def _conform(pred: Motion, ref: Motion, system: str, rec_id: str) -> np.ndarray:
         raise LengthMismatchError(
             f"system {system!r} made {len(a)} frames for recording {rec_id!r}, whose motion has {T} "
             f"(tolerance {tol:g} frames)")
-    if len(a) >= T:
-        return np.asarray(a[:T])
-    return np.vstack([a, np.repeat(a[-1:], T - len(a), axis=0)])
+    return np.asarray(fit_length(a, T))
 
 
 # -- scoring ---------------------------------------------------------------------------------------
@@ -284,9 +297,9 @@ def run_fold(task: FoldTask) -> dict:
         name, factory = _system_spec(spec)
         if name == GROUND_TRUTH:
             continue
-        model, cls = _make_system(name, factory, _sub_seed(task.seed, task.fold, name))
+        model = _make_condition(name, factory, _sub_seed(task.seed, task.fold, name))
         train = task.train
-        if _needs_other_speakers(name, cls):
+        if _needs_other_speakers(model):
             if task.others is None or not len(task.others):
                 warns.append(f"{name}: no other speaker in the corpus; skipped for fold {task.fold}")
                 continue
@@ -315,11 +328,7 @@ def run_fold(task: FoldTask) -> dict:
         for rec in tests:
             rseed = _sub_seed(task.seed, rec.id, name)
             try:
-                if hasattr(model, "predict_for"):  # anchors build their motion from the recording itself
-                    made = model.predict_for(rec, seed=rseed)
-                else:
-                    made = model.predict(rec.audio, seed=rseed)
-                pred = _conform(made, rec.motion, name, rec.id)
+                pred = _conform(_make_motion(model, rec, rseed), rec.motion, name, rec.id)
             except Exception as exc:
                 if task.strict:
                     raise
@@ -327,7 +336,7 @@ def run_fold(task: FoldTask) -> dict:
                 continue
             vals = score_recording(rec.motion, pred, feats[rec.id], window_s=task.window_s, n_shifts=task.n_shifts,
                                    seed=rseed)
-            if hasattr(model, "embed") and getattr(model, "autoencoder_", True) is not None:
+            if _has_embedding(model):
                 try:
                     emb = model.embed(rec.audio, fps=float(rec.motion.fps), n_frames=len(rec.motion))
                     e, _ = M.as_array(emb)
@@ -475,7 +484,10 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         if fac is None and n != GROUND_TRUTH:
             from ..systems.base import system_class
 
-            system_class(n)  # unknown names fail now, not in a worker
+            from .anchors import ANCHORS
+
+            if n not in ANCHORS:
+                system_class(n)  # unknown names fail now, not in a worker
     specs = [s for s in specs if s[0] != GROUND_TRUTH]
     if feature_sets is None:
         try:

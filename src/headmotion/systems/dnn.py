@@ -40,8 +40,10 @@ speaker speaks (:meth:`~headmotion.corpus.Recording.speaking_mask`); prediction 
 Fitted models record which recording went where (``splits_``) so the paper's tables can be
 computed on the right sets.
 
-Beyond the common interface: ``predict(audio, fps=...)`` chooses the output frame rate;
-``predict_features(track)`` runs the model on an already extracted 100-fps feature track and
+Output rate — ``predict`` gives motion at the model rate (``model_fps``, 100 fps), the contract's
+``frame_rate``; the caller resamples (the CLI's ``--fps``, the evaluation to the reference rate).
+
+Beyond the common interface: ``predict_features(track)`` runs the model on an already extracted 100-fps feature track and
 raises :class:`~headmotion.errors.ParameterError` when its dimension or rate is not the one the
 model was trained on; ``embed(audio, fps=..., n_frames=...)`` (CCCAE / AE systems) returns the
 learned embedding as a :class:`~headmotion.types.FeatureTrack` for the paper's Table 1.
@@ -50,7 +52,7 @@ Training length — Adam (lr 0.0002) for at most ``ae_max_epochs`` (60) autoenco
 ``pretrain_epochs`` (3) per pre-training layer, ``max_epochs`` (30) regressor and post-filter
 epochs, each stopped after ``patience`` (4) epochs without a better validation loss.
 
-Determinism — ``fit`` seeds torch inside ``torch.random.fork_rng`` (the caller's global generator
+Determinism — ``fit`` seeds torch with ``random_state`` inside ``torch.random.fork_rng`` (the caller's global generator
 is left untouched), enables ``torch.use_deterministic_algorithms`` for the duration of ``fit``, and
 uses ``n_threads`` intra-op threads in ``fit`` and ``predict`` (``None``: torch's setting); the same
 seed and thread count give the same model bit for bit on CPU.  The default is **one** thread: the
@@ -71,23 +73,15 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..align import fit_length as _fit_length
 from ..align import n_frames as _n_frames
 from ..errors import ParameterError
+from ..motion.control import mean_pose_of
+from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, FeatureTrack, Motion
-from .base import Synthesizer
+from .base import EMBEDDING, Synthesizer
 
 MODEL_FPS = 100.0
-
-
-def _fit_length(a: np.ndarray, n: int) -> np.ndarray:
-    """Trim or edge-pad ``a (T, D)`` to ``n`` frames."""
-    if len(a) == n:
-        return a
-    if len(a) > n:
-        return a[:n]
-    if len(a) == 0:
-        return np.zeros((n,) + a.shape[1:], dtype=a.dtype)
-    return np.concatenate([a, np.repeat(a[-1:], n - len(a), axis=0)], 0)
 
 
 def _clean_json(x):
@@ -138,19 +132,12 @@ class _DnnSystem(Synthesizer):
     """Shared implementation; see the module docstring.  Use the registered subclasses."""
 
     name: ClassVar[str] = ""
-    causal: ClassVar[bool] = False
     default_feature: ClassVar[str] = "wav"
     #: whether the system learns a waveform embedding (CCCAE / AE) before the regressor
     uses_embedding: ClassVar[bool] = False
     #: the weight of the CCA term when ``alpha`` is not given, and whether it may be changed
     default_alpha: ClassVar[float | None] = None
     alpha_fixed: ClassVar[bool] = False
-
-    _PARAMS = ("features", "feature_params", "alpha", "embedding_dim", "ae_hidden", "ae_activation", "regressor_hidden",
-               "context", "dropout", "postfilter", "postfilter_hidden", "postfilter_code", "segment",
-               "postfilter_noise", "model_fps", "batch_size", "cca_batch_size", "cca_reg",
-               "learning_rate", "max_epochs", "ae_max_epochs", "pretrain_epochs", "patience",
-               "valid_fraction", "holdout_test", "seed", "n_threads")
 
     def __init__(self, *, features: str | None = None, feature_params: dict | None = None,
                  alpha: float | None = None, embedding_dim: int = 30,
@@ -161,15 +148,11 @@ class _DnnSystem(Synthesizer):
                  postfilter_noise: float = 0.3, model_fps: float = MODEL_FPS, batch_size: int = 256,
                  cca_batch_size: int = 1000, cca_reg: float = 1e-3, learning_rate: float = 2e-4,
                  max_epochs: int = 30, ae_max_epochs: int = 60, pretrain_epochs: int = 3, patience: int = 4,
-                 valid_fraction: float = 0.15, holdout_test: bool = True, seed: int = 0,
+                 valid_fraction: float = 0.15, holdout_test: bool = True, random_state: int = 0,
                  n_threads: int | None = 1):
         self.features = features
         self.feature_params = feature_params
-        if self.alpha_fixed and alpha not in (None, self.default_alpha):
-            raise ParameterError(
-                f"{self.name} is the autoencoder with alpha = {self.default_alpha:g}; use the 'cccae' system for "
-                f"another alpha (got {alpha!r})")
-        self.alpha = self.default_alpha if alpha is None else alpha
+        self.alpha = alpha
         self.embedding_dim = embedding_dim
         self.ae_hidden = ae_hidden
         self.ae_activation = ae_activation
@@ -192,18 +175,20 @@ class _DnnSystem(Synthesizer):
         self.patience = patience
         self.valid_fraction = valid_fraction
         self.holdout_test = holdout_test
-        self.seed = seed
+        self.random_state = random_state
         self.n_threads = n_threads
 
     # -- parameters ---------------------------------------------------------------------------
-    def get_params(self) -> dict[str, Any]:
-        out = {}
-        for k in self._PARAMS:
-            v = getattr(self, k)
-            out[k] = list(v) if isinstance(v, tuple) else v
-        return out
+    @property
+    def alpha_value(self) -> float | None:
+        """The CCA weight in use: ``alpha``, or the system's default when it is None."""
+        return self.default_alpha if self.alpha is None else self.alpha
 
-    def _check_params(self) -> None:
+    def _validate_params(self) -> None:
+        if self.alpha_fixed and self.alpha not in (None, self.default_alpha):
+            raise ParameterError(
+                f"{self.name} is the autoencoder with alpha = {self.default_alpha:g}; use the 'cccae' system for "
+                f"another alpha (got {self.alpha!r})")
         def pos_int(name, lo=1):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
@@ -221,7 +206,7 @@ class _DnnSystem(Synthesizer):
 
         for n in ("embedding_dim", "batch_size", "max_epochs", "ae_max_epochs", "patience"):
             pos_int(n)
-        for n in ("context", "pretrain_epochs", "seed"):
+        for n in ("context", "pretrain_epochs", "random_state"):
             pos_int(n, 0)
         pos_int("segment", 2)
         pos_int("cca_batch_size", 2)
@@ -244,7 +229,8 @@ class _DnnSystem(Synthesizer):
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ParameterError(f"the {n!r} parameter of {self.name} must be a number >= 0; got {v!r}")
         if self.uses_embedding:
-            if not (isinstance(self.alpha, (int, float)) and math.isfinite(self.alpha) and self.alpha >= 0):
+            a = self.alpha_value
+            if not (isinstance(a, (int, float)) and math.isfinite(a) and a >= 0):
                 raise ParameterError(f"the 'alpha' parameter of {self.name} must be a number >= 0; got {self.alpha!r}")
         if self.ae_activation not in ("relu", "tanh", "sigmoid"):
             raise ParameterError(
@@ -286,7 +272,7 @@ class _DnnSystem(Synthesizer):
         from ..corpus import paper_split
 
         explicit = all(e.split for e in corpus.entries)
-        split = paper_split(corpus, seed=int(self.seed))
+        split = paper_split(corpus, seed=int(self.random_state))
         if not explicit:
             split = {k: ("train" if v == "test" else v) for k, v in split.items()}
         elif not self.holdout_test:
@@ -307,7 +293,7 @@ class _DnnSystem(Synthesizer):
         from ..features import Normalizer
         from ..models import nets
 
-        self._check_params()
+        self._validate_params()
         t0 = time.perf_counter()
         if len(corpus) == 0:
             raise ParameterError(f"cannot fit {self.name} on an empty corpus")
@@ -357,7 +343,7 @@ class _DnnSystem(Synthesizer):
             p.y = np.asarray(mot_norm.transform(p.motion), dtype=np.float32)
 
         history: dict[str, Any] = {}
-        with _torch_context(int(self.seed), self.n_threads):
+        with _torch_context(int(self.random_state), self.n_threads):
             ae = None
             emb_norm = None
             if self.uses_embedding:
@@ -368,7 +354,7 @@ class _DnnSystem(Synthesizer):
                 xv = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in valid]))
                 yv = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in valid]))
                 history["autoencoder"] = nets.train_autoencoder(
-                    ae, xt, yt, x_valid=xv, y_valid=yv, alpha=float(self.alpha),
+                    ae, xt, yt, x_valid=xv, y_valid=yv, alpha=float(self.alpha_value),
                     batch_size=int(self.cca_batch_size), lr=float(self.learning_rate),
                     max_epochs=int(self.ae_max_epochs), patience=int(self.patience),
                     pretrain_epochs=int(self.pretrain_epochs), reg=float(self.cca_reg),
@@ -425,6 +411,9 @@ class _DnnSystem(Synthesizer):
         fps_list = sorted({float(r.motion.fps) for r in train_recs})
         self.output_fps_ = fps_list[0] if len(fps_list) == 1 else float(self.model_fps)
         self.splits_ = {r.id: split[r.id] for r in corpus}
+        self.fps_ = float(self.model_fps)
+        self.sample_rate_ = int(train_recs[0].audio.sample_rate)
+        self.mean_pose_ = mean_pose_of([p.motion for p in train])
         self.history_ = _clean_json(history)
         self.fit_seconds_ = time.perf_counter() - t0
         self.corpus_summary_ = corpus.summary()
@@ -475,30 +464,15 @@ class _DnnSystem(Synthesizer):
             rv = self._predict_values(values)
         return Motion(rv, float(self.model_fps), meta={"system": self.name})
 
-    def predict(self, audio: Audio, *, seed: int | None = None, fps: float | None = None) -> Motion:
-        """Head motion for ``audio`` (deterministic; ``seed`` is accepted for the common interface
-        and ignored).
-
-        The frame rate is ``fps`` when given, else the training corpus's frame rate (the model
-        rate, 100 fps, when the training recordings had several rates); the number of frames is
-        :func:`headmotion.align.n_frames` of the audio at that rate."""
-        self._check_fitted()
-        if not isinstance(audio, Audio):
-            raise ParameterError(f"predict needs an Audio; got {type(audio).__name__}")
+    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
+        """Head motion for ``audio`` at the model rate (deterministic: ``seed`` is not used); the
+        number of frames is :func:`headmotion.align.n_frames` of the audio at that rate."""
         mfps = float(self.model_fps)
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
         with _torch_context(0, getattr(self, "n_threads", None)):
             rv = self._predict_values(feats)
-        out_fps = float(self.output_fps_ if fps is None else fps)
-        if not (math.isfinite(out_fps) and out_fps > 0):
-            raise ParameterError(f"fps must be a positive number; got {fps!r}")
-        n_out = _n_frames(len(audio.samples), audio.sample_rate, out_fps)
-        motion = Motion(rv, mfps, meta={"system": self.name})
-        if abs(out_fps - mfps) > 1e-9 and len(rv) > 0:
-            motion = motion.resample(out_fps)
-        rv_out = _fit_length(np.asarray(motion.rotvec), n_out)
-        return Motion(rv_out, out_fps, meta={"system": self.name, "model_fps": mfps})
+        return Motion(rv, mfps, meta={"system": self.name})
 
     def embed(self, audio: Audio, *, fps: float | None = None, n_frames: int | None = None) -> FeatureTrack:
         """The learned waveform embedding (Wav_CCCAE / Wav_AE, paper Table 1) of ``audio``.
@@ -535,14 +509,19 @@ class _DnnSystem(Synthesizer):
         return track
 
     # -- persistence --------------------------------------------------------------------------------
+    def _legacy_mean_pose(self) -> np.ndarray:
+        return rotvec_to_pitch_yaw_roll(np.asarray(self.motion_norm_.mean_, dtype=np.float64)[None])[0]
+
     def _get_state(self):
         from ..models import nets
 
+        params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.get_params().items()}
         config = {
-            "params": self.get_params(),
+            "params": params,
             "feature_config": self.feature_config_.to_dict(),
             "input_dim": self.input_dim_,
             "output_fps": self.output_fps_,
+            "sample_rate": self.sample_rate_,
             "splits": self.splits_,
             "history": self.history_,
             "fit_seconds": self.fit_seconds_,
@@ -570,9 +549,13 @@ class _DnnSystem(Synthesizer):
         from ..models import nets
 
         params = dict(config["params"])
-        for k in self._PARAMS:
+        if "seed" in params:  # older files: the training seed was called seed
+            params["random_state"] = params.pop("seed")
+        for k in self._param_names():
             v = params[k]
             setattr(self, k, tuple(v) if k.endswith("hidden") and v is not None else v)
+        self.fps_ = float(self.model_fps)
+        self.sample_rate_ = int(config.get("sample_rate", 16000))
         self.feature_config_ = FeatureConfig.from_dict(config["feature_config"])
         self.input_dim_ = int(config["input_dim"])
         self.output_fps_ = float(config["output_fps"])
@@ -609,6 +592,7 @@ class CccaeSystem(_DnnSystem):
     """M_CCCAE (paper §3): waveform → CCCAE embedding (α = 1 by default) → regressor → post-filter."""
 
     name = "cccae"
+    capabilities = frozenset({EMBEDDING})
     default_feature = "wav"
     uses_embedding = True
     default_alpha = 1.0
@@ -618,6 +602,7 @@ class AeDnnSystem(_DnnSystem):
     """M_AE (paper §4.2): the same pipeline with a plain autoencoder (α = 0)."""
 
     name = "ae-dnn"
+    capabilities = frozenset({EMBEDDING})
     default_feature = "wav"
     uses_embedding = True
     default_alpha = 0.0

@@ -45,10 +45,11 @@ import warnings
 
 import numpy as np
 
-from ..errors import ParameterError
-from ..models.gmm import GMMRegression
-from ..models.hmm import ErgodicLM, HMMBank, LeftToRightHMM
-from .tws_common import CONTEXT, TwsBase, collect
+from ...errors import ParameterError
+from ...models.gmm import GMMRegression
+from ...models.hmm import ErgodicLM, HMMBank, LeftToRightHMM
+from .base import TwsBase
+from .vectors import CONTEXT, MAX_HMM_FRAMES, collect, context_frames
 
 AXIS_NAMES = ("rx", "ry", "rz")
 TEMPLATE_NAMES = ("rising", "falling")
@@ -68,10 +69,10 @@ class TwsHier(TwsBase):
     hmm_iter : int, Baum–Welch iterations (capped for training speed)
     lm_weight : float, weight of the language-model log probability
     method : "ml", "mmse" or "sample"
-    stochastic : "none", "cluster", "params" or "both"
-    gain, feature_block, feature_context, seed : see :class:`~headmotion.systems.tws_basic.TwsBasic`
+    stochastic : "none", "choice" (= "cluster"), "params" or "both"
+    feature_block, feature_context, seed, blocked : see :class:`~headmotion.systems.tws.basic.TwsBasic`
     n_init : int, k-means random restarts
-    random_state : int
+    random_state : int, training seed (k-means, HMM initialisation)
     """
 
     name = "tws-hier"
@@ -79,19 +80,29 @@ class TwsHier(TwsBase):
 
     def __init__(self, features="f0e", *, fps: float | None = None, n_clusters: int | None = 4,
                  n_states: int = 5, hmm_iter: int = 10, lm_weight: float = 1.0, method: str = "ml",
-                 stochastic: str = "none", gain: float = 1.0, feature_block: int = 50,
-                 feature_context: int = 20, seed: int | None = 0, n_init: int = 10, random_state: int = 0):
-        if stochastic not in ("none", "cluster", "params", "both"):
-            raise ParameterError(f"stochastic must be 'none', 'cluster', 'params' or 'both'; got {stochastic!r}")
-        if n_clusters is not None and (not isinstance(n_clusters, int) or n_clusters < 1):
-            raise ParameterError(f"n_clusters must be a positive int or None (G-means); got {n_clusters!r}")
-        self._init_common(features, fps, method, stochastic, gain, feature_block, feature_context, seed)
+                 stochastic: str = "none", feature_block: int = 50,
+                 feature_context: int = 20, seed: int | None = 0, n_init: int = 10, random_state: int = 0,
+                 blocked: bool = False):
+        self.features = features
+        self.fps = fps
         self.n_clusters = n_clusters
         self.n_states = n_states
         self.hmm_iter = hmm_iter
         self.lm_weight = lm_weight
+        self.method = method
+        self.stochastic = stochastic
+        self.feature_block = feature_block
+        self.feature_context = feature_context
+        self.seed = seed
         self.n_init = n_init
         self.random_state = random_state
+        self.blocked = blocked
+
+    def _validate_params(self) -> None:
+        super()._validate_params()
+        n = self.n_clusters
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+            raise ParameterError(f"n_clusters must be a positive int or None (G-means); got {n!r}")
 
     # -- vectors ----------------------------------------------------------------------------
     @staticmethod
@@ -141,7 +152,7 @@ class TwsHier(TwsBase):
                         f"least {MIN_CHANGE_POINTS} per axis and template ({min_size} per cluster for a full-rank "
                         f"regression Gaussian) — give longer recordings or more of them")
                 if self.n_clusters is None and len(Zs) >= 2 * min_per:
-                    from ..models.gmeans import gmeans
+                    from ...models.gmeans import gmeans
 
                     k, _, _ = gmeans(Zs, max_k=8, min_size=2 * min_per, random_state=self.random_state)
                 else:
@@ -238,8 +249,6 @@ class TwsHier(TwsBase):
         return lp[tau * K: tau * K + k], tau * K
 
     def _choose(self, j, tau, state, F, t, rng):
-        from .tws_common import MAX_HMM_FRAMES, context_frames
-
         g = state["gen"]
         m = self.models_[(j, tau)]
         lo = max(int(state["seg_start"]), t - MAX_HMM_FRAMES + 1)
@@ -247,7 +256,7 @@ class TwsHier(TwsBase):
                                  frame_ll=self._frame_ll(g, j, tau, F, lo, t + 1))
         lms, off = self._lm_scores(j, tau, g["alpha"][j], g["first"][j])
         score = score + self.lm_weight * lms
-        if self.stochastic in ("cluster", "both"):
+        if self._stochastic in ("choice", "both"):
             p = np.exp(score - score.max())
             c = int(rng.choice(len(p), p=p / p.sum()))
         else:
@@ -258,11 +267,12 @@ class TwsHier(TwsBase):
         lo_c = t - CONTEXT + 1
         cm = F[lo_c:t + 1].mean(axis=0) if lo_c >= 0 else context_frames(F, t).reshape(CONTEXT, -1).mean(axis=0)
         x = np.concatenate([state["prev"], state["others"], F[t], cm])
-        reg = m["regs"][c]
+        cond = m["regs"][c].condition(x[None])
         # one Gaussian: ML = MMSE = the conditional mean mu_y + A (x - mu_x) (eq 2.7)
-        y = reg._my[0] + reg._A[0] @ (x - reg._mx[0])
-        if self.stochastic in ("params", "both") or self.method == "sample":
-            y = y + reg._chol_c[0] @ rng.standard_normal(len(y))
+        if self._stochastic in ("params", "both") or self.method == "sample":
+            y = cond.sample(rng)[0]
+        else:
+            y = cond.means[0, 0]
         return float(y[0]), float(y[1])
 
     # -- analysis -----------------------------------------------------------------------------

@@ -7,7 +7,7 @@ GMM over ``[x; y]`` with ``x`` = previous ``(d, a, c)`` of this axis, the other 
 ``(d, a)``, the speech feature frame at the change, and ``y`` = the new segment's ``(d, a)``.
 
 Synthesis (§5.5, steps 1–6): causal, axis by axis at each next change point
-(:class:`~headmotion.systems.tws_common.Generator`); the class is the one whose GMM gives the input
+(:class:`~headmotion.systems.tws.generator.Generator`); the class is the one whose GMM gives the input
 vector the highest observation probability (or, with ``stochastic`` including "class", sampled
 from the normalised probabilities); ``(d, a)`` by maximum likelihood, MMSE (eq 2.9) or sampling
 from the conditional; templates alternate; the offset follows from continuity; start from the
@@ -20,9 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ParameterError
-from ..models.gmm import GMMRegression
-from .tws_common import TwsBase, collect, segment_motion
+from ...models.gmm import GMMRegression
+from .base import TwsBase
+from .vectors import collect
 
 #: frequency splits between slow / medium / fast segments (Hz), thesis §5.5
 SPEED_SPLITS_HZ = (4.5, 6.5)
@@ -44,25 +44,32 @@ class TwsBasic(TwsBase):
     fps : float or None (the corpus frame rate)
     n_components : int, GMM components per speed class (fewer when a class has little data)
     method : "ml", "mmse" or "sample" — how (d, a) is taken from the conditional distribution
-    stochastic : "none", "class", "params" or "both" — what is sampled (§5.5 modifications)
-    gain : float, amplitude scale about the mean pose
+    stochastic : "none", "choice" (= "class", the speed class), "params" or "both" — what is
+        sampled (§5.5 modifications; the vocabulary of :mod:`headmotion.systems.base`)
     feature_block, feature_context : frames per feature block and audio context (streaming)
-    seed : default random seed
-    random_state : EM initialisation seed
+    seed : default synthesis seed (``predict(seed=None)``)
+    random_state : EM initialisation seed (training)
+    n_init : EM restarts
+    blocked : compute features block by block in ``predict`` too (equals the stream exactly)
     """
 
     name = "tws-basic"
 
     def __init__(self, features="f0e", *, fps: float | None = None, n_components: int = 4,
-                 method: str = "mmse", stochastic: str = "none", gain: float = 1.0,
+                 method: str = "mmse", stochastic: str = "none",
                  feature_block: int = 50, feature_context: int = 20, seed: int | None = 0,
-                 random_state: int = 0, n_init: int = 2):
-        if stochastic not in ("none", "class", "params", "both"):
-            raise ParameterError(f"stochastic must be 'none', 'class', 'params' or 'both'; got {stochastic!r}")
-        self._init_common(features, fps, method, stochastic, gain, feature_block, feature_context, seed)
+                 random_state: int = 0, n_init: int = 2, blocked: bool = False):
+        self.features = features
+        self.fps = fps
         self.n_components = n_components
+        self.method = method
+        self.stochastic = stochastic
+        self.feature_block = feature_block
+        self.feature_context = feature_context
+        self.seed = seed
         self.random_state = random_state
         self.n_init = n_init
+        self.blocked = blocked
 
     @staticmethod
     def _x(prev, others, frame):
@@ -96,12 +103,12 @@ class TwsBasic(TwsBase):
     def _choose(self, j, template, state, F, t, rng):
         x = self._x(state["prev"], state["others"], F[t])[None]
         cl, ll = self._class_scores(j, x)
-        if self.stochastic in ("class", "both"):
+        if self._stochastic in ("choice", "both"):
             p = np.exp(ll[0] - ll[0].max())
             c = cl[int(rng.choice(len(cl), p=p / p.sum()))]
         else:
             c = cl[int(np.argmax(ll[0]))]
-        method = "sample" if self.stochastic in ("params", "both") else self.method
+        method = "sample" if self._stochastic in ("params", "both") else self.method
         y = self.gmms_[(j, c)].predict(x, method=method, rng=rng)[0]
         return float(y[0]), float(y[1])
 
