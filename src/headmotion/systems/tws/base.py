@@ -71,6 +71,7 @@ class TwsBase(Synthesizer):
     def fit(self, corpus, *, progress=None):
         from ...features import Normalizer
 
+        self._validate_params()
         recs = list(corpus)
         if not recs:
             raise ParameterError("cannot train on an empty corpus")
