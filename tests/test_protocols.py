@@ -61,10 +61,11 @@ class EnergyFollower(Synthesizer):
             Y.append(r.motion.rotvec)
         self.coef_ = np.linalg.lstsq(np.vstack(X), np.vstack(Y), rcond=None)[0]
         self.fps_ = corpus[0].motion.fps
+        self.mean_pose_ = np.zeros(3)
         self.fitted_ = True
         return self
 
-    def predict(self, audio, *, seed=None):
+    def _predict(self, audio, *, seed=None):
         n = int(round(audio.duration * self.fps_))
         f = envelope(audio, fps=self.fps_, n_frames=n).values
         rng = np.random.default_rng(seed)
@@ -80,7 +81,7 @@ class EnergyFollower(Synthesizer):
 class Stillness(EnergyFollower):
     name = "still-test"
 
-    def predict(self, audio, *, seed=None):
+    def _predict(self, audio, *, seed=None):
         n = int(round(audio.duration * self.fps_)) + 1  # one frame too many: trimmed by the protocol
         return Motion(np.zeros((n, 3)), self.fps_)
 

@@ -1,5 +1,5 @@
-"""Compatibility names for code not yet moved to :mod:`headmotion.systems.tws` (``cli/templates_cmds``
-imports ``collect`` from here); remove once nothing imports this module."""
+"""Compatibility names for ``cli/templates_cmds`` (moved by another change): the template-warping
+code is in :mod:`headmotion.systems.tws`.  Remove with ``tws_basic`` once nothing imports them."""
 
 from .tws.vectors import collect
 
