@@ -16,7 +16,7 @@ torch = pytest.importorskip("torch")
 
 from headmotion.corpus import Corpus, Recording  # noqa: E402
 from headmotion.errors import ModelFileError, NotFittedError, ParameterError  # noqa: E402
-from headmotion.types import Audio, FeatureTrack, Motion  # noqa: E402
+from headmotion.types import Audio, Motion  # noqa: E402
 
 SR = 16000
 

@@ -331,7 +331,7 @@ class Warner(EnergyFollower):
 
         super().fit(corpus)
         self.fit_warnings_ = ["used fewer clusters"]
-        warnings.warn("used fewer clusters", UserWarning)
+        warnings.warn("used fewer clusters", UserWarning, stacklevel=2)
         return self
 
 

@@ -9,9 +9,8 @@ import pytest
 
 from headmotion.cli import main
 from headmotion.cli.synth_cmds import default_model_path
-from headmotion.io import load_motion, save_audio
+from headmotion.io import load_motion
 from headmotion.synthetic import planted_corpus
-from headmotion.types import Audio
 
 pytestmark = pytest.mark.slow
 

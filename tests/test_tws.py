@@ -13,7 +13,7 @@ from headmotion.evaluation.anchors import create_anchor
 from headmotion.rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
 from headmotion.systems.tws.basic import TwsBasic, speed_class
 from headmotion.systems.tws.hier import TwsHier
-from headmotion.types import Audio, Motion
+from headmotion.types import Audio
 
 pytestmark = pytest.mark.slow
 

@@ -69,7 +69,7 @@ class Anchor(ABC):
         self._after_fit()
         return self
 
-    def _after_fit(self) -> None:
+    def _after_fit(self) -> None:  # noqa: B027  (an optional hook, empty by default)
         """Hook for what an anchor learns beyond the reference motions."""
 
     def motion_for(self, recording, *, seed: int | None = None) -> Motion:
@@ -98,7 +98,7 @@ class GroundTruth(Anchor):
 
     name = "ground-truth"
 
-    def _rotvec_for(self, recording, seed):
+    def _rotvec_for(self, recording, seed):  # noqa: ARG002  (deterministic)
         return np.asarray(recording.motion.rotvec)
 
 
@@ -126,7 +126,7 @@ class Still(Anchor):
 
     name = "still"
 
-    def _rotvec_for(self, recording, seed):
+    def _rotvec_for(self, recording, seed):  # noqa: ARG002  (deterministic)
         return np.tile(self.mean_, (len(recording.motion), 1))
 
 

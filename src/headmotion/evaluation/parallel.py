@@ -72,7 +72,7 @@ def run_map(fn: Callable, items: Sequence, *, n_jobs: int = 1, scheduler=None,
     """
     items = list(items)
     total = len(items)
-    desc = describe or (lambda it: "")
+    desc = describe or (lambda _item: "")
     if scheduler is not None:
         with dask_client(scheduler) as client:
             from distributed import as_completed

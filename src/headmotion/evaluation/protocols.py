@@ -421,7 +421,7 @@ def _fig48_rows(gt: dict, windows_s=FIG48_WINDOWS_S) -> list[dict]:
     return rows
 
 
-def _longest_held_out(corpus: Corpus, folds) -> str:
+def _longest_held_out(folds) -> str:
     """The held-out recording with the longest motion (the first of equals).  Recordings of an
     on-disk corpus are not loaded for this (only their motion files are read), so the fold tasks
     still ship lazy manifest entries to the workers."""
@@ -499,7 +499,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     feature_sets = tuple(feature_sets)
     folds = make_folds(corpus, protocol, seed=seed)
     if trajectory_recording is None:  # the longest held-out recording shows the most
-        trajectory_recording = _longest_held_out(corpus, folds)
+        trajectory_recording = _longest_held_out(folds)
     tasks = [FoldTask(fold=name, train=tr, test=te, others=ot, systems=tuple(specs), features=features, seed=int(seed),
                       window_s=float(window_s), n_shifts=int(n_shifts),
                       trajectory_recording=trajectory_recording, fig48=fig48, strict=bool(strict))

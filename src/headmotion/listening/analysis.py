@@ -635,7 +635,7 @@ def _markdown(res: dict, figs: dict[str, str], source: str) -> str:
         md.append("## Scores per condition\n\n![box plot](score_boxplot.png)\n")
     if "window" in res and "window_difference" in figs:
         w = res["window"]
-        md.append(f"## Windowed score differences (Figs 4.5–4.6)\n")
+        md.append("## Windowed score differences (Figs 4.5–4.6)\n")
         md.append(f"Mean over participants of the difference between {w['reference']!r} and "
                   f"{w['compare']!r} in a {w['size']}-trial window, by presentation order "
                   "(training included), scores normalised by participant and speaker.\n")
@@ -665,7 +665,7 @@ def _markdown(res: dict, figs: dict[str, str], source: str) -> str:
         md.append(_table(["A", "B", "comparisons", "A preferred", "p", "p (Holm)"],
                          [[r["a"], r["b"], r["n"], f"{100 * r['a_preferred']:.0f}%", _p(r["p"]),
                            _p(r["p_holm"])] for r in ab["tests"]]))
-        md.append(f"Side balance (times each system of a pair was on the left): " + "; ".join(
+        md.append("Side balance (times each system of a pair was on the left): " + "; ".join(
             f"{k}: {v[0]}/{v[1]}" for k, v in ab["side_counts"].items()) +
             f". Left chosen in {100 * ab['left_fraction']:.0f}% of trials.\n")
         md.append("![A/B preferences](ab_preferences.png)\n")

@@ -209,7 +209,7 @@ class GMMRegression:
         self._ldz = np.empty(M)
         for m in range(M):
             S = self.covariances_[m]
-            Sxx, Sxy, Syx, Syy = S[:dx, :dx], S[:dx, dx:], S[dx:, :dx], S[dx:, dx:]
+            Sxx, Sxy, Syy = S[:dx, :dx], S[:dx, dx:], S[dx:, dx:]
             if dx:
                 A = np.linalg.solve(Sxx, Sxy).T
                 self._Px[m], self._ldx[m] = _prec_chol(Sxx)

@@ -113,16 +113,15 @@ def _diag_loglik(X: np.ndarray, means: np.ndarray, var: np.ndarray) -> np.ndarra
 def _baum_welch_batched(X, lengths, means, var, trans, start, *, n_iter: int, min_covar: float):
     """EM for a Gaussian HMM on many sequences at once (scaled forward–backward)."""
     N, L, D = len(lengths), int(lengths.max()), X.shape[1]
-    S = len(start)
     Xp = np.zeros((N, L, D))
     mask = np.arange(L)[None, :] < lengths[:, None]  # (N, L)
     Xp[mask] = X
     maskf = mask.astype(np.float64)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
-        return _bw_loop(Xp, mask, maskf, lengths, means, var, trans, start, n_iter, min_covar)
+        return _bw_loop(Xp, mask, maskf, means, var, trans, start, n_iter, min_covar)
 
 
-def _bw_loop(Xp, mask, maskf, lengths, means, var, trans, start, n_iter, min_covar):
+def _bw_loop(Xp, mask, maskf, means, var, trans, start, n_iter, min_covar):
     N, L, D = Xp.shape
     S = len(start)
     for _ in range(max(0, int(n_iter))):

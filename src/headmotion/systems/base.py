@@ -140,7 +140,7 @@ class Synthesizer(ABC):
             setattr(self, k, v)
         return self
 
-    def _validate_params(self) -> None:
+    def _validate_params(self) -> None:  # noqa: B027  (an optional hook: no parameters to check by default)
         """Raise ParameterError for a bad parameter (called by ``fit`` and ``predict``)."""
 
     @property
@@ -192,7 +192,7 @@ class Synthesizer(ABC):
         self._validate_params()
         return _GainedStream(self._stream(seed=seed), self.mean_pose_, gain, offset)
 
-    def _stream(self, *, seed: int | None) -> MotionStream:
+    def _stream(self, *, seed: int | None) -> MotionStream:  # noqa: ARG002  (the causal systems' hook)
         raise ParameterError(f"system {self.name!r} is not causal and cannot stream")
 
     @abstractmethod

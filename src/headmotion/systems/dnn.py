@@ -464,7 +464,7 @@ class _DnnSystem(Synthesizer):
             rv = self._predict_values(values)
         return Motion(rv, float(self.model_fps), meta={"system": self.name})
 
-    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
+    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:  # noqa: ARG002  (deterministic)
         """Head motion for ``audio`` at the model rate (deterministic: ``seed`` is not used); the
         number of frames is :func:`headmotion.align.n_frames` of the audio at that rate."""
         mfps = float(self.model_fps)

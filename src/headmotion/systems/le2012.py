@@ -217,7 +217,7 @@ class Le2012(Synthesizer):
             out[t] = theta
 
 
-    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
+    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:  # noqa: ARG002  (deterministic)
         """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``); deterministic."""
         from ..align import n_frames as _n
 

@@ -24,8 +24,8 @@ from .vectors import collect
 
 class TwsBase(Synthesizer):
     """Feature handling, training-data collection, generation, streaming and persistence shared
-    by :class:`~headmotion.systems.tws_basic.TwsBasic` and
-    :class:`~headmotion.systems.tws_hier.TwsHier`.  Subclasses implement ``_fit_axes(data)``,
+    by :class:`~headmotion.systems.tws.basic.TwsBasic` and
+    :class:`~headmotion.systems.tws.hier.TwsHier`.  Subclasses implement ``_fit_axes(data)``,
     ``_choose(...)``, ``_model_state()`` and ``_load_model_state(config, arrays)``."""
 
     capabilities = frozenset({CAUSAL})
@@ -129,7 +129,7 @@ class TwsBase(Synthesizer):
         seed = self.seed if seed is None else seed
         gen = Generator(self, rng=np.random.default_rng(seed), fps=self.fps_)
         gen.push_features(self._features_blocks(audio, T) if self.blocked else self._features_full(audio, T))
-        gen.run(final=True, total=T)
+        gen.run()
         return Motion(gen.render(0, T), self.fps_, meta={"system": self.name, "seed": seed})
 
     def _stream(self, *, seed: int | None) -> TwsStream:

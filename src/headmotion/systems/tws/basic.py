@@ -92,6 +92,8 @@ class TwsBasic(TwsBase):
             if not any((j, c) in self.gmms_ for c in range(3)):
                 g = GMMRegression(1).fit(X, a["y"])
                 self.gmms_[(j, 0)] = g
+            if progress:
+                progress(j + 1, 3, f"axis {j}: {sum(1 for c in range(3) if (j, c) in self.gmms_)} speed classes")
 
     def _classes(self, j):
         return [c for c in range(3) if (j, c) in self.gmms_]
@@ -100,7 +102,7 @@ class TwsBasic(TwsBase):
         cl = self._classes(j)
         return cl, np.stack([self.gmms_[(j, c)].log_likelihood_x(X) for c in cl], axis=1)
 
-    def _choose(self, j, template, state, F, t, rng):
+    def _choose(self, j, template, state, F, t, rng):  # noqa: ARG002  (the template does not pick the class)
         x = self._x(state["prev"], state["others"], F[t])[None]
         cl, ll = self._class_scores(j, x)
         if self._stochastic in ("choice", "both"):

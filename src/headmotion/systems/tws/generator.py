@@ -47,7 +47,7 @@ class Generator:
         if len(F_new):
             self.F = np.vstack([self.F, F_new]) if len(self.F) else np.asarray(F_new, dtype=np.float64)
 
-    def run(self, final: bool, total: int | None = None) -> int:
+    def run(self) -> int:
         """Process change points whose speech is available; return the number of final frames."""
         avail = len(self.F)
         while True:
@@ -128,13 +128,13 @@ class TwsStream:
         x = np.asarray(samples, dtype=np.float32).ravel()
         self.buf = np.concatenate([self.buf, x])
         self._extract_ready(final=False)
-        ready = self.gen.run(final=False)
+        ready = self.gen.run()
         return self._emit(min(ready, len(self.gen.F)))
 
     def flush(self) -> Motion:
         self._extract_ready(final=True)
         T = self._frames_in_buffer()
-        self.gen.run(final=True, total=T)
+        self.gen.run()
         return self._emit(T)
 
     def _emit(self, upto: int) -> Motion:
