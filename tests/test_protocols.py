@@ -208,7 +208,7 @@ def test_evaluate_cli_writes_report(corpus, tmp_path):
     assert main(["evaluate", str(tmp_path / "corpus"), "--systems", "nonsense", "-o", str(out)]) != 0
 
 
-# -- corpus-wide feature extraction and paper Table 1 (evaluation/parallel.py) ----------------------
+# -- corpus-wide feature extraction and paper Table 1 (evaluation/feature_table.py) ----------------------
 @pytest.fixture(scope="module")
 def dask_cluster():
     distributed = pytest.importorskip("distributed")
@@ -226,7 +226,7 @@ def _assert_same_features(a, b, ids, names):
 
 
 def test_extract_corpus_features_local_joblib_and_dask(corpus, dask_cluster):
-    from headmotion.evaluation.parallel import extract_corpus_features
+    from headmotion.evaluation.feature_table import extract_corpus_features
 
     fsets = ["fbank", envelope]
     local = extract_corpus_features(corpus, fsets)
@@ -244,7 +244,7 @@ def test_extract_corpus_features_local_joblib_and_dask(corpus, dask_cluster):
 
 def test_extract_corpus_features_from_disk_on_dask(corpus, dask_cluster, tmp_path):
     """An on-disk corpus travels to the workers as manifest entries and is read there."""
-    from headmotion.evaluation.parallel import extract_corpus_features
+    from headmotion.evaluation.feature_table import extract_corpus_features
 
     corpus.subset([0, 1, 3]).save(tmp_path / "c")
     disk = Corpus.load(tmp_path / "c", sample_rate=SR)
@@ -254,7 +254,7 @@ def test_extract_corpus_features_from_disk_on_dask(corpus, dask_cluster, tmp_pat
 
 
 def test_extract_corpus_features_errors(corpus):
-    from headmotion.evaluation.parallel import extract_corpus_features
+    from headmotion.evaluation.feature_table import extract_corpus_features
 
     def broken(audio, *, fps, n_frames):
         raise ValueError("no such thing")

@@ -1,4 +1,4 @@
-"""Core data types: arrays that carry their own rate (DESIGN.md "Core types"; thesis §2.2.3).
+"""Core data types: arrays that carry their own rate (docs/design.md "Core types"; thesis §2.2.3).
 
 All are frozen dataclasses, time first:
 

@@ -1,4 +1,4 @@
-"""Command-line interface: ``headmotion COMMAND ...`` (DESIGN.md "CLI")."""
+"""Command-line interface: ``headmotion COMMAND ...`` (docs/design.md "CLI")."""
 
 from __future__ import annotations
 

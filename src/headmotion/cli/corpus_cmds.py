@@ -1,4 +1,4 @@
-"""``headmotion corpus check`` and ``headmotion corpus import`` (DESIGN.md "Corpus on disk")."""
+"""``headmotion corpus check`` and ``headmotion corpus import`` (docs/design.md "Corpus on disk")."""
 
 from __future__ import annotations
 

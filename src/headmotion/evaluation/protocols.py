@@ -36,7 +36,7 @@ has ``m_null_mean``, ``m_null_p95``, ``m_p``, ``m_excess`` (score − null mean)
 additionally gets ``paper_chance`` (local CCA with the randomised motion of another speaker, drawn
 with the seed, resampled to the recording's rate),
 ``featcca_local[<set>]`` for every feature set on *every* recording of the corpus, held out or
-not (paper Table 1, computed by :func:`.parallel.feature_table`; with ``_null_mean``,
+not (paper Table 1, computed by :func:`.feature_table.feature_table`; with ``_null_mean``,
 ``_excess``, ``_p`` suffixes for its chance level; ``config["splits"]`` / ``result.splits`` say
 which recordings are train / valid / test), and per speaker the local/global
 CCA against window size (thesis Fig 4.8) as ``winlocal[<s>s]`` / ``winglobal[<s>s]``
@@ -73,7 +73,9 @@ from ..errors import LengthMismatchError, ParameterError
 from ..types import FeatureTrack, Motion
 from . import chance as C
 from . import metrics as M
-from .parallel import _sub_seed, dask_client, extract_one, feature_set_name, feature_table, run_map
+from .feature_table import extract_one, feature_set_name, feature_table
+from .parallel import dask_client, run_map
+from .parallel import sub_seed as _sub_seed
 
 GROUND_TRUTH = "ground-truth"
 #: local CCA window (paper §4.3: 300 frames = 3 s at 100 fps)
@@ -266,95 +268,111 @@ def run_fold(task: FoldTask) -> dict:
 
     Returns ``{"rows", "trajectories", "gt" (recording → (motion, features, speaker)), "timings",
     "warnings"}``."""
-    rows: list[dict] = []
-    traj: dict[str, np.ndarray] = {}
-    timings: dict[str, float] = {}
-    warns: list[str] = []
+    out = {"rows": [], "trajectories": {}, "gt": {}, "timings": {}, "warnings": []}
     tests = list(task.test)
-    feats = {}
     t0 = time.perf_counter()
+    feats = {rec.id: _extract(task.features, rec.audio, float(rec.motion.fps), len(rec.motion)) for rec in tests}
+    out["timings"]["features"] = time.perf_counter() - t0
     for rec in tests:
-        feats[rec.id] = _extract(task.features, rec.audio, float(rec.motion.fps), len(rec.motion))
-    timings["features"] = time.perf_counter() - t0
-    gt_out = {}
-    for rec in tests:
-        rseed = _sub_seed(task.seed, rec.id, GROUND_TRUTH)
-        win = max(3, min(int(round(task.window_s * rec.motion.fps)), len(rec.motion)))
-        vals = score_recording(rec.motion, rec.motion.rotvec, feats[rec.id], window_s=task.window_s,
-                               n_shifts=task.n_shifts, seed=rseed)
-        if task.others is not None and len(task.others):
-            # paper §4.3.2: another subject's motion (one speaker, drawn with the seed), at this rate
-            other_spk = task.others.speakers[rseed % len(task.others.speakers)]
-            other = [o.motion if abs(o.motion.fps - rec.motion.fps) < 1e-9 else o.motion.resample(rec.motion.fps)
-                     for o in task.others.filter(speaker=other_spk)]
-            vals["paper_chance"] = C.paper_chance_score(rec.motion, other, window=win, seed=rseed)
-        rows += _rows(GROUND_TRUTH, rec.id, vals)
-        gt_out[rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats[rec.id])[0], dtype=np.float32),
-                          rec.speaker, float(rec.motion.fps))
-        if rec.id == task.trajectory_recording:
-            traj[GROUND_TRUTH] = np.asarray(rec.motion.rotvec)
+        _score_ground_truth(task, rec, feats[rec.id], out)
     for spec in task.systems:
         name, factory = _system_spec(spec)
-        if name == GROUND_TRUTH:
-            continue
-        model = _make_condition(name, factory, _sub_seed(task.seed, task.fold, name))
-        train = task.train
-        if _needs_other_speakers(model):
-            if task.others is None or not len(task.others):
-                warns.append(f"{name}: no other speaker in the corpus; skipped for fold {task.fold}")
-                continue
-            train = task.others
-        t0 = time.perf_counter()
+        if name != GROUND_TRUTH:
+            _run_condition(task, name, factory, tests, feats, out)
+    return out
+
+
+def _score_ground_truth(task: FoldTask, rec, feats, out: dict) -> None:
+    """The recorded motion's own scores (and the paper's other-speaker chance level)."""
+    rseed = _sub_seed(task.seed, rec.id, GROUND_TRUTH)
+    win = max(3, min(int(round(task.window_s * rec.motion.fps)), len(rec.motion)))
+    vals = score_recording(rec.motion, rec.motion.rotvec, feats, window_s=task.window_s,
+                           n_shifts=task.n_shifts, seed=rseed)
+    if task.others is not None and len(task.others):
+        # paper §4.3.2: another subject's motion (one speaker, drawn with the seed), at this rate
+        other_spk = task.others.speakers[rseed % len(task.others.speakers)]
+        other = [o.motion if abs(o.motion.fps - rec.motion.fps) < 1e-9 else o.motion.resample(rec.motion.fps)
+                 for o in task.others.filter(speaker=other_spk)]
+        vals["paper_chance"] = C.paper_chance_score(rec.motion, other, window=win, seed=rseed)
+    out["rows"] += _rows(GROUND_TRUTH, rec.id, vals)
+    out["gt"][rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats)[0], dtype=np.float32),
+                         rec.speaker, float(rec.motion.fps))
+    if rec.id == task.trajectory_recording:
+        out["trajectories"][GROUND_TRUTH] = np.asarray(rec.motion.rotvec)
+
+
+def _fit_condition(task: FoldTask, name: str, factory, out: dict):
+    """The fitted system or anchor for this fold, or None (skipped or failed, with a warning)."""
+    model = _make_condition(name, factory, _sub_seed(task.seed, task.fold, name))
+    train = task.train
+    if _needs_other_speakers(model):
+        if task.others is None or not len(task.others):
+            out["warnings"].append(f"{name}: no other speaker in the corpus; skipped for fold {task.fold}")
+            return None
+        train = task.others
+    t0 = time.perf_counter()
+    try:
+        # warnings of training (e.g. tws-hier using fewer clusters on a short fold) go into the
+        # report, once each, instead of the console
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model.fit(train)
+        msgs = list(getattr(model, "fit_warnings_", None) or [])
+        for w in caught:
+            m = str(w.message) if issubclass(w.category, UserWarning) else f"{w.category.__name__}: {w.message}"
+            if m not in msgs:
+                msgs.append(m)
+        out["warnings"] += [f"{name}, fold {task.fold}: {m.removeprefix(f'{name}: ')}" for m in msgs]
+    except Exception as exc:
+        if task.strict:
+            raise
+        out["warnings"].append(
+            f"{name} could not be trained for fold {task.fold} ({len(train)} recordings, "
+            f"{sum(len(r.motion) / r.motion.fps for r in train):.0f} s): {type(exc).__name__}: {exc}")
+        return None
+    out["timings"][f"fit:{name}"] = out["timings"].get(f"fit:{name}", 0.0) + time.perf_counter() - t0
+    return model
+
+
+def _embedding_scores(task: FoldTask, model, name: str, rec) -> dict[str, float]:
+    """Local CCA of a system's learned embedding with the recorded motion (paper Table 1)."""
+    emb = model.embed(rec.audio, fps=float(rec.motion.fps), n_frames=len(rec.motion))
+    e, _ = M.as_array(emb)
+    e = e[: len(rec.motion)]
+    r = C.local_cca_null(rec.motion.rotvec[: len(e)], e,
+                         window=max(3, min(int(round(task.window_s * rec.motion.fps)), len(e))),
+                         n_shifts=task.n_shifts, seed=_sub_seed(task.seed, rec.id, name, "embed"))
+    return {"embed_cca_local": r.score, "embed_cca_local_null_mean": r.null_mean,
+            "embed_cca_local_excess": r.excess, "embed_cca_local_p": r.p_value}
+
+
+def _run_condition(task: FoldTask, name: str, factory, tests, feats, out: dict) -> None:
+    """Fit one system or anchor, make and score its motion for every held-out recording."""
+    model = _fit_condition(task, name, factory, out)
+    if model is None:
+        return
+    t0 = time.perf_counter()
+    for rec in tests:
+        rseed = _sub_seed(task.seed, rec.id, name)
         try:
-            # warnings of training (e.g. tws-hier using fewer clusters on a short fold) go into the
-            # report, once each, instead of the console
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                model.fit(train)
-            msgs = list(getattr(model, "fit_warnings_", None) or [])
-            for w in caught:
-                m = str(w.message) if issubclass(w.category, UserWarning) else f"{w.category.__name__}: {w.message}"
-                if m not in msgs:
-                    msgs.append(m)
-            warns += [f"{name}, fold {task.fold}: {m.removeprefix(f'{name}: ')}" for m in msgs]
+            pred = _conform(_make_motion(model, rec, rseed), rec.motion, name, rec.id)
         except Exception as exc:
             if task.strict:
                 raise
-            warns.append(f"{name} could not be trained for fold {task.fold} ({len(train)} recordings, "
-                         f"{sum(len(r.motion) / r.motion.fps for r in train):.0f} s): {type(exc).__name__}: {exc}")
+            out["warnings"].append(f"{name} failed to synthesise {rec.id}: {type(exc).__name__}: {exc}")
             continue
-        timings[f"fit:{name}"] = timings.get(f"fit:{name}", 0.0) + time.perf_counter() - t0
-        t0 = time.perf_counter()
-        for rec in tests:
-            rseed = _sub_seed(task.seed, rec.id, name)
+        vals = score_recording(rec.motion, pred, feats[rec.id], window_s=task.window_s, n_shifts=task.n_shifts,
+                               seed=rseed)
+        if _has_embedding(model):
             try:
-                pred = _conform(_make_motion(model, rec, rseed), rec.motion, name, rec.id)
+                vals.update(_embedding_scores(task, model, name, rec))
             except Exception as exc:
-                if task.strict:
-                    raise
-                warns.append(f"{name} failed to synthesise {rec.id}: {type(exc).__name__}: {exc}")
-                continue
-            vals = score_recording(rec.motion, pred, feats[rec.id], window_s=task.window_s, n_shifts=task.n_shifts,
-                                   seed=rseed)
-            if _has_embedding(model):
-                try:
-                    emb = model.embed(rec.audio, fps=float(rec.motion.fps), n_frames=len(rec.motion))
-                    e, _ = M.as_array(emb)
-                    e = e[: len(rec.motion)]
-                    r = C.local_cca_null(rec.motion.rotvec[: len(e)], e,
-                                         window=max(3, min(int(round(task.window_s * rec.motion.fps)), len(e))),
-                                         n_shifts=task.n_shifts, seed=_sub_seed(task.seed, rec.id, name, "embed"))
-                    vals["embed_cca_local"] = r.score
-                    vals["embed_cca_local_null_mean"] = r.null_mean
-                    vals["embed_cca_local_excess"] = r.excess
-                    vals["embed_cca_local_p"] = r.p_value
-                except Exception as exc:
-                    warns.append(f"{name}.embed on {rec.id}: {type(exc).__name__}: {exc}")
-            rows += _rows(name, rec.id, vals)
-            if rec.id == task.trajectory_recording:
-                traj[name] = pred
-        timings[f"predict+score:{name}"] = timings.get(f"predict+score:{name}", 0.0) + time.perf_counter() - t0
-    return {"rows": rows, "trajectories": traj, "gt": gt_out, "timings": timings, "warnings": warns}
+                out["warnings"].append(f"{name}.embed on {rec.id}: {type(exc).__name__}: {exc}")
+        out["rows"] += _rows(name, rec.id, vals)
+        if rec.id == task.trajectory_recording:
+            out["trajectories"][name] = pred
+    key = f"predict+score:{name}"
+    out["timings"][key] = out["timings"].get(key, 0.0) + time.perf_counter() - t0
 
 
 # -- folds -------------------------------------------------------------------------------------

@@ -60,7 +60,7 @@ networks are small (mini-batches of 256–1000 frames × a few hundred units), s
 gains little on an idle machine and loses badly on a shared one — on this 2-core machine with other
 jobs running, fitting ``cccae`` on 5 minutes of speech took 59 s with one thread and 134 s with two.
 
-Libraries considered: PyTorch for the networks (DESIGN.md); scikit-learn's ``MLPRegressor`` has no
+Libraries considered: PyTorch for the networks (docs/design.md); scikit-learn's ``MLPRegressor`` has no
 custom loss or layer-wise pre-training.
 """
 
@@ -288,11 +288,6 @@ class _DnnSystem(Synthesizer):
         corpus : Corpus — one speaker's recordings (speaker-dependent models, paper §4.1)
         progress : callable ``progress(done, total, description)`` or None
         """
-        import torch
-
-        from ..features import Normalizer
-        from ..models import nets
-
         self._validate_params()
         t0 = time.perf_counter()
         if len(corpus) == 0:
@@ -314,94 +309,26 @@ class _DnnSystem(Synthesizer):
 
         if progress is not None:
             progress(0, n_stages, f"{self.name}: extracting {self.feature_name} features")
-        train = [self._prepare(r, config) for r in train_recs]
-        valid = [self._prepare(r, config) for r in valid_recs]
-        if not valid:  # documented fallback: the tail of every training recording
-            tr, va = [], []
-            for p in train:
-                cut = int(round(len(p.feats) * (1 - float(self.valid_fraction))))
-                tr.append(p.part(0, cut, ""))
-                va.append(p.part(cut, None, "#tail"))
-            train, valid = tr, va
-        dim = train[0].feats.shape[1]
-        n_speak = sum(int(p.speaking.sum()) for p in train)
-        if n_speak < max(2 * int(self.context) + 1, 50):
-            raise ParameterError(
-                f"only {n_speak} speaking frames in the training recordings of {self.name}; need at least "
-                f"{max(2 * int(self.context) + 1, 50)} (is the speaking annotation or the audio empty?)")
-        for p in valid:  # validation frames: speaking ones, or all when none speaks
-            if not p.speaking.any():
-                p.speaking = np.ones_like(p.speaking)
-        valid = [p for p in valid if len(p.feats)]
-        if not valid:
-            raise ParameterError(f"{self.name}: no validation frames (valid_fraction {self.valid_fraction})")
-
-        feat_norm = Normalizer().fit([p.feats[p.speaking] for p in train])
-        mot_norm = Normalizer().fit([p.motion[p.speaking] for p in train])
-        for p in train + valid:
-            p.x = np.asarray(feat_norm.transform(p.feats), dtype=np.float32)
-            p.y = np.asarray(mot_norm.transform(p.motion), dtype=np.float32)
-
+        train, valid = self._training_data(train_recs, valid_recs, config)
+        feat_norm, mot_norm = self._normalise(train, valid)
         history: dict[str, Any] = {}
         with _torch_context(int(self.random_state), self.n_threads):
-            ae = None
-            emb_norm = None
+            ae, emb_norm = None, None
             if self.uses_embedding:
-                ae = nets.StackedAutoencoder(dim, hidden=tuple(self.ae_hidden), code_dim=int(self.embedding_dim),
-                                             activation=str(self.ae_activation))
-                xt = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in train]))
-                yt = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in train]))
-                xv = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in valid]))
-                yv = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in valid]))
-                history["autoencoder"] = nets.train_autoencoder(
-                    ae, xt, yt, x_valid=xv, y_valid=yv, alpha=float(self.alpha_value),
-                    batch_size=int(self.cca_batch_size), lr=float(self.learning_rate),
-                    max_epochs=int(self.ae_max_epochs), patience=int(self.patience),
-                    pretrain_epochs=int(self.pretrain_epochs), reg=float(self.cca_reg),
-                    progress=report("autoencoder"))
+                ae, emb_norm, history["autoencoder"] = self._fit_embedding(train, valid, report("autoencoder"))
                 stage[0] += 1
-                with torch.no_grad():
-                    for p in train + valid:
-                        p.z = ae.encode(torch.from_numpy(p.x)).numpy()
-                emb_norm = Normalizer().fit([p.z[p.speaking] for p in train])
-                for p in train + valid:
-                    p.r = np.asarray(emb_norm.transform(p.z), dtype=np.float32)
             else:
                 for p in train + valid:
                     p.r = p.x
-            in_dim = train[0].r.shape[1]
-            reg = nets.ContextRegressor(in_dim, context=int(self.context), hidden=tuple(self.regressor_hidden),
-                                        dropout=float(self.dropout))
-            tr_seq = nets.PaddedSequences([p.r for p in train], int(self.context))
-            va_seq = nets.PaddedSequences([p.r for p in valid], int(self.context))
-            tr_starts = np.concatenate([tr_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(train)])
-            va_starts = np.concatenate([va_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(valid)])
-            history["regressor"] = nets.train_regressor(
-                reg, tr_seq, tr_starts, np.concatenate([p.y[p.speaking] for p in train]),
-                va_seq, va_starts, np.concatenate([p.y[p.speaking] for p in valid]),
-                batch_size=int(self.batch_size), lr=float(self.learning_rate), max_epochs=int(self.max_epochs),
-                patience=int(self.patience), progress=report("regressor"))
+            reg, history["regressor"] = self._fit_regressor(train, valid, report("regressor"))
             stage[0] += 1
             pf = None
             if self.postfilter:
-                seg = int(self.segment)
-                pf = nets.make_postfilter(segment=seg, dims=3, hidden=tuple(self.postfilter_hidden),
-                                          code_dim=int(self.postfilter_code))
-                tr_seg = nets.motion_segments([p.y for p in train], segment=seg, hop=max(1, seg // 10))
-                va_seg = nets.motion_segments([p.y for p in valid], segment=seg, hop=max(1, seg // 10))
-                if len(tr_seg) == 0:
-                    raise ParameterError(
-                        f"{self.name}: the training motion is shorter than one post-filter segment ({seg} frames)")
-                if len(va_seg) == 0:
-                    va_seg = tr_seg[:: max(1, len(tr_seg) // 200)]
-                history["postfilter"] = nets.train_postfilter(
-                    pf, tr_seg, va_seg, noise=float(self.postfilter_noise), batch_size=int(self.batch_size),
-                    lr=float(self.learning_rate), max_epochs=int(self.max_epochs), patience=int(self.patience),
-                    progress=report("post-filter"))
+                pf, history["postfilter"] = self._fit_postfilter(train, valid, report("post-filter"))
                 stage[0] += 1
 
         self.feature_config_ = config
-        self.input_dim_ = int(dim)
+        self.input_dim_ = int(train[0].feats.shape[1])
         self.feature_norm_ = feat_norm
         self.motion_norm_ = mot_norm
         self.embedding_norm_ = emb_norm
@@ -409,7 +336,7 @@ class _DnnSystem(Synthesizer):
         self.regressor_ = reg
         self.postfilter_ = pf
         fps_list = sorted({float(r.motion.fps) for r in train_recs})
-        self.output_fps_ = fps_list[0] if len(fps_list) == 1 else float(self.model_fps)
+        self.output_fps_ = fps_list[0] if len(fps_list) == 1 else float(self.model_fps)  # informational
         self.splits_ = {r.id: split[r.id] for r in corpus}
         self.fps_ = float(self.model_fps)
         self.sample_rate_ = int(train_recs[0].audio.sample_rate)
@@ -421,6 +348,106 @@ class _DnnSystem(Synthesizer):
         if progress is not None:
             progress(n_stages, n_stages, f"{self.name}: done in {self.fit_seconds_:.1f} s")
         return self
+
+    def _training_data(self, train_recs, valid_recs, config) -> tuple[list[_Prepared], list[_Prepared]]:
+        """Features and motion at the model rate; validation recordings, or (when there are none)
+        the tail of every training recording; checks there is enough speech."""
+        train = [self._prepare(r, config) for r in train_recs]
+        valid = [self._prepare(r, config) for r in valid_recs]
+        if not valid:  # documented fallback: the tail of every training recording
+            tr, va = [], []
+            for p in train:
+                cut = int(round(len(p.feats) * (1 - float(self.valid_fraction))))
+                tr.append(p.part(0, cut, ""))
+                va.append(p.part(cut, None, "#tail"))
+            train, valid = tr, va
+        n_speak = sum(int(p.speaking.sum()) for p in train)
+        if n_speak < max(2 * int(self.context) + 1, 50):
+            raise ParameterError(
+                f"only {n_speak} speaking frames in the training recordings of {self.name}; need at least "
+                f"{max(2 * int(self.context) + 1, 50)} (is the speaking annotation or the audio empty?)")
+        for p in valid:  # validation frames: speaking ones, or all when none speaks
+            if not p.speaking.any():
+                p.speaking = np.ones_like(p.speaking)
+        valid = [p for p in valid if len(p.feats)]
+        if not valid:
+            raise ParameterError(f"{self.name}: no validation frames (valid_fraction {self.valid_fraction})")
+        return train, valid
+
+    @staticmethod
+    def _normalise(train, valid):
+        """Feature and motion normalisers fitted on the speaking training frames; sets ``p.x``, ``p.y``."""
+        from ..features import Normalizer
+
+        feat_norm = Normalizer().fit([p.feats[p.speaking] for p in train])
+        mot_norm = Normalizer().fit([p.motion[p.speaking] for p in train])
+        for p in train + valid:
+            p.x = np.asarray(feat_norm.transform(p.feats), dtype=np.float32)
+            p.y = np.asarray(mot_norm.transform(p.motion), dtype=np.float32)
+        return feat_norm, mot_norm
+
+    def _fit_embedding(self, train, valid, progress):
+        """The CCCAE / AE (paper §3.1); sets ``p.r`` to the normalised embedding."""
+        import torch
+
+        from ..features import Normalizer
+        from ..models import nets
+
+        ae = nets.StackedAutoencoder(train[0].x.shape[1], hidden=tuple(self.ae_hidden),
+                                     code_dim=int(self.embedding_dim), activation=str(self.ae_activation))
+        xt = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in train]))
+        yt = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in train]))
+        xv = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in valid]))
+        yv = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in valid]))
+        hist = nets.train_autoencoder(
+            ae, xt, yt, x_valid=xv, y_valid=yv, alpha=float(self.alpha_value),
+            batch_size=int(self.cca_batch_size), lr=float(self.learning_rate),
+            max_epochs=int(self.ae_max_epochs), patience=int(self.patience),
+            pretrain_epochs=int(self.pretrain_epochs), reg=float(self.cca_reg), progress=progress)
+        with torch.no_grad():
+            for p in train + valid:
+                p.z = ae.encode(torch.from_numpy(p.x)).numpy()
+        emb_norm = Normalizer().fit([p.z[p.speaking] for p in train])
+        for p in train + valid:
+            p.r = np.asarray(emb_norm.transform(p.z), dtype=np.float32)
+        return ae, emb_norm, hist
+
+    def _fit_regressor(self, train, valid, progress):
+        """The ±context frame regressor (paper §3.2) from ``p.r`` to ``p.y`` on speaking frames."""
+        from ..models import nets
+
+        reg = nets.ContextRegressor(train[0].r.shape[1], context=int(self.context),
+                                    hidden=tuple(self.regressor_hidden), dropout=float(self.dropout))
+        tr_seq = nets.PaddedSequences([p.r for p in train], int(self.context))
+        va_seq = nets.PaddedSequences([p.r for p in valid], int(self.context))
+        tr_starts = np.concatenate([tr_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(train)])
+        va_starts = np.concatenate([va_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(valid)])
+        hist = nets.train_regressor(
+            reg, tr_seq, tr_starts, np.concatenate([p.y[p.speaking] for p in train]),
+            va_seq, va_starts, np.concatenate([p.y[p.speaking] for p in valid]),
+            batch_size=int(self.batch_size), lr=float(self.learning_rate), max_epochs=int(self.max_epochs),
+            patience=int(self.patience), progress=progress)
+        return reg, hist
+
+    def _fit_postfilter(self, train, valid, progress):
+        """The denoising motion autoencoder on ``segment``-frame windows (paper §3.3)."""
+        from ..models import nets
+
+        seg = int(self.segment)
+        pf = nets.make_postfilter(segment=seg, dims=3, hidden=tuple(self.postfilter_hidden),
+                                  code_dim=int(self.postfilter_code))
+        tr_seg = nets.motion_segments([p.y for p in train], segment=seg, hop=max(1, seg // 10))
+        va_seg = nets.motion_segments([p.y for p in valid], segment=seg, hop=max(1, seg // 10))
+        if len(tr_seg) == 0:
+            raise ParameterError(
+                f"{self.name}: the training motion is shorter than one post-filter segment ({seg} frames)")
+        if len(va_seg) == 0:
+            va_seg = tr_seg[:: max(1, len(tr_seg) // 200)]
+        hist = nets.train_postfilter(
+            pf, tr_seg, va_seg, noise=float(self.postfilter_noise), batch_size=int(self.batch_size),
+            lr=float(self.learning_rate), max_epochs=int(self.max_epochs), patience=int(self.patience),
+            progress=progress)
+        return pf, hist
 
     # -- inference ----------------------------------------------------------------------------------
     def _check_features(self, values: np.ndarray, what: str) -> None:

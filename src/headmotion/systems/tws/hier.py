@@ -42,6 +42,7 @@ Gaussians alone).
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -55,6 +56,55 @@ AXIS_NAMES = ("rx", "ry", "rz")
 TEMPLATE_NAMES = ("rising", "falling")
 #: fewest change points per axis and template that can train (a Gaussian needs two vectors)
 MIN_CHANGE_POINTS = 2
+
+
+@dataclass
+class Clusters:
+    """k-means result for one axis and template: labels per change point, centres in the
+    standardised clustering space, the standardisation, cluster sizes (clusters indexed by
+    increasing size)."""
+
+    labels: np.ndarray
+    centres: np.ndarray
+    zmu: np.ndarray
+    zsd: np.ndarray
+    counts: np.ndarray
+
+    @property
+    def k(self) -> int:
+        return len(self.centres)
+
+
+@dataclass
+class TemplateModel:
+    """The per-cluster models of one axis and template: regression Gaussians (§5.7.3) and
+    recognition HMMs (§5.7.4), with the clustering space to assign true clusters."""
+
+    regs: list
+    hmms: list
+    centres: np.ndarray
+    zmu: np.ndarray
+    zsd: np.ndarray
+    bank: HMMBank = field(init=False)
+    n_features: int = 0
+
+    def __post_init__(self):
+        self.bank = HMMBank(self.hmms, self.n_features)
+
+    @property
+    def k(self) -> int:
+        return len(self.regs)
+
+
+@dataclass
+class AxisLM:
+    """The ergodic language model of one axis over symbols ``template * K + cluster``."""
+
+    lm: ErgodicLM
+    K: int
+
+    def symbol(self, template: int, cluster: int) -> int:
+        return template * self.K + cluster
 
 
 class TwsHier(TwsBase):
@@ -116,117 +166,138 @@ class TwsHier(TwsBase):
 
     # -- training ---------------------------------------------------------------------------
     def _fit_axes(self, data, progress=None):
-        from sklearn.cluster import KMeans
-
-        D = self.n_features_
-        self.models_ = {}
+        """Per axis and template: cluster, then regression + HMM per cluster; per axis the
+        language model over the cluster symbols."""
+        self.templates_ = [[None, None] for _ in range(3)]
+        self.lms_ = []
         self.fit_info_ = {"k": {}, "bic": {}, "counts": {}}
         self.fit_warnings_ = []
         reduced = []  # (axis/template, change points, clusters used, clusters wanted, per-cluster minimum)
-        # scale of the "other axes" part of HMM observations (unit variance like the features)
+        self._fit_observation_scale(data)
+        step = 0
+        for j in range(3):
+            a = data[j].arrays()
+            labels = np.zeros(len(a["y"]), dtype=np.int64)
+            for tau in (0, 1):
+                idx = np.nonzero(a["template"] == tau)[0]
+                clusters, k_wanted, min_size = self._cluster(a, idx, j, tau)
+                if clusters.k < k_wanted:
+                    reduced.append((f"{AXIS_NAMES[j]}{'+-'[tau]}", len(idx), clusters.k, k_wanted, min_size))
+                self.templates_[j][tau] = self._fit_template(a, data[j].seg_frames, idx, clusters, j, tau)
+                labels[idx] = clusters.labels
+                self.fit_info_["k"][f"{j}_{tau}"] = clusters.k
+                self.fit_info_["counts"][f"{j}_{tau}"] = clusters.counts.tolist()
+                step += 1
+                if progress:
+                    progress(step, 6, f"axis {j} template {tau}: {clusters.k} clusters")
+            self.lms_.append(self._fit_language_model(a["template"], labels, a["rec"], j))
+        if reduced:
+            self._warn_reduced(reduced)
+
+    def _fit_observation_scale(self, data) -> None:
+        """Scale of the "other axes" part of HMM observations (unit variance like the features)."""
         allo = np.vstack([np.hstack([np.asarray(d.prev).reshape(-1, 3), np.asarray(d.others).reshape(-1, 4)])
                           for d in data])
         self.oth_mu_ = allo.mean(axis=0)
         self.oth_sd_ = np.maximum(allo.std(axis=0), 1e-6)
-        step = 0
-        for j in range(3):
-            a = data[j].arrays()
-            frames = data[j].seg_frames
-            symbols = np.zeros(len(a["y"]), dtype=np.int64)
-            K_max = 0
-            for tau in (0, 1):
-                idx = np.nonzero(a["template"] == tau)[0]
-                Z = self._xclu(a["y"][idx], a["prev"][idx], a["others"][idx], a["ctx"][idx])
-                zmu, zsd = Z.mean(axis=0) if len(Z) else 0, np.maximum(Z.std(axis=0), 1e-9) if len(Z) else 1
-                Zs = (Z - zmu) / zsd
-                xr = self._xreg(a["prev"][idx], a["others"][idx], a["frame"][idx], a["ctx"][idx], D)
-                min_per = xr.shape[1] + 4
-                # a cluster's regression Gaussian over [x; (d, a)] has a full-rank covariance only
-                # with more vectors than dimensions
-                min_size = xr.shape[1] + 2 + 1
-                where = f"axis {AXIS_NAMES[j]}, {TEMPLATE_NAMES[tau]} template"
-                if len(idx) < MIN_CHANGE_POINTS:
-                    raise ParameterError(
-                        f"too little motion to train {self.name}: {where} has {len(idx)} change point(s) in "
-                        f"{getattr(self, 'train_seconds_', float('nan')):.1f} s of training motion; it needs at "
-                        f"least {MIN_CHANGE_POINTS} per axis and template ({min_size} per cluster for a full-rank "
-                        f"regression Gaussian) — give longer recordings or more of them")
-                if self.n_clusters is None and len(Zs) >= 2 * min_per:
-                    from ...models.gmeans import gmeans
 
-                    k, _, _ = gmeans(Zs, max_k=8, min_size=2 * min_per, random_state=self.random_state)
-                else:
-                    k = self.n_clusters or 1
-                k_wanted = int(k)
-                k = int(max(1, min(k, len(idx) // min_per)))
-                while True:
-                    if k > 1:
-                        km = KMeans(k, n_init=self.n_init, random_state=self.random_state).fit(Zs)
-                        lab, cen = km.labels_, km.cluster_centers_
-                    else:
-                        lab, cen = np.zeros(len(idx), dtype=np.int64), Zs.mean(axis=0, keepdims=True)
-                    counts = np.bincount(lab, minlength=k)
-                    if k == 1 or counts.min() >= min_size:
-                        break
-                    k -= 1  # a cluster too small for its Gaussian: fewer clusters (documented reduction)
-                if k < k_wanted:
-                    reduced.append((f"{AXIS_NAMES[j]}{'+-'[tau]}", len(idx), k, k_wanted, min_size))
-                # index clusters by increasing size
-                order = np.argsort(counts, kind="stable")
-                remap = np.empty(k, dtype=np.int64)
-                remap[order] = np.arange(k)
-                lab = remap[lab]
-                cen = cen[order]
-                regs, hmms = [], []
-                for c in range(k):
-                    sel = idx[lab == c]
-                    xc = self._xreg(a["prev"][sel], a["others"][sel], a["frame"][sel], a["ctx"][sel], D)
-                    g = GMMRegression(1).fit(xc, a["y"][sel])
-                    regs.append(g)
-                    self.fit_info_["bic"][f"{j}_{tau}_{c}"] = g.bic(xc, a["y"][sel])
-                    const = (np.hstack([a["prev"][sel], a["others"][sel]]) - self.oth_mu_) / self.oth_sd_
-                    seqs = [np.hstack([frames[i], np.tile(const[n], (len(frames[i]), 1))])
-                            for n, i in enumerate(sel)]
-                    X = np.vstack(seqs)
-                    h = LeftToRightHMM(self.n_states, n_iter=self.hmm_iter,
-                                       random_state=self.random_state).fit(X, [len(q) for q in seqs])
-                    hmms.append(h)
-                symbols[idx] = tau * 100 + lab
-                K_max = max(K_max, k)
-                self.models_[(j, tau)] = dict(k=k, regs=regs, hmms=hmms, bank=HMMBank(hmms, D),
-                                              centres=cen, zmu=np.asarray(zmu, dtype=np.float64),
-                                              zsd=np.asarray(zsd, dtype=np.float64))
-                self.fit_info_["k"][f"{j}_{tau}"] = k
-                self.fit_info_["counts"][f"{j}_{tau}"] = counts[order].tolist()
-                step += 1
-                if progress:
-                    progress(step, 6, f"axis {j} template {tau}: {k} clusters")
-            # language model over symbols tau*K + cluster, one sequence per recording
-            K = K_max
-            sym = np.where(symbols >= 100, K + symbols - 100, symbols)
-            lengths = np.bincount(a["rec"]) if len(a["rec"]) else np.zeros(0, dtype=np.int64)
-            lengths = lengths[lengths > 0]
-            lm = ErgodicLM(self.n_states, 2 * K, random_state=self.random_state).fit(sym, lengths)
-            self.models_[("lm", j)] = dict(lm=lm, K=K)
-        if reduced:
-            n = [r[1] for r in reduced]
-            msg = (f"{self.name}: too little training data for {max(r[3] for r in reduced)} clusters "
-                   f"({getattr(self, 'train_seconds_', float('nan')):.1f} s of motion; {min(n)}–{max(n)} change "
-                   f"points per axis and template, each cluster needs >= {reduced[0][4]} for its regression "
-                   f"Gaussian): clusters used " + ", ".join(f"{r[0]} {r[2]}" for r in reduced))
-            if min(n) < reduced[0][4]:
-                msg += "; clusters with fewer vectors than dimensions are regularised (ridge): expect a crude model"
-            self.fit_warnings_.append(msg)
-            warnings.warn(msg, UserWarning, stacklevel=3)
+    def _cluster(self, a: dict, idx: np.ndarray, j: int, tau: int) -> tuple[Clusters, int, int]:
+        """k-means (§5.6.1) of one axis and template's change points; returns the clusters, the
+        number wanted and the smallest size a cluster's regression Gaussian needs."""
+        D = self.n_features_
+        Z = self._xclu(a["y"][idx], a["prev"][idx], a["others"][idx], a["ctx"][idx])
+        zmu, zsd = (Z.mean(axis=0), np.maximum(Z.std(axis=0), 1e-9)) if len(Z) else (0, 1)
+        Zs = (Z - zmu) / zsd
+        dim_x = self._xreg(a["prev"][idx[:1]], a["others"][idx[:1]], a["frame"][idx[:1]], a["ctx"][idx[:1]], D).shape[1]
+        min_per = dim_x + 4
+        # a cluster's regression Gaussian over [x; (d, a)] has a full-rank covariance only with
+        # more vectors than dimensions
+        min_size = dim_x + 2 + 1
+        if len(idx) < MIN_CHANGE_POINTS:
+            where = f"axis {AXIS_NAMES[j]}, {TEMPLATE_NAMES[tau]} template"
+            raise ParameterError(
+                f"too little motion to train {self.name}: {where} has {len(idx)} change point(s) in "
+                f"{getattr(self, 'train_seconds_', float('nan')):.1f} s of training motion; it needs at "
+                f"least {MIN_CHANGE_POINTS} per axis and template ({min_size} per cluster for a full-rank "
+                f"regression Gaussian) — give longer recordings or more of them")
+        k_wanted = self._wanted_clusters(Zs, min_per)
+        labels, centres = self._kmeans_with_minimum(Zs, max(1, min(k_wanted, len(idx) // min_per)), min_size)
+        counts = np.bincount(labels, minlength=len(centres))
+        order = np.argsort(counts, kind="stable")  # index clusters by increasing size
+        remap = np.empty(len(centres), dtype=np.int64)
+        remap[order] = np.arange(len(centres))
+        return (Clusters(labels=remap[labels], centres=centres[order], zmu=np.asarray(zmu, dtype=np.float64),
+                         zsd=np.asarray(zsd, dtype=np.float64), counts=counts[order]), k_wanted, min_size)
+
+    def _wanted_clusters(self, Zs: np.ndarray, min_per: int) -> int:
+        """``n_clusters``, or G-means' choice (Hamerly & Elkan 2003) when it is None."""
+        if self.n_clusters is None and len(Zs) >= 2 * min_per:
+            from ...models.gmeans import gmeans
+
+            k, _, _ = gmeans(Zs, max_k=8, min_size=2 * min_per, random_state=self.random_state)
+            return int(k)
+        return int(self.n_clusters or 1)
+
+    def _kmeans_with_minimum(self, Zs: np.ndarray, k: int, min_size: int) -> tuple[np.ndarray, np.ndarray]:
+        """k-means with ``n_init`` restarts; while a cluster is smaller than ``min_size``, again
+        with one cluster fewer (the documented reduction)."""
+        from sklearn.cluster import KMeans
+
+        while True:
+            if k > 1:
+                km = KMeans(k, n_init=self.n_init, random_state=self.random_state).fit(Zs)
+                labels, centres = km.labels_, km.cluster_centers_
+            else:
+                labels, centres = np.zeros(len(Zs), dtype=np.int64), Zs.mean(axis=0, keepdims=True)
+            if k == 1 or np.bincount(labels, minlength=k).min() >= min_size:
+                return labels, centres
+            k -= 1
+
+    def _fit_template(self, a: dict, seg_frames: list, idx: np.ndarray, clusters: Clusters, j: int,
+                      tau: int) -> TemplateModel:
+        """Per cluster the regression Gaussian (§5.7.3, its BIC in ``fit_info_``) and the
+        left-to-right HMM over the previous segment's frames (§5.7.4)."""
+        D = self.n_features_
+        regs, hmms = [], []
+        for c in range(clusters.k):
+            sel = idx[clusters.labels == c]
+            xc = self._xreg(a["prev"][sel], a["others"][sel], a["frame"][sel], a["ctx"][sel], D)
+            g = GMMRegression(1).fit(xc, a["y"][sel])
+            regs.append(g)
+            self.fit_info_["bic"][f"{j}_{tau}_{c}"] = g.bic(xc, a["y"][sel])
+            const = (np.hstack([a["prev"][sel], a["others"][sel]]) - self.oth_mu_) / self.oth_sd_
+            seqs = [np.hstack([seg_frames[i], np.tile(const[n], (len(seg_frames[i]), 1))]) for n, i in enumerate(sel)]
+            hmms.append(LeftToRightHMM(self.n_states, n_iter=self.hmm_iter, random_state=self.random_state)
+                        .fit(np.vstack(seqs), [len(q) for q in seqs]))
+        return TemplateModel(regs=regs, hmms=hmms, centres=clusters.centres, zmu=clusters.zmu, zsd=clusters.zsd,
+                             n_features=D)
+
+    def _fit_language_model(self, templates: np.ndarray, labels: np.ndarray, rec: np.ndarray, j: int) -> AxisLM:
+        """The axis's ergodic LM over symbols ``template * K + cluster``, one sequence per recording."""
+        K = max(self.templates_[j][tau].k for tau in (0, 1))
+        lengths = np.bincount(rec) if len(rec) else np.zeros(0, dtype=np.int64)
+        lengths = lengths[lengths > 0]
+        lm = ErgodicLM(self.n_states, 2 * K, random_state=self.random_state).fit(templates * K + labels, lengths)
+        return AxisLM(lm=lm, K=K)
+
+    def _warn_reduced(self, reduced: list) -> None:
+        n = [r[1] for r in reduced]
+        msg = (f"{self.name}: too little training data for {max(r[3] for r in reduced)} clusters "
+               f"({getattr(self, 'train_seconds_', float('nan')):.1f} s of motion; {min(n)}–{max(n)} change "
+               f"points per axis and template, each cluster needs >= {reduced[0][4]} for its regression "
+               f"Gaussian): clusters used " + ", ".join(f"{r[0]} {r[2]}" for r in reduced))
+        if min(n) < reduced[0][4]:
+            msg += "; clusters with fewer vectors than dimensions are regularised (ridge): expect a crude model"
+        self.fit_warnings_.append(msg)
+        warnings.warn(msg, UserWarning, stacklevel=4)
 
     # -- synthesis ----------------------------------------------------------------------------
     def _init_generation(self):
-        return {"alpha": [self.models_[("lm", j)]["lm"].initial_state() for j in range(3)],
+        return {"alpha": [self.lms_[j].lm.initial_state() for j in range(3)],
                 "first": [True, True, True]}
 
     def _hmm_scores(self, j, tau, Fseg, prev, others, frame_ll=None):
-        m = self.models_[(j, tau)]
-        bank: HMMBank = m["bank"]
+        bank = self.templates_[j][tau].bank
         o = (np.hstack([prev, others]) - self.oth_mu_) / self.oth_sd_
         return bank.segment_loglik(bank.frame_loglik(Fseg) if frame_ll is None else frame_ll, o)
 
@@ -237,20 +308,19 @@ class TwsHier(TwsBase):
         have = cache.get(key)
         n = 0 if have is None else len(have)
         if n < len(F):
-            new = self.models_[key]["bank"].frame_loglik(F[n:])
+            new = self.templates_[j][tau].bank.frame_loglik(F[n:])
             cache[key] = new if have is None else np.concatenate([have, new])
         return cache[key][lo:hi]
 
     def _lm_scores(self, j, tau, alpha, first):
-        lmm = self.models_[("lm", j)]
-        K = lmm["K"]
-        k = self.models_[(j, tau)]["k"]
-        lp = lmm["lm"].prior(alpha, first=first)
-        return lp[tau * K: tau * K + k], tau * K
+        lmm = self.lms_[j]
+        k = self.templates_[j][tau].k
+        lp = lmm.lm.prior(alpha, first=first)
+        return lp[lmm.symbol(tau, 0): lmm.symbol(tau, k)], lmm.symbol(tau, 0)
 
     def _choose(self, j, tau, state, F, t, rng):
         g = state["gen"]
-        m = self.models_[(j, tau)]
+        m = self.templates_[j][tau]
         lo = max(int(state["seg_start"]), t - MAX_HMM_FRAMES + 1)
         score = self._hmm_scores(j, tau, None, state["prev"], state["others"],
                                  frame_ll=self._frame_ll(g, j, tau, F, lo, t + 1))
@@ -261,13 +331,12 @@ class TwsHier(TwsBase):
             c = int(rng.choice(len(p), p=p / p.sum()))
         else:
             c = int(np.argmax(score))
-        lmm = self.models_[("lm", j)]
-        g["alpha"][j] = lmm["lm"].update(g["alpha"][j], off + c, first=g["first"][j])
+        g["alpha"][j] = self.lms_[j].lm.update(g["alpha"][j], off + c, first=g["first"][j])
         g["first"][j] = False
         lo_c = t - CONTEXT + 1
         cm = F[lo_c:t + 1].mean(axis=0) if lo_c >= 0 else context_frames(F, t).reshape(CONTEXT, -1).mean(axis=0)
         x = np.concatenate([state["prev"], state["others"], F[t], cm])
-        cond = m["regs"][c].condition(x[None])
+        cond = m.regs[c].condition(x[None])
         # one Gaussian: ML = MMSE = the conditional mean mu_y + A (x - mu_x) (eq 2.7)
         if self._stochastic in ("params", "both") or self.method == "sample":
             y = cond.sample(rng)[0]
@@ -288,49 +357,48 @@ class TwsHier(TwsBase):
             motions.append(np.asarray(mo.rotvec))
             feats.append(self._features_full(r.audio, len(mo)))
         data = collect(motions, feats, self.fps_, with_frames=True)
-        kmax = max(self.models_[(j, t)]["k"] for j in range(3) for t in (0, 1))
+        kmax = max(self.templates_[j][t].k for j in range(3) for t in (0, 1))
         conf = {"hmm": np.zeros((kmax, kmax), dtype=np.int64), "gmm": np.zeros((kmax, kmax), dtype=np.int64)}
         D = self.n_features_
         for j in range(3):
             a = data[j].arrays()
-            lmm = self.models_[("lm", j)]
+            lm = self.lms_[j].lm
             alpha, first, prev_rec = None, True, -1
             for i in range(len(a["y"])):
                 if a["rec"][i] != prev_rec:
-                    alpha, first, prev_rec = lmm["lm"].initial_state(), True, a["rec"][i]
+                    alpha, first, prev_rec = lm.initial_state(), True, a["rec"][i]
                 tau = int(a["template"][i])
-                m = self.models_[(j, tau)]
-                z = (self._xclu(a["y"][i:i + 1], a["prev"][i:i + 1], a["others"][i:i + 1], a["ctx"][i:i + 1]) - m["zmu"]) / m["zsd"]
-                true = int(np.argmin(((m["centres"] - z) ** 2).sum(axis=1)))
+                m = self.templates_[j][tau]
+                z = (self._xclu(a["y"][i:i + 1], a["prev"][i:i + 1], a["others"][i:i + 1], a["ctx"][i:i + 1]) - m.zmu) / m.zsd
+                true = int(np.argmin(((m.centres - z) ** 2).sum(axis=1)))
                 s = self._hmm_scores(j, tau, data[j].seg_frames[i], a["prev"][i], a["others"][i])
                 lms, off = self._lm_scores(j, tau, alpha, first)
                 pred_h = int(np.argmax(s + self.lm_weight * lms))
                 x = self._xreg(a["prev"][i:i + 1], a["others"][i:i + 1], a["frame"][i:i + 1], a["ctx"][i:i + 1], D)
-                pred_g = int(np.argmax([r.log_likelihood_x(x)[0] for r in m["regs"]]))
+                pred_g = int(np.argmax([r.log_likelihood_x(x)[0] for r in m.regs]))
                 conf["hmm"][true, pred_h] += 1
                 conf["gmm"][true, pred_g] += 1
-                alpha = lmm["lm"].update(alpha, off + true, first=first)
+                alpha = lm.update(alpha, off + true, first=first)
                 first = False
         return conf
 
-    # -- persistence --------------------------------------------------------------------------
+    # -- persistence (array names kept from the first file format) ----------------------------
     def _model_state(self):
         arrays = {"oth_mu": self.oth_mu_, "oth_sd": self.oth_sd_}
         ks = {}
         for j in range(3):
             for tau in (0, 1):
-                m = self.models_[(j, tau)]
+                m = self.templates_[j][tau]
                 p = f"m{j}{tau}_"
-                ks[f"{j}_{tau}"] = m["k"]
-                arrays[p + "centres"] = m["centres"]
-                arrays[p + "zmu"] = np.atleast_1d(m["zmu"])
-                arrays[p + "zsd"] = np.atleast_1d(m["zsd"])
-                for c in range(m["k"]):
-                    arrays.update(m["regs"][c].to_arrays(f"{p}reg{c}_"))
-                    arrays.update(m["hmms"][c].to_arrays(f"{p}hmm{c}_"))
-            lmm = self.models_[("lm", j)]
-            arrays.update(lmm["lm"].to_arrays(f"lm{j}_"))
-            ks[f"lm{j}"] = lmm["K"]
+                ks[f"{j}_{tau}"] = m.k
+                arrays[p + "centres"] = m.centres
+                arrays[p + "zmu"] = np.atleast_1d(m.zmu)
+                arrays[p + "zsd"] = np.atleast_1d(m.zsd)
+                for c in range(m.k):
+                    arrays.update(m.regs[c].to_arrays(f"{p}reg{c}_"))
+                    arrays.update(m.hmms[c].to_arrays(f"{p}hmm{c}_"))
+            arrays.update(self.lms_[j].lm.to_arrays(f"lm{j}_"))
+            ks[f"lm{j}"] = self.lms_[j].K
         info = {"k": self.fit_info_["k"], "counts": self.fit_info_["counts"],
                 "bic": {k: float(v) for k, v in self.fit_info_["bic"].items()}}
         return {"clusters": ks, "fit_info": info}, arrays
@@ -339,18 +407,19 @@ class TwsHier(TwsBase):
         self.oth_mu_ = np.asarray(arrays["oth_mu"], dtype=np.float64)
         self.oth_sd_ = np.asarray(arrays["oth_sd"], dtype=np.float64)
         ks = config["clusters"]
-        self.models_ = {}
+        self.templates_ = [[None, None] for _ in range(3)]
+        self.lms_ = []
         for j in range(3):
             for tau in (0, 1):
                 p = f"m{j}{tau}_"
                 k = int(ks[f"{j}_{tau}"])
-                regs = [GMMRegression.from_arrays(arrays, f"{p}reg{c}_") for c in range(k)]
-                hmms = [LeftToRightHMM.from_arrays(arrays, f"{p}hmm{c}_") for c in range(k)]
-                self.models_[(j, tau)] = dict(k=k, regs=regs, hmms=hmms, bank=HMMBank(hmms, self.n_features_),
-                                              centres=arrays[p + "centres"], zmu=arrays[p + "zmu"],
-                                              zsd=arrays[p + "zsd"])
-            self.models_[("lm", j)] = dict(lm=ErgodicLM.from_arrays(arrays, f"lm{j}_"), K=int(ks[f"lm{j}"]))
+                self.templates_[j][tau] = TemplateModel(
+                    regs=[GMMRegression.from_arrays(arrays, f"{p}reg{c}_") for c in range(k)],
+                    hmms=[LeftToRightHMM.from_arrays(arrays, f"{p}hmm{c}_") for c in range(k)],
+                    centres=arrays[p + "centres"], zmu=arrays[p + "zmu"], zsd=arrays[p + "zsd"],
+                    n_features=self.n_features_)
+            self.lms_.append(AxisLM(lm=ErgodicLM.from_arrays(arrays, f"lm{j}_"), K=int(ks[f"lm{j}"])))
         self.fit_info_ = config.get("fit_info", {})
 
 
-__all__ = ["TwsHier"]
+__all__ = ["TwsHier", "Clusters", "TemplateModel", "AxisLM"]
