@@ -352,5 +352,5 @@ def test_trajectory_default_is_the_longest_held_out_recording(tmp_path):
     mem.save(tmp_path / "c")
     disk = Corpus.load(tmp_path / "c", sample_rate=SR)
     folds = P.make_folds(disk, "loo")
-    assert P._longest_held_out(disk, folds) == "A2"
+    assert P._longest_held_out(folds) == "A2"
     assert not any(test._cache for _, _, test, _ in folds)  # the fold tasks stay lazy
