@@ -260,7 +260,8 @@ class _DnnSystem(Synthesizer):
         motion = _fit_length(np.asarray(mot.rotvec, dtype=np.float64), T)
         if rec.speaking is not None:
             src = np.asarray(rec.speaking, dtype=bool)
-            idx = np.minimum(((np.arange(T) + 0.5) * rec.motion.fps / fps).astype(np.int64), len(src) - 1)
+            # the motion frame holding each model frame's time t / fps (the align convention)
+            idx = np.minimum(np.floor(np.arange(T) * rec.motion.fps / fps + 1e-9).astype(np.int64), len(src) - 1)
             speaking = src[idx] if len(src) else np.zeros(T, bool)
         else:
             from ..features.vad import speaking_mask
