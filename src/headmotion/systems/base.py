@@ -15,7 +15,9 @@ A system is an estimator in scikit-learn's manner:
   are accepted for it), ``"params"`` (the warping parameters) or ``"both"``.  Systems without it
   are deterministic; ``set_params(stochastic=...)`` on them raises ParameterError.
 * Fitted attributes end in ``_``; :meth:`predict` and :meth:`stream` raise NotFittedError before
-  :meth:`fit` or :meth:`load`.
+  :meth:`fit` or :meth:`load`.  Every fitted system has ``mean_pose_`` (pitch, yaw, roll of the
+  training motion, radians) and may list training warnings in ``fit_warnings_`` (the evaluation
+  copies them into its report).
 
 Synthesis::
 
