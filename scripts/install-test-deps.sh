@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python -m pip install -q torch==2.13.0
-python -m pip install -q -e ".[test,video]"
+python -m pip install -q -e ".[test,video]"  # the test extra includes ruff (lint in .ci/run)
 if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
   need=()
   for pkg in chromium libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri blender postgresql; do

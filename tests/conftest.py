@@ -44,3 +44,20 @@ def torch_one_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(prev)
+
+
+@pytest.fixture(scope="session")
+def planted():
+    """``planted(**kwargs)``: :func:`headmotion.synthetic.planted_corpus`, built once per session
+    for each set of arguments (corpora are read-only, so tests share them)."""
+    from headmotion.synthetic import planted_corpus
+
+    cache: dict = {}
+
+    def make(**kwargs):
+        key = tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in kwargs.items()))
+        if key not in cache:
+            cache[key] = planted_corpus(**kwargs)
+        return cache[key]
+
+    return make

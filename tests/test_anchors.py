@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from headmotion.corpus import Corpus
-from headmotion.errors import ParameterError
+from headmotion.errors import NotFittedError, ParameterError
 from headmotion.synthetic import planted_corpus
+from headmotion.evaluation.anchors import ANCHORS, create_anchor, shaped_noise
 from headmotion.systems import create
-from headmotion.systems.anchors import shaped_noise
 
 
 @pytest.fixture(scope="module")
@@ -17,35 +17,33 @@ def corpus():
 
 def test_ground_truth_desync_other_still(corpus):
     rec = corpus[0]
-    gt = create("ground-truth").fit(corpus).predict_for(rec, corpus)
+    gt = create_anchor("ground-truth").fit(corpus).motion_for(rec)
     np.testing.assert_array_equal(gt.rotvec, rec.motion.rotvec)
-    de = create("desync").fit(corpus).predict_for(rec, corpus, seed=0)
+    de = create_anchor("desync").fit(corpus).motion_for(rec, seed=0)
     assert len(de) == len(rec.motion) and not np.allclose(de.rotvec, rec.motion.rotvec)
     same = [r for r in corpus if r.speaker == rec.speaker and r.id != rec.id]
     assert any(np.allclose(de.rotvec[:100], r.motion.rotvec[:100]) for r in same)
-    ot = create("other-speaker").fit(corpus).predict_for(rec, corpus, seed=0)
+    ot = create_anchor("other-speaker").fit(corpus).motion_for(rec, seed=0)
     others = [r for r in corpus if r.speaker != rec.speaker]
     assert any(np.allclose(ot.rotvec[:100], r.motion.rotvec[:100]) for r in others)
-    st = create("still").fit(corpus)
-    s = st.predict_for(rec, corpus)
+    st = create_anchor("still").fit(corpus)
+    s = st.motion_for(rec)
     assert np.ptp(s.rotvec, axis=0).max() == 0
-    assert len(st.predict(rec.audio)) == len(rec.motion)
-    with pytest.raises(ParameterError, match="predict_for"):
-        create("desync").fit(corpus).predict(rec.audio)
+    np.testing.assert_allclose(s.rotvec[0], np.vstack([r.motion.rotvec for r in corpus]).mean(axis=0))
 
 
 def test_shaped_noise_spectrum_and_smoothness(corpus):
-    sn = create("shaped-noise").fit(corpus)
+    sn = create_anchor("shaped-noise").fit(corpus)
     rec = corpus[0]
-    m = sn.predict_for(rec, corpus, seed=1)
+    m = sn.motion_for(rec, seed=1)
     ref = np.vstack([r.motion.rotvec for r in corpus])
     np.testing.assert_allclose(m.rotvec.std(axis=0), ref.std(axis=0), rtol=1e-6)
     # low-pass like head motion: most power below 3 Hz
     P = np.abs(np.fft.rfft(m.rotvec - m.rotvec.mean(0), axis=0)) ** 2
     f = np.fft.rfftfreq(len(m), 1 / m.fps)
     assert P[f < 3].sum() / P.sum() > 0.8
-    assert not np.allclose(m.rotvec, sn.predict_for(rec, corpus, seed=2).rotvec)
-    np.testing.assert_array_equal(m.rotvec, sn.predict_for(rec, corpus, seed=1).rotvec)
+    assert not np.allclose(m.rotvec, sn.motion_for(rec, seed=2).rotvec)
+    np.testing.assert_array_equal(m.rotvec, sn.motion_for(rec, seed=1).rotvec)
     x = shaped_noise(0, np.ones((5, 3)), rng=np.random.default_rng(0), fps=100, sd=np.ones(3), mean=np.zeros(3))
     assert x.shape == (0, 3)
 
@@ -53,6 +51,17 @@ def test_shaped_noise_spectrum_and_smoothness(corpus):
 def test_anchor_errors(corpus):
     one_speaker = corpus.filter(speaker="a")
     with pytest.raises(ParameterError, match="another speaker"):
-        create("other-speaker").fit(one_speaker).predict_for(one_speaker[0], one_speaker)
+        create_anchor("other-speaker").fit(one_speaker).motion_for(one_speaker[0])
     with pytest.raises(ParameterError, match="at least one"):
-        create("still").fit(Corpus([]))
+        create_anchor("still").fit(Corpus([]))
+
+
+def test_anchors_are_evaluation_conditions_not_systems(corpus):
+    assert sorted(ANCHORS) == ["desync", "ground-truth", "other-speaker", "shaped-noise", "still"]
+    assert [n for n, c in ANCHORS.items() if c.needs_other_speakers] == ["other-speaker"]
+    with pytest.raises(ParameterError, match="unknown system 'desync'"):
+        create("desync")
+    with pytest.raises(ParameterError, match="unknown anchor"):
+        create_anchor("tws-hier")
+    with pytest.raises(NotFittedError):
+        create_anchor("still").motion_for(corpus[0])

@@ -77,7 +77,7 @@ def test_seeded_and_reproducible(streams):
     assert a == b
     assert a.null_mean != c.null_mean
     with pytest.raises(ParameterError, match="n_shifts"):
-        C.shift_null(lambda s: 0.0, x, n_shifts=0)
+        C.shift_null(lambda _s: 0.0, x, n_shifts=0)
 
 
 def test_paper_chance_score():

@@ -8,6 +8,7 @@ import pytest
 from headmotion.corpus import Corpus, Recording
 from headmotion.errors import ParameterError
 from headmotion.evaluation import corpus_stats as CS
+from headmotion.evaluation import stats_report as report
 from headmotion.types import Audio, Motion
 
 SR = 16000
@@ -134,7 +135,7 @@ def test_corpus_stats_end_to_end(tmp_path):
     # speakers were made to differ in amplitude: within-speaker distances are smaller
     assert rows["Within speaker"]["mean"] < rows["Between speakers"]["mean"]
     assert [r["syllables"] for r in st.recordings[:4]] == [8, 9, 10, 11]
-    out = CS.write_stats(st, tmp_path / "stats")
+    out = report.write_stats(st, tmp_path / "stats")
     md = out["report"].read_text()
     for heading in ("Table 3.2", "Table 3.3", "Table 3.4", "Table 3.5", "Table 3.6"):
         assert heading in md
@@ -166,7 +167,7 @@ def test_corpus_stats_feature_table(tmp_path):
         assert 0.0 < vals["featcca_local[f0e]"] <= 1.0 and 0.0 < vals["featcca_local[f0e]_null_mean"] <= 1.0
         assert vals["featcca_local[f0e]_excess"] == pytest.approx(
             vals["featcca_local[f0e]"] - vals["featcca_local[f0e]_null_mean"])
-    md = CS.write_stats(st, tmp_path / "stats", figures=False)["report"].read_text()
+    md = report.write_stats(st, tmp_path / "stats", figures=False)["report"].read_text()
     section = md[md.index("paper Table 1 layout"):]
     cca_table, excess_table = [b.strip() for b in section.split("\n\n") if b.strip().startswith("| Feature |")][:2]
     assert "| chance |" in cca_table and "| p<.05 |" in excess_table
@@ -175,4 +176,4 @@ def test_corpus_stats_feature_table(tmp_path):
         assert [r.split("|")[1].strip() for r in rows] == ["F0+Energy", "Pitch+Loudness"]
     assert "held-out" not in section.split("##")[1]
     none = CS.corpus_stats(corpus, speaking_rate=False, feature_sets=[])
-    assert "paper Table 1" not in CS.render_stats(none)
+    assert "paper Table 1" not in report.render_stats(none)

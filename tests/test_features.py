@@ -291,14 +291,14 @@ def test_registry_and_config_roundtrip(tmp_path):
 
 def test_register_file_npz_and_csv(tmp_path):
     a = tone(150.0, dur=2.0)
-    t = (np.arange(400) + 0.5) / 200.0  # frame centres, as every track in headmotion
+    t = np.arange(400) / 200.0  # frame t at time t / fps, as every track in headmotion (align.py)
     ema = np.stack([np.sin(2 * np.pi * t), t], 1)  # 200 fps, 2 s
     np.savez(tmp_path / "ema.npz", values=ema, fps=200.0, names=np.array(["tongue", "lip"]))
     F.register_file("ema", tmp_path / "ema.npz")
     try:
         tr = F.extract("ema", a, fps=100)
         assert tr.names == ("tongue", "lip") and tr.n_frames == 200 and tr.fps == 100
-        tc = (np.arange(200) + 0.5) / 100
+        tc = np.arange(200) / 100
         np.testing.assert_allclose(tr.values[1:-1, 1], tc[1:-1], atol=1e-5)
         # a csv with a time column for another recording
         with open(tmp_path / "other.csv", "w") as fh:
@@ -307,7 +307,7 @@ def test_register_file_npz_and_csv(tmp_path):
                 fh.write(f"{ti:.4f},{3 * ti:.6f}\n")  # times at frame starts: interpolated
         other = F.extract("ema", a, fps=50, path=tmp_path / "other.csv")
         assert other.names == ("jaw",) and other.n_frames == 100
-        np.testing.assert_allclose(other.values[1:-1, 0], 3 * ((np.arange(100) + 0.5) / 50)[1:-1], atol=1e-4)
+        np.testing.assert_allclose(other.values[1:-1, 0], 3 * (np.arange(100) / 50)[1:-1], atol=1e-4)
         with pytest.raises(LengthMismatchError, match="feature file lasts 2.000 s"):
             F.extract("ema", tone(150.0, dur=3.0))
     finally:

@@ -61,10 +61,11 @@ class EnergyFollower(Synthesizer):
             Y.append(r.motion.rotvec)
         self.coef_ = np.linalg.lstsq(np.vstack(X), np.vstack(Y), rcond=None)[0]
         self.fps_ = corpus[0].motion.fps
+        self.mean_pose_ = np.zeros(3)
         self.fitted_ = True
         return self
 
-    def predict(self, audio, *, seed=None):
+    def _predict(self, audio, *, seed=None):
         n = int(round(audio.duration * self.fps_))
         f = envelope(audio, fps=self.fps_, n_frames=n).values
         rng = np.random.default_rng(seed)
@@ -80,7 +81,7 @@ class EnergyFollower(Synthesizer):
 class Stillness(EnergyFollower):
     name = "still-test"
 
-    def predict(self, audio, *, seed=None):
+    def _predict(self, audio, *, seed=None):
         n = int(round(audio.duration * self.fps_)) + 1  # one frame too many: trimmed by the protocol
         return Motion(np.zeros((n, 3)), self.fps_)
 
@@ -207,7 +208,7 @@ def test_evaluate_cli_writes_report(corpus, tmp_path):
     assert main(["evaluate", str(tmp_path / "corpus"), "--systems", "nonsense", "-o", str(out)]) != 0
 
 
-# -- corpus-wide feature extraction and paper Table 1 (evaluation/parallel.py) ----------------------
+# -- corpus-wide feature extraction and paper Table 1 (evaluation/feature_table.py) ----------------------
 @pytest.fixture(scope="module")
 def dask_cluster():
     distributed = pytest.importorskip("distributed")
@@ -225,7 +226,7 @@ def _assert_same_features(a, b, ids, names):
 
 
 def test_extract_corpus_features_local_joblib_and_dask(corpus, dask_cluster):
-    from headmotion.evaluation.parallel import extract_corpus_features
+    from headmotion.evaluation.feature_table import extract_corpus_features
 
     fsets = ["fbank", envelope]
     local = extract_corpus_features(corpus, fsets)
@@ -243,7 +244,7 @@ def test_extract_corpus_features_local_joblib_and_dask(corpus, dask_cluster):
 
 def test_extract_corpus_features_from_disk_on_dask(corpus, dask_cluster, tmp_path):
     """An on-disk corpus travels to the workers as manifest entries and is read there."""
-    from headmotion.evaluation.parallel import extract_corpus_features
+    from headmotion.evaluation.feature_table import extract_corpus_features
 
     corpus.subset([0, 1, 3]).save(tmp_path / "c")
     disk = Corpus.load(tmp_path / "c", sample_rate=SR)
@@ -253,7 +254,7 @@ def test_extract_corpus_features_from_disk_on_dask(corpus, dask_cluster, tmp_pat
 
 
 def test_extract_corpus_features_errors(corpus):
-    from headmotion.evaluation.parallel import extract_corpus_features
+    from headmotion.evaluation.feature_table import extract_corpus_features
 
     def broken(audio, *, fps, n_frames):
         raise ValueError("no such thing")
@@ -330,7 +331,7 @@ class Warner(EnergyFollower):
 
         super().fit(corpus)
         self.fit_warnings_ = ["used fewer clusters"]
-        warnings.warn("used fewer clusters", UserWarning)
+        warnings.warn("used fewer clusters", UserWarning, stacklevel=2)
         return self
 
 
@@ -351,5 +352,5 @@ def test_trajectory_default_is_the_longest_held_out_recording(tmp_path):
     mem.save(tmp_path / "c")
     disk = Corpus.load(tmp_path / "c", sample_rate=SR)
     folds = P.make_folds(disk, "loo")
-    assert P._longest_held_out(disk, folds) == "A2"
+    assert P._longest_held_out(folds) == "A2"
     assert not any(test._cache for _, _, test, _ in folds)  # the fold tasks stay lazy

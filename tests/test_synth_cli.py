@@ -9,9 +9,8 @@ import pytest
 
 from headmotion.cli import main
 from headmotion.cli.synth_cmds import default_model_path
-from headmotion.io import load_motion, save_audio
+from headmotion.io import load_motion
 from headmotion.synthetic import planted_corpus
-from headmotion.types import Audio
 
 pytestmark = pytest.mark.slow
 
@@ -90,3 +89,49 @@ def test_templates_encode_error_and_analyse(corpus_dir, tmp_path):
               "discovery.json"):
         assert (out / f).stat().st_size > 0
     assert main(["templates", "analyse", str(corpus_dir), "-o", str(out), "--states", "7"]) != 0
+
+
+def test_stream_cli_resamples_other_input_rates(tmp_path):
+    """Input at 8 kHz goes through one soxr.ResampleStream: the same number of frames as the
+    same speech at the model's 16 kHz, and motion of the same character."""
+    out = {}
+    for sr in (16000, 8000):
+        t = np.arange(2 * sr) / sr
+        x = (0.3 * np.sin(2 * np.pi * 140 * t) * (np.sin(2 * np.pi * 2 * t) > 0)).astype(np.float32)
+        args = [sys.executable, "-m", "headmotion", "stream", "--sample-rate", str(sr), "--chunk-ms", "7"]
+        r = subprocess.run(args, input=(x * 32767).astype("<i2").tobytes(), capture_output=True, timeout=300)
+        assert r.returncode == 0, r.stderr.decode()
+        out[sr] = np.array([json.loads(s)["rotvec"] for s in r.stdout.decode().splitlines()])
+    assert len(out[8000]) == len(out[16000]) == 200
+    np.testing.assert_allclose(out[8000].std(axis=0), out[16000].std(axis=0), rtol=0.5)
+
+
+def test_synth_contract_options(speech, tmp_path, capsys):
+    """--stochastic goes through set_params (one vocabulary; refused by a system without it),
+    --offset shifts the mean pose in degrees, the train summary is one line."""
+    from headmotion.rotations import rotvec_to_pitch_yaw_roll
+
+    base, off = tmp_path / "base.npz", tmp_path / "off.npz"
+    assert main(["synth", str(speech), "-o", str(base)]) == 0
+    assert main(["synth", str(speech), "-o", str(off), "--offset", "2,0,-1"]) == 0
+    d = rotvec_to_pitch_yaw_roll(load_motion(off).rotvec).mean(0) - rotvec_to_pitch_yaw_roll(load_motion(base).rotvec).mean(0)
+    np.testing.assert_allclose(np.degrees(d), [2.0, 0.0, -1.0], atol=1e-6)
+    assert main(["synth", str(speech), "-o", str(tmp_path / "c.npz"), "--stochastic", "cluster", "--seed", "4"]) == 0
+    assert main(["synth", str(speech), "-o", str(tmp_path / "x.npz"), "--stochastic", "always"]) == 2
+    assert "'stochastic' parameter of tws-hier must be one of" in capsys.readouterr().err
+    assert main(["synth", str(speech), "-o", str(tmp_path / "x.npz"), "--gain", "1,2"]) != 0
+
+
+def test_load_model_reads_the_file_once(monkeypatch):
+    import headmotion.systems.base as B
+
+    calls = []
+    real = B.load_model_file
+
+    def counting(*a, **kw):
+        calls.append(a)
+        return real(*a, **kw)
+
+    monkeypatch.setattr(B, "load_model_file", counting)
+    m = B.load_model(default_model_path())
+    assert len(calls) == 1 and m.name == "tws-hier" and m.frame_rate == 100.0 and m.sample_rate == 16000

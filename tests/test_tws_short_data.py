@@ -9,7 +9,7 @@ import pytest
 from headmotion.corpus import Corpus, Recording
 from headmotion.errors import ParameterError
 from headmotion.synthetic import planted_corpus
-from headmotion.systems.tws_hier import TwsHier
+from headmotion.systems.tws.hier import TwsHier
 from headmotion.types import Audio, Motion
 
 #: regression Gaussian over [prev (3), others (4), frame + context mean (2 × 6 f0e), (d, a)] = 21

@@ -5,6 +5,11 @@ frames (encoder padding, a dropped final frame).  :func:`align_tracks` trims eve
 shortest common duration when the lengths agree within a tolerance (default: one frame of the
 coarsest track plus 50 ms) and raises :class:`~headmotion.errors.LengthMismatchError`, naming both
 lengths, beyond it.
+
+Frame times, one convention for every resampler (:meth:`headmotion.types.Motion.resample`,
+:func:`resample_track`): frame ``t`` of a track at ``fps`` stands for time ``t / fps`` (its start),
+and frame ``t`` covers ``[t / fps, (t + 1) / fps)`` (:func:`n_frames`).  Lengths are made equal by
+one helper, :func:`fit_length` (trim, or repeat the last frame).
 """
 
 from __future__ import annotations
@@ -106,14 +111,29 @@ def align_tracks(*tracks: Track, tolerance_s: float = DEFAULT_TOLERANCE_S, toler
     return tuple(_trim(t, by_rate[_rate(t)]) for t in out)
 
 
+def fit_length(values, n: int) -> np.ndarray:
+    """``values`` (T, ...) trimmed, or padded by repeating the last frame, to exactly ``n`` rows
+    (zeros when ``values`` is empty)."""
+    v = np.asarray(values)
+    T = v.shape[0]
+    if T == n:
+        return v
+    if T > n:
+        return v[:n]
+    if T == 0:
+        return np.zeros((n,) + v.shape[1:], dtype=v.dtype)
+    return np.concatenate([v, np.repeat(v[-1:], n - T, axis=0)], axis=0)
+
+
 def resample_track(track: FeatureTrack, fps: float, n: int | None = None) -> FeatureTrack:
-    """Linear interpolation of a feature track to ``fps`` (``n`` frames, default by duration)."""
+    """Linear interpolation of a feature track to ``fps`` (``n`` frames, default by duration);
+    frame ``t`` at time ``t / fps`` (the module's convention), held past the last frame."""
     if n is None:
         n = max(1, int(round(track.duration * fps)))
-    t_old = (np.arange(len(track)) + 0.5) / track.fps
-    t_new = (np.arange(n) + 0.5) / fps
+    t_old = np.arange(len(track)) / track.fps
+    t_new = np.arange(n) / fps
     vals = np.stack([np.interp(t_new, t_old, track.values[:, k]) for k in range(track.dim)], 1)
     return FeatureTrack(vals, fps, track.names)
 
 
-__all__ = ["n_frames", "align_tracks", "resample_track", "DEFAULT_TOLERANCE_S"]
+__all__ = ["n_frames", "align_tracks", "resample_track", "fit_length", "DEFAULT_TOLERANCE_S"]

@@ -2,7 +2,7 @@
 
 Every error the package raises on bad input is a :class:`HeadMotionError`; the CLI turns these into
 one clear line and a non-zero exit code.  Messages name the file, the offending value and what was
-expected (STYLE.md, after librosa's ``util/exceptions.py`` and lhotse's ``DurationMismatchError``).
+expected (docs/design.md "Style", after librosa's ``util/exceptions.py`` and lhotse's ``DurationMismatchError``).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Core data types: arrays that carry their own rate (DESIGN.md "Core types"; thesis §2.2.3).
+"""Core data types: arrays that carry their own rate (docs/design.md "Core types"; thesis §2.2.3).
 
 All are frozen dataclasses, time first:
 
@@ -46,13 +46,25 @@ def _check_rate(name: str, value: float) -> float:
     return v
 
 
+def _pcm_to_float(s: np.ndarray) -> np.ndarray:
+    """float32 samples; integer PCM scaled to [-1, 1)."""
+    if np.issubdtype(s.dtype, np.signedinteger):
+        return (s.astype(np.float64) / float(2 ** (8 * s.dtype.itemsize - 1))).astype(np.float32)
+    if np.issubdtype(s.dtype, np.unsignedinteger):
+        half = float(2 ** (8 * s.dtype.itemsize - 1))
+        return ((s.astype(np.float64) - half) / half).astype(np.float32)
+    return s.astype(np.float32, copy=False)
+
+
 @dataclass(frozen=True, eq=False)
 class Audio:
     """Mono audio.
 
     Attributes
     ----------
-    samples : np.ndarray [shape=(n,), dtype=float32], finite, nominally in [-1, 1]
+    samples : np.ndarray [shape=(n,), dtype=float32], finite, nominally in [-1, 1]; integer PCM
+        is scaled to that range (signed ``intN`` divided by ``2**(N-1)``, unsigned ``uint8``
+        centred on 128 first), as soundfile reads it
     sample_rate : int, Hz
     """
 
@@ -63,7 +75,7 @@ class Audio:
         s = np.asarray(self.samples)
         if s.ndim != 1:
             raise ParameterError(f"Audio samples must be one-dimensional (mono); given shape {s.shape}")
-        s = s.astype(np.float32, copy=False)
+        s = _pcm_to_float(s)
         if not np.all(np.isfinite(s)):
             raise ParameterError("Audio buffer is not finite everywhere (NaN or inf samples)")
         rate = _check_rate("sample_rate", self.sample_rate)
@@ -195,7 +207,9 @@ class Motion:
     def resample(self, fps: float) -> "Motion":
         """Resample to ``fps`` by interpolating rotations (spherical, via scipy's Slerp).
 
-        The frame count is ``round(duration * fps)``; a constant frame rate is assumed."""
+        Frame ``t`` is at time ``t / fps`` (the convention of every resampler, see
+        :mod:`headmotion.align`); the frame count is ``round(duration * fps)``; times past the
+        last frame hold it.  A constant frame rate is assumed."""
         from scipy.spatial.transform import Rotation, Slerp
 
         fps = _check_rate("fps", fps)
@@ -277,13 +291,6 @@ class FeatureTrack:
     def select(self, names) -> "FeatureTrack":
         idx = [self.names.index(n) for n in names]
         return FeatureTrack(self.values[:, idx], self.fps, tuple(names))
-
-    def concat(self, other: "FeatureTrack") -> "FeatureTrack":
-        """Columns of ``self`` then ``other`` (same rate and length required)."""
-        from .align import align_tracks
-
-        a, b = align_tracks(self, other)
-        return FeatureTrack(np.hstack([a.values, b.values]), self.fps, self.names + other.names)
 
     def __repr__(self) -> str:
         return f"FeatureTrack({self.n_frames}×{self.dim} at {self.fps:g} fps, names={self.names[:4]}{'…' if self.dim > 4 else ''})"

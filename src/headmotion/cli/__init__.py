@@ -1,4 +1,4 @@
-"""Command-line interface: ``headmotion COMMAND ...`` (DESIGN.md "CLI")."""
+"""Command-line interface: ``headmotion COMMAND ...`` (docs/design.md "CLI")."""
 
 from __future__ import annotations
 
@@ -7,28 +7,18 @@ import sys
 from ..errors import HeadMotionError
 from .app import app, err_console
 
-# each module attaches its commands to the app (imported for that side effect, in the order the
-# commands are listed by --help)
+# each module attaches its commands to the app (imported once, for that side effect, in the order
+# the commands are listed by --help)
 from . import io_cmds  # noqa: E402,F401,I001  info, convert
 from . import features_cmds  # noqa: E402,F401  features
 from . import corpus_cmds  # noqa: E402,F401  corpus check / import
 from . import video_cmds  # noqa: E402,F401  corpus from-video
-from . import synth_cmds  # noqa: E402,F401  train, synth, stream
+from . import synth_cmds  # noqa: E402,F401  train, synth
+from . import stream_cmds  # noqa: E402,F401  stream
 from . import templates_cmds  # noqa: E402,F401  templates encode-error / analyse / confusion
 from . import eval_cmds  # noqa: E402,F401  evaluate, stats
 from . import render_cmds  # noqa: E402,F401  render, view, plot
 from . import listen_cmds  # noqa: E402,F401  listen serve / analyze
-from . import (  # noqa: E402,F401
-    corpus_cmds,     # corpus check / import
-    eval_cmds,       # evaluate, stats
-    features_cmds,   # features
-    io_cmds,         # info, convert
-    listen_cmds,     # listen serve / analyze
-    render_cmds,     # render, view, plot
-    synth_cmds,      # train, synth, stream
-    templates_cmds,  # templates encode-error / analyse / confusion
-    video_cmds,      # corpus from-video
-)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,6 +1,6 @@
 """The typer application and its sub-command groups; command modules attach to these.
 
-The CLI is thin (DESIGN.md): it parses, calls the package, shows rich progress bars and turns
+The CLI is thin (docs/design.md "CLI"): it parses, calls the package, shows rich progress bars and turns
 :class:`~headmotion.errors.HeadMotionError` into one clear line on stderr and a non-zero exit code.
 Heavy libraries are imported inside commands so that ``headmotion --help`` stays fast.
 """

@@ -1,9 +1,9 @@
-"""``headmotion corpus check`` and ``headmotion corpus import`` (DESIGN.md "Corpus on disk")."""
+"""``headmotion corpus check`` and ``headmotion corpus import`` (docs/design.md "Corpus on disk")."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import List, Optional
+from typing import List
 
 import typer
 from rich.table import Table

@@ -85,7 +85,8 @@ def stats_cmd(
     """Thesis §3.5 corpus statistics: lengths, speaking rate, distributions, cross-entropy distances, MDS,
     and the feature ↔ motion local CCA of every feature set (paper Table 1)."""
     from ..corpus import Corpus
-    from ..evaluation.corpus_stats import corpus_stats, write_stats
+    from ..evaluation.corpus_stats import corpus_stats
+    from ..evaluation.stats_report import write_stats
 
     fsets = None
     if feature_table is not None:

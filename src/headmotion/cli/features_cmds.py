@@ -48,7 +48,7 @@ def write_features(track, path: Path, config: dict | None = None) -> None:
                                     names=np.array(track.names, dtype=str),
                                     config=np.array(json.dumps(config or {})))
     elif ext == ".csv":
-        t = (np.arange(track.n_frames) + 0.5) / track.fps
+        t = np.arange(track.n_frames) / track.fps  # frame t at t / fps (headmotion.align)
         with atomic_open(path, "w", encoding="utf-8", newline="") as fh:
             fh.write(f"# fps={track.fps:g}\n")
             fh.write(",".join(["time", *track.names]) + "\n")

@@ -1,4 +1,4 @@
-"""``headmotion corpus from-video``: a corpus from talking-face videos (SPEC.md §8).
+"""``headmotion corpus from-video``: a corpus from talking-face videos (docs/spec.md §8).
 
 Thin: parses the options, builds :class:`~headmotion.video.build.VideoJob` s, shows one rich
 progress bar per video and prints the quality table; the work is in :mod:`headmotion.video`.

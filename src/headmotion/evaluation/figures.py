@@ -63,7 +63,7 @@ def sd_bars(result: EvaluationResult, path) -> Path:
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     width = 0.8 / max(1, len(systems))
     cols = _colors(len(systems))
-    for k, (prefix, unit, ax) in enumerate((("sd", "°", axes[0]), ("sdvel", "°/s", axes[1]))):
+    for prefix, unit, ax in (("sd", "°", axes[0]), ("sdvel", "°/s", axes[1])):
         for i, s in enumerate(systems):
             means, sds = [], []
             for a in ("rx", "ry", "rz"):

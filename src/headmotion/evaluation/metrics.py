@@ -256,8 +256,8 @@ class CCAFit(NamedTuple):
 
 
 def _check_cca_input(a, b):
-    if len(a) < 3:
-        raise ParameterError(f"CCA needs at least 3 frames; got {len(a)}")
+    if min(len(a), len(b)) < 3:
+        raise ParameterError(f"CCA needs at least 3 frames; got {len(a)} and {len(b)}")
 
 
 @single_threaded

@@ -20,11 +20,10 @@ Conditions
 ----------
 ``ground-truth`` is the held-out recording's own motion (scored against itself: NMSE 0, and the
 reference values of FCCA, SD, jerk).  Other anchors (``desync``, ``other-speaker``,
-``shaped-noise``, ``still``; :mod:`headmotion.systems.anchors`) are fitted on the fold's training
-recordings like systems and make their motion with ``predict_for(recording, seed=)`` (a system
-without that method gets ``predict(audio, seed=)``); an anchor that needs *other* speakers' motion
-(class attribute ``training_data = "other-speakers"``, or the name ``other-speaker``) is fitted on
-the other speakers' recordings.
+``shaped-noise``, ``still``; :mod:`.anchors`) are fitted on the fold's training recordings and make
+their motion with ``motion_for(recording, seed=)``; systems get ``predict(audio, seed=)``.  A
+condition declaring that it needs *other* speakers' motion (an anchor's ``needs_other_speakers``,
+a system's ``needs_other_speakers`` capability) is fitted on the other speakers' recordings.
 
 Metrics per (system, recording) — names as in ``metrics.csv``
 --------------------------------------------------------------
@@ -37,11 +36,11 @@ has ``m_null_mean``, ``m_null_p95``, ``m_p``, ``m_excess`` (score − null mean)
 additionally gets ``paper_chance`` (local CCA with the randomised motion of another speaker, drawn
 with the seed, resampled to the recording's rate),
 ``featcca_local[<set>]`` for every feature set on *every* recording of the corpus, held out or
-not (paper Table 1, computed by :func:`.parallel.feature_table`; with ``_null_mean``,
+not (paper Table 1, computed by :func:`.feature_table.feature_table`; with ``_null_mean``,
 ``_excess``, ``_p`` suffixes for its chance level; ``config["splits"]`` / ``result.splits`` say
 which recordings are train / valid / test), and per speaker the local/global
 CCA against window size (thesis Fig 4.8) as ``winlocal[<s>s]`` / ``winglobal[<s>s]``
-(recording ``speaker:<name>``).  A system with an ``embed(audio)`` method (CCCAE, AE) adds
+(recording ``speaker:<name>``).  A system with the ``embedding`` capability (CCCAE, AE) adds
 ``embed_cca_local`` — its embedding's local CCA with the recorded motion (paper Table 1 Wav_AE /
 Wav_CCCAE rows).
 
@@ -61,7 +60,6 @@ joblib and dask.distributed run the folds.
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -69,12 +67,15 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from ..align import fit_length
 from ..corpus import Corpus, leave_one_out, paper_split
 from ..errors import LengthMismatchError, ParameterError
 from ..types import FeatureTrack, Motion
 from . import chance as C
 from . import metrics as M
-from .parallel import _sub_seed, dask_client, extract_one, feature_set_name, feature_table, run_map
+from .feature_table import extract_one, feature_set_name, feature_table
+from .parallel import dask_client, run_map
+from .parallel import sub_seed as _sub_seed
 
 GROUND_TRUTH = "ground-truth"
 #: local CCA window (paper §4.3: 300 frames = 3 s at 100 fps)
@@ -147,27 +148,43 @@ def _system_spec(s) -> tuple[str, Any]:
     raise ParameterError(f"a system must be a registry name or a (name, factory) pair; got {s!r}")
 
 
-def _make_system(name: str, factory, seed: int):
-    from ..systems.base import system_class
+def _make_condition(name: str, factory, seed: int):
+    """A new system or anchor for one fold, its training seed set through the contract."""
+    from ..systems.base import Synthesizer, create
+
+    from .anchors import ANCHORS, create_anchor
 
     if factory is None:
-        cls = system_class(name)
-        factory = cls
+        model = create_anchor(name) if name in ANCHORS else create(name)
     else:
-        cls = factory
-    params = {}
-    try:
-        sig = inspect.signature(factory)
-        for key in ("random_state", "seed"):
-            if key in sig.parameters:
-                params[key] = seed
-    except (TypeError, ValueError):
-        pass
-    return factory(**params), cls
+        model = factory()
+    if isinstance(model, Synthesizer) and "random_state" in model.get_params():
+        model.set_params(random_state=seed)
+    return model
 
 
-def _needs_other_speakers(name: str, cls) -> bool:
-    return getattr(cls, "training_data", None) == "other-speakers" or name == "other-speaker"
+def _needs_other_speakers(model) -> bool:
+    from ..systems.base import NEEDS_OTHER_SPEAKERS
+
+    from .anchors import Anchor
+
+    if isinstance(model, Anchor):
+        return model.needs_other_speakers
+    return NEEDS_OTHER_SPEAKERS in model.capabilities
+
+
+def _has_embedding(model) -> bool:
+    from ..systems.base import EMBEDDING
+
+    return EMBEDDING in getattr(model, "capabilities", ())
+
+
+def _make_motion(model, rec, seed: int) -> Motion:
+    from .anchors import Anchor
+
+    if isinstance(model, Anchor):
+        return model.motion_for(rec, seed=seed)
+    return model.predict(rec.audio, seed=seed)
 
 
 def _extract(features, audio, fps: float, n_frames: int) -> FeatureTrack | np.ndarray:
@@ -188,9 +205,7 @@ def _conform(pred: Motion, ref: Motion, system: str, rec_id: str) -> np.ndarray:
         raise LengthMismatchError(
             f"system {system!r} made {len(a)} frames for recording {rec_id!r}, whose motion has {T} "
             f"(tolerance {tol:g} frames)")
-    if len(a) >= T:
-        return np.asarray(a[:T])
-    return np.vstack([a, np.repeat(a[-1:], T - len(a), axis=0)])
+    return np.asarray(fit_length(a, T))
 
 
 # -- scoring ---------------------------------------------------------------------------------------
@@ -253,99 +268,111 @@ def run_fold(task: FoldTask) -> dict:
 
     Returns ``{"rows", "trajectories", "gt" (recording → (motion, features, speaker)), "timings",
     "warnings"}``."""
-    rows: list[dict] = []
-    traj: dict[str, np.ndarray] = {}
-    timings: dict[str, float] = {}
-    warns: list[str] = []
+    out = {"rows": [], "trajectories": {}, "gt": {}, "timings": {}, "warnings": []}
     tests = list(task.test)
-    feats = {}
     t0 = time.perf_counter()
+    feats = {rec.id: _extract(task.features, rec.audio, float(rec.motion.fps), len(rec.motion)) for rec in tests}
+    out["timings"]["features"] = time.perf_counter() - t0
     for rec in tests:
-        feats[rec.id] = _extract(task.features, rec.audio, float(rec.motion.fps), len(rec.motion))
-    timings["features"] = time.perf_counter() - t0
-    gt_out = {}
-    for rec in tests:
-        rseed = _sub_seed(task.seed, rec.id, GROUND_TRUTH)
-        win = max(3, min(int(round(task.window_s * rec.motion.fps)), len(rec.motion)))
-        vals = score_recording(rec.motion, rec.motion.rotvec, feats[rec.id], window_s=task.window_s,
-                               n_shifts=task.n_shifts, seed=rseed)
-        if task.others is not None and len(task.others):
-            # paper §4.3.2: another subject's motion (one speaker, drawn with the seed), at this rate
-            other_spk = task.others.speakers[rseed % len(task.others.speakers)]
-            other = [o.motion if abs(o.motion.fps - rec.motion.fps) < 1e-9 else o.motion.resample(rec.motion.fps)
-                     for o in task.others.filter(speaker=other_spk)]
-            vals["paper_chance"] = C.paper_chance_score(rec.motion, other, window=win, seed=rseed)
-        rows += _rows(GROUND_TRUTH, rec.id, vals)
-        gt_out[rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats[rec.id])[0], dtype=np.float32),
-                          rec.speaker, float(rec.motion.fps))
-        if rec.id == task.trajectory_recording:
-            traj[GROUND_TRUTH] = np.asarray(rec.motion.rotvec)
+        _score_ground_truth(task, rec, feats[rec.id], out)
     for spec in task.systems:
         name, factory = _system_spec(spec)
-        if name == GROUND_TRUTH:
-            continue
-        model, cls = _make_system(name, factory, _sub_seed(task.seed, task.fold, name))
-        train = task.train
-        if _needs_other_speakers(name, cls):
-            if task.others is None or not len(task.others):
-                warns.append(f"{name}: no other speaker in the corpus; skipped for fold {task.fold}")
-                continue
-            train = task.others
-        t0 = time.perf_counter()
+        if name != GROUND_TRUTH:
+            _run_condition(task, name, factory, tests, feats, out)
+    return out
+
+
+def _score_ground_truth(task: FoldTask, rec, feats, out: dict) -> None:
+    """The recorded motion's own scores (and the paper's other-speaker chance level)."""
+    rseed = _sub_seed(task.seed, rec.id, GROUND_TRUTH)
+    win = max(3, min(int(round(task.window_s * rec.motion.fps)), len(rec.motion)))
+    vals = score_recording(rec.motion, rec.motion.rotvec, feats, window_s=task.window_s,
+                           n_shifts=task.n_shifts, seed=rseed)
+    if task.others is not None and len(task.others):
+        # paper §4.3.2: another subject's motion (one speaker, drawn with the seed), at this rate
+        other_spk = task.others.speakers[rseed % len(task.others.speakers)]
+        other = [o.motion if abs(o.motion.fps - rec.motion.fps) < 1e-9 else o.motion.resample(rec.motion.fps)
+                 for o in task.others.filter(speaker=other_spk)]
+        vals["paper_chance"] = C.paper_chance_score(rec.motion, other, window=win, seed=rseed)
+    out["rows"] += _rows(GROUND_TRUTH, rec.id, vals)
+    out["gt"][rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats)[0], dtype=np.float32),
+                         rec.speaker, float(rec.motion.fps))
+    if rec.id == task.trajectory_recording:
+        out["trajectories"][GROUND_TRUTH] = np.asarray(rec.motion.rotvec)
+
+
+def _fit_condition(task: FoldTask, name: str, factory, out: dict):
+    """The fitted system or anchor for this fold, or None (skipped or failed, with a warning)."""
+    model = _make_condition(name, factory, _sub_seed(task.seed, task.fold, name))
+    train = task.train
+    if _needs_other_speakers(model):
+        if task.others is None or not len(task.others):
+            out["warnings"].append(f"{name}: no other speaker in the corpus; skipped for fold {task.fold}")
+            return None
+        train = task.others
+    t0 = time.perf_counter()
+    try:
+        # warnings of training (e.g. tws-hier using fewer clusters on a short fold) go into the
+        # report, once each, instead of the console
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model.fit(train)
+        msgs = list(getattr(model, "fit_warnings_", None) or [])
+        for w in caught:
+            m = str(w.message) if issubclass(w.category, UserWarning) else f"{w.category.__name__}: {w.message}"
+            if m not in msgs:
+                msgs.append(m)
+        out["warnings"] += [f"{name}, fold {task.fold}: {m.removeprefix(f'{name}: ')}" for m in msgs]
+    except Exception as exc:
+        if task.strict:
+            raise
+        out["warnings"].append(
+            f"{name} could not be trained for fold {task.fold} ({len(train)} recordings, "
+            f"{sum(len(r.motion) / r.motion.fps for r in train):.0f} s): {type(exc).__name__}: {exc}")
+        return None
+    out["timings"][f"fit:{name}"] = out["timings"].get(f"fit:{name}", 0.0) + time.perf_counter() - t0
+    return model
+
+
+def _embedding_scores(task: FoldTask, model, name: str, rec) -> dict[str, float]:
+    """Local CCA of a system's learned embedding with the recorded motion (paper Table 1)."""
+    emb = model.embed(rec.audio, fps=float(rec.motion.fps), n_frames=len(rec.motion))
+    e, _ = M.as_array(emb)
+    e = e[: len(rec.motion)]
+    r = C.local_cca_null(rec.motion.rotvec[: len(e)], e,
+                         window=max(3, min(int(round(task.window_s * rec.motion.fps)), len(e))),
+                         n_shifts=task.n_shifts, seed=_sub_seed(task.seed, rec.id, name, "embed"))
+    return {"embed_cca_local": r.score, "embed_cca_local_null_mean": r.null_mean,
+            "embed_cca_local_excess": r.excess, "embed_cca_local_p": r.p_value}
+
+
+def _run_condition(task: FoldTask, name: str, factory, tests, feats, out: dict) -> None:
+    """Fit one system or anchor, make and score its motion for every held-out recording."""
+    model = _fit_condition(task, name, factory, out)
+    if model is None:
+        return
+    t0 = time.perf_counter()
+    for rec in tests:
+        rseed = _sub_seed(task.seed, rec.id, name)
         try:
-            # warnings of training (e.g. tws-hier using fewer clusters on a short fold) go into the
-            # report, once each, instead of the console
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                model.fit(train)
-            msgs = list(getattr(model, "fit_warnings_", None) or [])
-            for w in caught:
-                m = str(w.message) if issubclass(w.category, UserWarning) else f"{w.category.__name__}: {w.message}"
-                if m not in msgs:
-                    msgs.append(m)
-            warns += [f"{name}, fold {task.fold}: {m.removeprefix(f'{name}: ')}" for m in msgs]
+            pred = _conform(_make_motion(model, rec, rseed), rec.motion, name, rec.id)
         except Exception as exc:
             if task.strict:
                 raise
-            warns.append(f"{name} could not be trained for fold {task.fold} ({len(train)} recordings, "
-                         f"{sum(len(r.motion) / r.motion.fps for r in train):.0f} s): {type(exc).__name__}: {exc}")
+            out["warnings"].append(f"{name} failed to synthesise {rec.id}: {type(exc).__name__}: {exc}")
             continue
-        timings[f"fit:{name}"] = timings.get(f"fit:{name}", 0.0) + time.perf_counter() - t0
-        t0 = time.perf_counter()
-        for rec in tests:
-            rseed = _sub_seed(task.seed, rec.id, name)
+        vals = score_recording(rec.motion, pred, feats[rec.id], window_s=task.window_s, n_shifts=task.n_shifts,
+                               seed=rseed)
+        if _has_embedding(model):
             try:
-                if hasattr(model, "predict_for"):  # anchors build their motion from the recording itself
-                    made = model.predict_for(rec, seed=rseed)
-                else:
-                    made = model.predict(rec.audio, seed=rseed)
-                pred = _conform(made, rec.motion, name, rec.id)
+                vals.update(_embedding_scores(task, model, name, rec))
             except Exception as exc:
-                if task.strict:
-                    raise
-                warns.append(f"{name} failed to synthesise {rec.id}: {type(exc).__name__}: {exc}")
-                continue
-            vals = score_recording(rec.motion, pred, feats[rec.id], window_s=task.window_s, n_shifts=task.n_shifts,
-                                   seed=rseed)
-            if hasattr(model, "embed") and getattr(model, "autoencoder_", True) is not None:
-                try:
-                    emb = model.embed(rec.audio, fps=float(rec.motion.fps), n_frames=len(rec.motion))
-                    e, _ = M.as_array(emb)
-                    e = e[: len(rec.motion)]
-                    r = C.local_cca_null(rec.motion.rotvec[: len(e)], e,
-                                         window=max(3, min(int(round(task.window_s * rec.motion.fps)), len(e))),
-                                         n_shifts=task.n_shifts, seed=_sub_seed(task.seed, rec.id, name, "embed"))
-                    vals["embed_cca_local"] = r.score
-                    vals["embed_cca_local_null_mean"] = r.null_mean
-                    vals["embed_cca_local_excess"] = r.excess
-                    vals["embed_cca_local_p"] = r.p_value
-                except Exception as exc:
-                    warns.append(f"{name}.embed on {rec.id}: {type(exc).__name__}: {exc}")
-            rows += _rows(name, rec.id, vals)
-            if rec.id == task.trajectory_recording:
-                traj[name] = pred
-        timings[f"predict+score:{name}"] = timings.get(f"predict+score:{name}", 0.0) + time.perf_counter() - t0
-    return {"rows": rows, "trajectories": traj, "gt": gt_out, "timings": timings, "warnings": warns}
+                out["warnings"].append(f"{name}.embed on {rec.id}: {type(exc).__name__}: {exc}")
+        out["rows"] += _rows(name, rec.id, vals)
+        if rec.id == task.trajectory_recording:
+            out["trajectories"][name] = pred
+    key = f"predict+score:{name}"
+    out["timings"][key] = out["timings"].get(key, 0.0) + time.perf_counter() - t0
 
 
 # -- folds -------------------------------------------------------------------------------------
@@ -412,7 +439,7 @@ def _fig48_rows(gt: dict, windows_s=FIG48_WINDOWS_S) -> list[dict]:
     return rows
 
 
-def _longest_held_out(corpus: Corpus, folds) -> str:
+def _longest_held_out(folds) -> str:
     """The held-out recording with the longest motion (the first of equals).  Recordings of an
     on-disk corpus are not loaded for this (only their motion files are read), so the fold tasks
     still ship lazy manifest entries to the workers."""
@@ -475,7 +502,10 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         if fac is None and n != GROUND_TRUTH:
             from ..systems.base import system_class
 
-            system_class(n)  # unknown names fail now, not in a worker
+            from .anchors import ANCHORS
+
+            if n not in ANCHORS:
+                system_class(n)  # unknown names fail now, not in a worker
     specs = [s for s in specs if s[0] != GROUND_TRUTH]
     if feature_sets is None:
         try:
@@ -487,7 +517,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     feature_sets = tuple(feature_sets)
     folds = make_folds(corpus, protocol, seed=seed)
     if trajectory_recording is None:  # the longest held-out recording shows the most
-        trajectory_recording = _longest_held_out(corpus, folds)
+        trajectory_recording = _longest_held_out(folds)
     tasks = [FoldTask(fold=name, train=tr, test=te, others=ot, systems=tuple(specs), features=features, seed=int(seed),
                       window_s=float(window_s), n_shifts=int(n_shifts),
                       trajectory_recording=trajectory_recording, fig48=fig48, strict=bool(strict))

@@ -177,12 +177,12 @@ def _feature_table_md(result: EvaluationResult, *, held_out_note: bool = True) -
 def feature_table_section(table: dict[str, dict[str, float]], *, feature_sets, splits: dict[str, str],
                           speakers: dict[str, str], window_s: float, seed: int, n_shifts: int) -> str:
     """The paper Table 1 section (same layout as in ``report.md`` of ``headmotion evaluate``) from
-    the output of :func:`.parallel.feature_table`, for reports without an evaluation
+    the output of :func:`.feature_table.feature_table`, for reports without an evaluation
     (``headmotion stats``).
 
     Parameters
     ----------
-    table : ``{recording: {metric: value}}`` — :func:`.parallel.feature_table`'s first return value
+    table : ``{recording: {metric: value}}`` — :func:`.feature_table.feature_table`'s first return value
     feature_sets : the requested feature sets (names; sets with no score are listed as left out)
     splits : ``{recording: "train" | "valid" | "test"}`` (:func:`headmotion.corpus.paper_split`)
     speakers : ``{recording: speaker}``

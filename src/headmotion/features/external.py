@@ -9,9 +9,9 @@ Accepted files:
 
 * ``.npz`` with ``values`` ``(T, D)``, ``fps`` (scalar) and optionally ``names`` ``(D,)``;
 * ``.csv`` / ``.tsv`` / ``.txt`` with a header row of column names and either a ``time`` column
-  (seconds, increasing; the rows are interpolated onto frame centres ``(k + 0.5) / fps`` with
-  ``fps`` from the median time step) or an ``fps`` in a comment line ``# fps=200`` (row ``k`` is
-  then the frame centred on ``(k + 0.5) / fps``, as everywhere in headmotion);
+  (seconds, increasing; the rows are interpolated onto frame times ``k / fps`` with ``fps`` from
+  the median time step) or an ``fps`` in a comment line ``# fps=200`` (row ``k`` is then frame
+  ``k``, at time ``k / fps``: the frame-time convention of :mod:`headmotion.align`);
 * ``.npy`` ``(T, D)`` when ``file_fps`` is given.
 
 No library reads these ad-hoc layouts; numpy does the parsing.
@@ -73,10 +73,10 @@ def _read_csv(path: Path, file_fps: float | None):
             raise FormatError("the time column must increase", path=path)
         if fps is None:
             fps = 1.0 / float(np.median(np.diff(t)))
-        # the time column says where each row is: interpolate onto frame centres (k + 0.5) / fps
+        # the time column says where each row is: interpolate onto frame times k / fps
         n = max(1, int(np.floor(t[-1] * fps + 1e-6)) + 1)
-        centres = (np.arange(n) + 0.5) / fps
-        values = np.stack([np.interp(centres, t, values[:, k]) for k in range(values.shape[1])], 1)
+        times = np.arange(n) / fps
+        values = np.stack([np.interp(times, t, values[:, k]) for k in range(values.shape[1])], 1)
     if fps is None:
         raise FormatError("no frame rate: add a 'time' column or a first line '# fps=100'", path=path)
     return values, float(fps), names

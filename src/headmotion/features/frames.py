@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..align import fit_length  # noqa: F401  (re-exported: the one pad/trim helper)
 from ..errors import ParameterError
 
 
@@ -119,17 +120,6 @@ def moving_average(x: np.ndarray, size: int) -> np.ndarray:
     return (c[size:] - c[:-size]) / size
 
 
-def fit_length(values: np.ndarray, n_frames: int) -> np.ndarray:
-    """Trim, or pad by repeating the last frame, to exactly ``n_frames`` rows."""
-    v = np.asarray(values)
-    T = v.shape[0]
-    if T == n_frames:
-        return v
-    if T > n_frames:
-        return v[:n_frames]
-    if T == 0:
-        return np.zeros((n_frames,) + v.shape[1:], dtype=v.dtype)
-    return np.concatenate([v, np.repeat(v[-1:], n_frames - T, axis=0)], axis=0)
 
 
 def pre_emphasis(x: np.ndarray, coef: float = 0.97) -> np.ndarray:

@@ -230,7 +230,6 @@ def summarize(test: dict[str, Any], rows: list[dict[str, Any]], *, window: int =
     Returns a dict with (depending on the test type) ``ranking`` (conditions, best first),
     ``excluded``, ``mos_table``, ``group_ttests``, ``pairwise``, ``windowed``, ``mushra_screening``,
     ``ab`` and ``attention``."""
-    from scipy import stats
 
     if window < 1:
         raise ParameterError(f"window must be a positive number of trials; got {window}")
@@ -273,148 +272,185 @@ def summarize(test: dict[str, Any], rows: list[dict[str, Any]], *, window: int =
         res["ranking"] = ranking
         res["kind"] = "mushra" if "mushra" in kinds else "mos"
 
-        def mean_of(sel, key):
-            return {c: _mean([r[key] for r in sel if r["condition"] == c]) for c in ranking}
-
-        table = []
-        for f in demo_fields:
-            for v in sorted({str(r.get(f)) for r in rated if r.get(f) not in (None, "")}):
-                sel = [r for r in rated if str(r.get(f)) == v]
-                table.append((f"{f[5:]} = {v}", len({r['participant'] for r in sel}),
-                              mean_of(sel, "value")))
-        n_all = len({r["participant"] for r in rated})
-        table.append(("Mean results", n_all, mean_of(rated, "value")))
-        table.append(("Mean normalised results (participant × speaker)", n_all,
-                      mean_of(rated, "norm")))
-        table.append(("Rescaled per participant", n_all, mean_of(rated, "norm_p")))
-        res["mos_table"] = table
-
-        # Student's t-tests between participant groups (Table 4.3), normalised scores
-        tt = []
-        for f in demo_fields:
-            values = sorted({str(r.get(f)) for r in rated if r.get(f) not in (None, "")})
-            for a, b in combinations(values, 2):
-                ps = {}
-                for c in ranking:
-                    xa = [r["norm"] for r in rated if str(r.get(f)) == a and r["condition"] == c]
-                    xb = [r["norm"] for r in rated if str(r.get(f)) == b and r["condition"] == c]
-                    if len(xa) >= 2 and len(xb) >= 2:
-                        ps[c] = float(stats.ttest_ind(xa, xb, equal_var=True).pvalue)
-                    else:
-                        ps[c] = math.nan
-                tt.append((f[5:], a, b, ps))
-        res["group_ttests"] = tt
-
-        # pairwise tests between systems on per-participant means, Holm-corrected
-        per_part: dict[Any, dict[str, float]] = defaultdict(dict)
-        for p in {r["participant"] for r in rated}:
-            for c in ranking:
-                v = [r["norm"] for r in rated if r["participant"] == p and r["condition"] == c]
-                if v:
-                    per_part[p][c] = float(np.mean(v))
-        pw = []
-        for a, b in combinations(ranking, 2):
-            pairs = [(d[a], d[b]) for d in per_part.values() if a in d and b in d]
-            x = np.array([u for u, _ in pairs])
-            y = np.array([v for _, v in pairs])
-            t_p = w_p = math.nan
-            t_stat = math.nan
-            if len(pairs) >= 2 and np.any(x - y != 0):
-                tr = stats.ttest_rel(x, y)
-                t_stat, t_p = float(tr.statistic), float(tr.pvalue)
-                try:
-                    w_p = float(stats.wilcoxon(x, y).pvalue)
-                except ValueError:
-                    w_p = math.nan
-            pw.append({"a": a, "b": b, "n": len(pairs), "mean_diff": float(np.mean(x - y))
-                       if pairs else math.nan, "t": t_stat, "p_t": t_p, "p_wilcoxon": w_p})
-        _apply_holm(pw, "p_t", "p_t_holm")
-        _apply_holm(pw, "p_wilcoxon", "p_wilcoxon_holm")
-        res["pairwise"] = pw
-
-        # windowed differences (training included; all kept participants)
-        win_rows = [r for r in kept_all if r["kind"] in RATING_KINDS]
-        rescale(win_rows, by=("participant", "speaker"), out="norm")
-        ref = reference or ranking[0]
-        cmp_ = compare or (ranking[1] if len(ranking) > 1 else ranking[0])
-        for name, c in (("reference", ref), ("compare", cmp_)):
-            if c not in conds:
-                raise ParameterError(f"--{name} condition {c!r} is not in the results; "
-                                     f"conditions are {conds}")
-        res["window"] = {"reference": ref, "compare": cmp_, "size": window,
-                         "curves": windowed_differences(win_rows, reference=ref, compare=cmp_,
-                                                        window=window)}
-        # Table 4.1-style key statistics per group after the first window (training)
-        # (thesis: "pairs 10 to 40" — the first window of trials counts as training)
-        trials_of: dict[Any, list[int]] = defaultdict(list)
-        for r in win_rows:
-            trials_of[r["participant"]].append(r["trial_index"])
-        position = {p: {t: i for i, t in enumerate(sorted(set(ts)))}
-                    for p, ts in trials_of.items()}
-        after = [r for r in win_rows if position[r["participant"]][r["trial_index"]] >= window]
-        if not after:
-            after = win_rows
-            res["warnings"].append(f"fewer than {window} trials per participant: key statistics "
-                                   "use all trials")
-        key = []
-        for g in sorted({r["group"] for r in after}):
-            parts = defaultdict(lambda: defaultdict(list))
-            rts = []
-            for r in after:
-                if r["group"] == g and r["condition"] in (ref, cmp_):
-                    parts[r["participant"]][r["condition"]].append(r["norm"])
-                    if r.get("response_ms") not in (None, "") and math.isfinite(
-                            float(r["response_ms"])):
-                        rts.append(float(r["response_ms"]) / 1000)
-            d = np.array([np.mean(v[ref]) - np.mean(v[cmp_]) for v in parts.values()
-                          if v[ref] and v[cmp_]])
-            key.append({"group": g or "all", "mean_difference": _mean(d),
-                        "variance": float(np.var(d)) if d.size else math.nan,
-                        "mean_time_s": _mean(rts),
-                        "variance_time": float(np.var(rts)) if rts else math.nan})
-        res["window_stats"] = key
-        res["rated_rows"] = rated
-
+        res["mos_table"] = _mos_table(rated, ranking, demo_fields)
+        res["group_ttests"] = _group_ttests(rated, ranking, demo_fields)
+        res["pairwise"] = _pairwise_tests(rated, ranking)
+        _windowed_summary(res, kept_all, rated, conds, ranking, window=window, reference=reference, compare=compare)
         if "mushra" in kinds:
-            hidden = test.get("hidden_reference") or "reference"
-            thr = float(test.get("screening_threshold", 90.0))
-            frac = float(test.get("screening_fraction", 0.85))
-            scr = []
-            for p in sorted({r["participant"] for r in rated}):
-                hr = [r["value"] for r in rated if r["participant"] == p and r["condition"] == hidden]
-                ok = float(np.mean(np.array(hr) >= thr)) if hr else math.nan
-                scr.append({"participant": p, "items": len(hr), "fraction_ok": ok,
-                            "passes": bool(hr) and ok >= frac})
-            res["mushra_screening"] = {"hidden_reference": hidden, "threshold": thr,
-                                       "fraction": frac, "participants": scr}
-            if hidden not in conds:
-                res["warnings"].append(f"hidden reference condition {hidden!r} not found")
-            passing = {s["participant"] for s in scr if s["passes"]}
-            res["mushra_after_screening"] = {
-                c: _mean([r["value"] for r in rated if r["condition"] == c
-                          and r["participant"] in passing]) for c in ranking}
+            _mushra_screening(res, test, rated, conds, ranking)
     if "ab" in kinds:
-        ab = [r for r in data if r["kind"] == "ab"]
-        systems, wins, n = preference_matrix(ab)
-        tests = []
-        for i, j in combinations(range(len(systems)), 2):
-            if n[i, j] > 0:
-                p = float(stats.binomtest(int(wins[i, j]), int(n[i, j]), 0.5).pvalue)
-                tests.append({"a": systems[i], "b": systems[j], "n": int(n[i, j]),
-                              "a_preferred": float(wins[i, j] / n[i, j]), "p": p})
-        _apply_holm(tests, "p", "p_holm")
-        left = sum(r["slot"] == "left" for r in ab)
-        sides: dict[tuple, list[int]] = defaultdict(lambda: [0, 0])
-        for r in ab:
-            left_sys = r["condition"] if r["slot"] == "left" else r["other"]
-            key = tuple(sorted((r["condition"], r["other"])))
-            sides[key][0 if left_sys == key[0] else 1] += 1
-        res["ab"] = {"systems": systems, "wins": wins, "n": n, "tests": tests,
-                     "left_fraction": left / max(1, len(ab)),
-                     "side_counts": {f"{k[0]} vs {k[1]}": v for k, v in sorted(sides.items())}}
-        if "ranking" not in res:
-            res["ranking"] = systems
+        _ab_summary(res, data)
     return res
+
+
+def _mos_table(rated: list[dict], ranking: list[str], demo_fields: list[str]) -> list[tuple]:
+    """Mean scores per condition: per demographic group, raw, normalised (Table 4.2-style)."""
+    def mean_of(sel, key):
+        return {c: _mean([r[key] for r in sel if r["condition"] == c]) for c in ranking}
+
+    table = []
+    for f in demo_fields:
+        for v in sorted({str(r.get(f)) for r in rated if r.get(f) not in (None, "")}):
+            sel = [r for r in rated if str(r.get(f)) == v]
+            table.append((f"{f[5:]} = {v}", len({r['participant'] for r in sel}),
+                          mean_of(sel, "value")))
+    n_all = len({r["participant"] for r in rated})
+    table.append(("Mean results", n_all, mean_of(rated, "value")))
+    table.append(("Mean normalised results (participant × speaker)", n_all,
+                  mean_of(rated, "norm")))
+    table.append(("Rescaled per participant", n_all, mean_of(rated, "norm_p")))
+    return table
+
+
+
+def _group_ttests(rated: list[dict], ranking: list[str], demo_fields: list[str]) -> list[tuple]:
+    """Student's t-tests between participant groups on normalised scores (Table 4.3)."""
+    from scipy import stats
+
+    # Student's t-tests between participant groups (Table 4.3), normalised scores
+    tt = []
+    for f in demo_fields:
+        values = sorted({str(r.get(f)) for r in rated if r.get(f) not in (None, "")})
+        for a, b in combinations(values, 2):
+            ps = {}
+            for c in ranking:
+                xa = [r["norm"] for r in rated if str(r.get(f)) == a and r["condition"] == c]
+                xb = [r["norm"] for r in rated if str(r.get(f)) == b and r["condition"] == c]
+                if len(xa) >= 2 and len(xb) >= 2:
+                    ps[c] = float(stats.ttest_ind(xa, xb, equal_var=True).pvalue)
+                else:
+                    ps[c] = math.nan
+            tt.append((f[5:], a, b, ps))
+    return tt
+
+
+
+def _pairwise_tests(rated: list[dict], ranking: list[str]) -> list[dict]:
+    """Paired t and Wilcoxon tests between conditions on per-participant means, Holm-corrected."""
+    from scipy import stats
+
+    # pairwise tests between systems on per-participant means, Holm-corrected
+    per_part: dict[Any, dict[str, float]] = defaultdict(dict)
+    for p in {r["participant"] for r in rated}:
+        for c in ranking:
+            v = [r["norm"] for r in rated if r["participant"] == p and r["condition"] == c]
+            if v:
+                per_part[p][c] = float(np.mean(v))
+    pw = []
+    for a, b in combinations(ranking, 2):
+        pairs = [(d[a], d[b]) for d in per_part.values() if a in d and b in d]
+        x = np.array([u for u, _ in pairs])
+        y = np.array([v for _, v in pairs])
+        t_p = w_p = math.nan
+        t_stat = math.nan
+        if len(pairs) >= 2 and np.any(x - y != 0):
+            tr = stats.ttest_rel(x, y)
+            t_stat, t_p = float(tr.statistic), float(tr.pvalue)
+            try:
+                w_p = float(stats.wilcoxon(x, y).pvalue)
+            except ValueError:
+                w_p = math.nan
+        pw.append({"a": a, "b": b, "n": len(pairs), "mean_diff": float(np.mean(x - y))
+                   if pairs else math.nan, "t": t_stat, "p_t": t_p, "p_wilcoxon": w_p})
+    _apply_holm(pw, "p_t", "p_t_holm")
+    _apply_holm(pw, "p_wilcoxon", "p_wilcoxon_holm")
+    return pw
+
+
+
+def _windowed_summary(res: dict, kept_all: list[dict], rated: list[dict], conds: list[str], ranking: list[str], *,
+                      window: int, reference: str | None, compare: str | None) -> None:
+    """Windowed differences between two conditions and key statistics after the first window."""
+    # windowed differences (training included; all kept participants)
+    win_rows = [r for r in kept_all if r["kind"] in RATING_KINDS]
+    rescale(win_rows, by=("participant", "speaker"), out="norm")
+    ref = reference or ranking[0]
+    cmp_ = compare or (ranking[1] if len(ranking) > 1 else ranking[0])
+    for name, c in (("reference", ref), ("compare", cmp_)):
+        if c not in conds:
+            raise ParameterError(f"--{name} condition {c!r} is not in the results; "
+                                 f"conditions are {conds}")
+    res["window"] = {"reference": ref, "compare": cmp_, "size": window,
+                     "curves": windowed_differences(win_rows, reference=ref, compare=cmp_,
+                                                    window=window)}
+    # Table 4.1-style key statistics per group after the first window (training)
+    # (thesis: "pairs 10 to 40" — the first window of trials counts as training)
+    trials_of: dict[Any, list[int]] = defaultdict(list)
+    for r in win_rows:
+        trials_of[r["participant"]].append(r["trial_index"])
+    position = {p: {t: i for i, t in enumerate(sorted(set(ts)))}
+                for p, ts in trials_of.items()}
+    after = [r for r in win_rows if position[r["participant"]][r["trial_index"]] >= window]
+    if not after:
+        after = win_rows
+        res["warnings"].append(f"fewer than {window} trials per participant: key statistics "
+                               "use all trials")
+    key = []
+    for g in sorted({r["group"] for r in after}):
+        parts = defaultdict(lambda: defaultdict(list))
+        rts = []
+        for r in after:
+            if r["group"] == g and r["condition"] in (ref, cmp_):
+                parts[r["participant"]][r["condition"]].append(r["norm"])
+                if r.get("response_ms") not in (None, "") and math.isfinite(
+                        float(r["response_ms"])):
+                    rts.append(float(r["response_ms"]) / 1000)
+        d = np.array([np.mean(v[ref]) - np.mean(v[cmp_]) for v in parts.values()
+                      if v[ref] and v[cmp_]])
+        key.append({"group": g or "all", "mean_difference": _mean(d),
+                    "variance": float(np.var(d)) if d.size else math.nan,
+                    "mean_time_s": _mean(rts),
+                    "variance_time": float(np.var(rts)) if rts else math.nan})
+    res["window_stats"] = key
+    res["rated_rows"] = rated
+
+
+
+def _mushra_screening(res: dict, test: dict, rated: list[dict], conds: list[str], ranking: list[str]) -> None:
+    """MUSHRA post-screening on the hidden reference."""
+    hidden = test.get("hidden_reference") or "reference"
+    thr = float(test.get("screening_threshold", 90.0))
+    frac = float(test.get("screening_fraction", 0.85))
+    scr = []
+    for p in sorted({r["participant"] for r in rated}):
+        hr = [r["value"] for r in rated if r["participant"] == p and r["condition"] == hidden]
+        ok = float(np.mean(np.array(hr) >= thr)) if hr else math.nan
+        scr.append({"participant": p, "items": len(hr), "fraction_ok": ok,
+                    "passes": bool(hr) and ok >= frac})
+    res["mushra_screening"] = {"hidden_reference": hidden, "threshold": thr,
+                               "fraction": frac, "participants": scr}
+    if hidden not in conds:
+        res["warnings"].append(f"hidden reference condition {hidden!r} not found")
+    passing = {s["participant"] for s in scr if s["passes"]}
+    res["mushra_after_screening"] = {
+        c: _mean([r["value"] for r in rated if r["condition"] == c
+                  and r["participant"] in passing]) for c in ranking}
+
+
+def _ab_summary(res: dict, data: list[dict]) -> None:
+    """A/B preference counts, binomial tests (Holm-corrected) and side bias."""
+    from scipy import stats
+
+    ab = [r for r in data if r["kind"] == "ab"]
+    systems, wins, n = preference_matrix(ab)
+    tests = []
+    for i, j in combinations(range(len(systems)), 2):
+        if n[i, j] > 0:
+            p = float(stats.binomtest(int(wins[i, j]), int(n[i, j]), 0.5).pvalue)
+            tests.append({"a": systems[i], "b": systems[j], "n": int(n[i, j]),
+                          "a_preferred": float(wins[i, j] / n[i, j]), "p": p})
+    _apply_holm(tests, "p", "p_holm")
+    left = sum(r["slot"] == "left" for r in ab)
+    sides: dict[tuple, list[int]] = defaultdict(lambda: [0, 0])
+    for r in ab:
+        left_sys = r["condition"] if r["slot"] == "left" else r["other"]
+        key = tuple(sorted((r["condition"], r["other"])))
+        sides[key][0 if left_sys == key[0] else 1] += 1
+    res["ab"] = {"systems": systems, "wins": wins, "n": n, "tests": tests,
+                 "left_fraction": left / max(1, len(ab)),
+                 "side_counts": {f"{k[0]} vs {k[1]}": v for k, v in sorted(sides.items())}}
+    if "ranking" not in res:
+        res["ranking"] = systems
 
 
 def _apply_holm(rows: list[dict], key: str, out: str) -> None:
@@ -635,7 +671,7 @@ def _markdown(res: dict, figs: dict[str, str], source: str) -> str:
         md.append("## Scores per condition\n\n![box plot](score_boxplot.png)\n")
     if "window" in res and "window_difference" in figs:
         w = res["window"]
-        md.append(f"## Windowed score differences (Figs 4.5–4.6)\n")
+        md.append("## Windowed score differences (Figs 4.5–4.6)\n")
         md.append(f"Mean over participants of the difference between {w['reference']!r} and "
                   f"{w['compare']!r} in a {w['size']}-trial window, by presentation order "
                   "(training included), scores normalised by participant and speaker.\n")
@@ -665,7 +701,7 @@ def _markdown(res: dict, figs: dict[str, str], source: str) -> str:
         md.append(_table(["A", "B", "comparisons", "A preferred", "p", "p (Holm)"],
                          [[r["a"], r["b"], r["n"], f"{100 * r['a_preferred']:.0f}%", _p(r["p"]),
                            _p(r["p_holm"])] for r in ab["tests"]]))
-        md.append(f"Side balance (times each system of a pair was on the left): " + "; ".join(
+        md.append("Side balance (times each system of a pair was on the left): " + "; ".join(
             f"{k}: {v[0]}/{v[1]}" for k, v in ab["side_counts"].items()) +
             f". Left chosen in {100 * ab['left_fraction']:.0f}% of trials.\n")
         md.append("![A/B preferences](ab_preferences.png)\n")

@@ -27,6 +27,8 @@ is hand-written, after nnmnkwii's ``baseline/gmm.py`` (the XX/XY/YX/YY block spl
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..errors import NotFittedError, ParameterError
@@ -60,6 +62,52 @@ def _prec_chol(cov: np.ndarray) -> tuple[np.ndarray, float]:
     return P, float(-np.sum(np.log(np.diag(L))))
 
 
+@dataclass(frozen=True)
+class Conditional:
+    """``p(y | x)`` for n inputs: a mixture of M Gaussians per input.
+
+    Attributes
+    ----------
+    log_joint : (n, M), ``log w_m + log N(x; mu_x,m, S_xx,m)`` (= ``log p(x, m)``)
+    means : (n, M, Dy), ``mu_{y|x,m}`` (eq 2.7)
+    covariances : (M, Dy, Dy), ``S_{yy|x,m}`` (eq 2.8; independent of x)
+    chol : (M, Dy, Dy), their lower Cholesky factors
+    """
+
+    log_joint: np.ndarray
+    means: np.ndarray
+    covariances: np.ndarray
+    chol: np.ndarray
+
+    @property
+    def posteriors(self) -> np.ndarray:
+        """P(m | x), (n, M) (eq 2.5)."""
+        lp = self.log_joint - self.log_joint.max(axis=1, keepdims=True)
+        p = np.exp(lp)
+        return p / p.sum(axis=1, keepdims=True)
+
+    @property
+    def precisions(self) -> np.ndarray:
+        return np.linalg.inv(self.covariances)
+
+    @property
+    def log_det(self) -> np.ndarray:
+        """``log |S_{yy|x,m}|``, (M,)."""
+        return 2.0 * np.log(np.diagonal(self.chol, axis1=1, axis2=2)).sum(axis=1)
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray:
+        """One draw of y per input, (n, Dy): a component from P(m|x), then its Gaussian (one
+        component: no draw is spent on the choice)."""
+        n, M, Dy = self.means.shape
+        if M == 1:
+            m = np.zeros(n, dtype=np.int64)
+        else:
+            cum = np.cumsum(self.posteriors, axis=1)
+            m = np.minimum((rng.random((n, 1)) > cum).sum(axis=1), M - 1)
+        eps = rng.standard_normal((n, Dy))
+        return self.means[np.arange(n), m] + np.einsum("nij,nj->ni", self.chol[m], eps)
+
+
 class GMMRegression:
     """Joint GMM over ``[x, y]`` with conditional prediction of ``y`` from ``x``.
 
@@ -90,7 +138,7 @@ class GMMRegression:
         self.random_state = random_state
 
     # -- fitting ----------------------------------------------------------------------------
-    def fit(self, X, Y, *, sample_weight=None) -> "GMMRegression":
+    def fit(self, X, Y) -> "GMMRegression":
         """Fit the joint GMM to ``X`` (n, Dx) and ``Y`` (n, Dy)."""
         if not isinstance(self.n_components, (int, np.integer)) or self.n_components < 1:
             raise ParameterError(f"n_components must be an int >= 1; got {self.n_components!r}")
@@ -161,7 +209,7 @@ class GMMRegression:
         self._ldz = np.empty(M)
         for m in range(M):
             S = self.covariances_[m]
-            Sxx, Sxy, Syx, Syy = S[:dx, :dx], S[:dx, dx:], S[dx:, :dx], S[dx:, dx:]
+            Sxx, Sxy, Syy = S[:dx, :dx], S[:dx, dx:], S[dx:, dx:]
             if dx:
                 A = np.linalg.solve(Sxx, Sxy).T
                 self._Px[m], self._ldx[m] = _prec_chol(Sxx)
@@ -220,6 +268,15 @@ class GMMRegression:
         self._check()
         X = _check_2d("X", X, self.dim_x_)
         return self._my[None] + np.einsum("myx,nmx->nmy", self._A, X[:, None, :] - self._mx[None])
+
+    def condition(self, X) -> "Conditional":
+        """The conditional mixture ``p(y | x)`` for every row of ``X`` (eq 2.5–2.8): the public
+        conditioning every caller uses (tws-basic / tws-hier through :meth:`predict`, tws-hier's
+        single Gaussians and le2012's per-frame objective directly)."""
+        self._check()
+        X = _check_2d("X", X, self.dim_x_)
+        return Conditional(log_joint=self._component_logpx(X), means=self.conditional_means(X),
+                           covariances=self._cov_c.copy(), chol=self._chol_c.copy())
 
     def bic(self, X, Y) -> float:
         """Bayesian information criterion, eq 2.1 (lower is better)."""
@@ -323,4 +380,4 @@ def bic_curve(Z: np.ndarray, *, components=(1, 2, 3, 4, 5, 6), covariance_types=
     return out
 
 
-__all__ = ["GMMRegression", "bic_curve"]
+__all__ = ["GMMRegression", "Conditional", "bic_curve"]

@@ -1,18 +1,19 @@
 """HMM wrappers for hierarchical template warping (thesis §2.2.2, §5.6.2, §5.7.4).
 
 * :class:`LeftToRightHMM` — a left-to-right Gaussian HMM with diagonal covariance (5 states in the
-  thesis), one per warping-parameter cluster: the "middle layer" cluster recogniser.  Trained with
-  hmmlearn's Baum–Welch (``GaussianHMM``), start state fixed to the first and the transition matrix
-  initialised upper-bidiagonal (EM keeps structural zeros).  Scoring at synthesis time is done here
-  with a vectorised Viterbi over a bank of HMMs (thesis §5.8: "Viterbi decoding with the
-  observation probabilities dictated by the lower level HMMs"), because calling hmmlearn once per
-  change point would dominate synthesis time.
+  thesis), one per warping-parameter cluster: the "middle layer" cluster recogniser.  Trained by
+  our own Baum–Welch (``_baum_welch_batched``: scaled forward–backward over all sequences of a
+  cluster at once, vectorised in numpy, which hmmlearn's per-sequence loop is not), start state
+  fixed to the first and the transition matrix initialised upper-bidiagonal (EM keeps structural
+  zeros).  Scoring at synthesis time is a vectorised Viterbi over a bank of HMMs (thesis §5.8:
+  "Viterbi decoding with the observation probabilities dictated by the lower level HMMs").
 * :class:`ErgodicLM` — an ergodic categorical HMM over cluster sequences of one axis, the
   "language model" (top layer) that biases the cluster selection; trained with hmmlearn's
   ``CategoricalHMM``; used causally by a forward filter (:meth:`ErgodicLM.prior`,
   :meth:`ErgodicLM.update`).
 
-Library considered: hmmlearn (used for training); HTS/HTK as in the thesis is not a Python library.
+Library considered: hmmlearn (trains the language model; the Gaussian HMMs' training and scoring
+are ours, for speed); HTS/HTK as in the thesis is not a Python library.
 """
 
 from __future__ import annotations
@@ -113,16 +114,15 @@ def _diag_loglik(X: np.ndarray, means: np.ndarray, var: np.ndarray) -> np.ndarra
 def _baum_welch_batched(X, lengths, means, var, trans, start, *, n_iter: int, min_covar: float):
     """EM for a Gaussian HMM on many sequences at once (scaled forward–backward)."""
     N, L, D = len(lengths), int(lengths.max()), X.shape[1]
-    S = len(start)
     Xp = np.zeros((N, L, D))
     mask = np.arange(L)[None, :] < lengths[:, None]  # (N, L)
     Xp[mask] = X
     maskf = mask.astype(np.float64)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
-        return _bw_loop(Xp, mask, maskf, lengths, means, var, trans, start, n_iter, min_covar)
+        return _bw_loop(Xp, mask, maskf, means, var, trans, start, n_iter, min_covar)
 
 
-def _bw_loop(Xp, mask, maskf, lengths, means, var, trans, start, n_iter, min_covar):
+def _bw_loop(Xp, mask, maskf, means, var, trans, start, n_iter, min_covar):
     N, L, D = Xp.shape
     S = len(start)
     for _ in range(max(0, int(n_iter))):
@@ -281,13 +281,19 @@ class ErgodicLM:
         counts = np.bincount(sym[:, 0], minlength=V) + 1.0
         e = counts[None] * rng.uniform(0.5, 1.5, (S, V))
         m.emissionprob_ = e / e.sum(1, keepdims=True)
+        self.trained_ = False
+        failure = None
         if len(sym) >= 2:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 try:
                     m.fit(sym, lengths)
-                except ValueError:
-                    pass
+                    self.trained_ = True
+                except ValueError as exc:  # e.g. lengths that do not sum to the symbols
+                    failure = exc
+        if failure is not None:
+            warnings.warn(f"language model: Baum–Welch failed ({failure}); it keeps its random initialisation "
+                          f"(floored so every symbol stays possible)", UserWarning, stacklevel=2)
         # floor so no symbol becomes impossible
         self.startprob_ = _norm(np.asarray(m.startprob_) + 1e-3)
         self.transmat_ = _norm(np.asarray(m.transmat_) + 1e-3)

@@ -48,7 +48,7 @@ Randomness comes only from the global torch generator, which the caller seeds in
 ``torch.random.fork_rng`` (see :func:`headmotion.systems.dnn`); all operations used have
 deterministic CPU kernels.
 
-Libraries considered: PyTorch (CPU) for the networks, as DESIGN.md chooses; skorch / Lightning
+Libraries considered: PyTorch (CPU) for the networks, as docs/design.md chooses; skorch / Lightning
 would add a dependency for three small loops; scikit-learn's ``MLPRegressor`` has no custom loss
 (the CCA term) and no layer-wise pre-training.
 """

@@ -1,4 +1,4 @@
-"""Model files without pickle: a ``.hmz`` zip of ``config.json`` + ``arrays.npz`` (DESIGN.md).
+"""Model files without pickle: a ``.hmz`` zip of ``config.json`` + ``arrays.npz`` (docs/design.md "Model files").
 
 ``config.json`` records the system name, its parameters, the feature configuration, the package
 version and a summary of the training corpus; ``arrays.npz`` holds every learned array (numpy

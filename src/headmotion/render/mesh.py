@@ -396,7 +396,7 @@ MASK_BOXES = {"eyes": (0.053, -0.008, 0.0235), "mouth": (0.033, -0.076, -0.038)}
 
 def _build_mask(res: int = 28, offset: float = 0.0035) -> MeshPart:
     pos_all, idx_all = [], []
-    for name, (hw, y0, y1) in MASK_BOXES.items():
+    for hw, y0, y1 in MASK_BOXES.values():
         nx, ny = res, max(4, int(res * (y1 - y0) / (2 * hw)) + 4)
         xs = np.linspace(-hw, hw, nx)
         ys = np.linspace(y0, y1, ny)

@@ -261,7 +261,7 @@ def probe(path) -> dict:
     return {"video": video, "audio": audio, "duration": duration}
 
 
-def read_frames(path, *, size=None) -> np.ndarray:
+def read_frames(path) -> np.ndarray:
     """Decode a video to ``(T, H, W, 3)`` uint8 (for tests and checks)."""
     import imageio_ffmpeg
 

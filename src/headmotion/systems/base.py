@@ -1,18 +1,49 @@
-"""The one interface every synthesis system shares, and the registry of systems (DESIGN.md).
+"""The one contract every synthesis system shares, and the registry of systems (docs/design.md).
 
-A system is an estimator in scikit-learn's style: ``__init__`` stores parameters only, ``fit``
-learns from a :class:`~headmotion.corpus.Corpus` and returns ``self``, fitted attributes end in
-``_``.  ``predict`` turns :class:`~headmotion.types.Audio` into :class:`~headmotion.types.Motion`.
-Persistence goes through :mod:`headmotion.models.serialization` (no pickle): a subclass provides
-``_get_state() -> (config, arrays)`` and ``_set_state(config, arrays)``.
+A system is an estimator in scikit-learn's manner:
 
-Causal systems also offer ``stream()`` returning a :class:`MotionStream`: ``push(samples)`` gives
-the frames whose values are final so far, ``flush()`` the rest.
+* ``__init__`` only stores its keyword arguments under their own names; :meth:`get_params` and
+  :meth:`set_params` are derived from ``__init__``'s signature (one implementation, here).
+* Parameters are validated in :meth:`fit` and :meth:`predict` (a subclass's ``_validate_params``),
+  never in ``__init__``, so ``set_params`` may change them.
+* ``random_state`` is the *training* randomness (EM / k-means / network initialisation, data
+  splits); ``seed`` is the *synthesis* randomness (what a stochastic system samples).  A system
+  with a ``seed`` parameter uses it when ``predict(seed=None)``.
+* ``stochastic`` — what a stochastic system samples — is an ordinary parameter with one
+  vocabulary for every system, :data:`STOCHASTIC`: ``"none"``, ``"choice"`` (the discrete choice:
+  tws-basic's speed class, tws-hier's cluster; the thesis's words ``"class"`` and ``"cluster"``
+  are accepted for it), ``"params"`` (the warping parameters) or ``"both"``.  Systems without it
+  are deterministic; ``set_params(stochastic=...)`` on them raises ParameterError.
+* Fitted attributes end in ``_``; :meth:`predict` and :meth:`stream` raise NotFittedError before
+  :meth:`fit` or :meth:`load`.  Every fitted system has ``mean_pose_`` (pitch, yaw, roll of the
+  training motion, radians) and may list training warnings in ``fit_warnings_`` (the evaluation
+  copies them into its report).
+
+Synthesis::
+
+    predict(audio, *, seed=None, gain=1.0, offset=0.0) -> Motion     # at model.frame_rate
+    stream(*, seed=None, gain=1.0, offset=0.0) -> MotionStream         # causal systems only
+
+``audio`` may be at any sample rate: it is resampled once, where the features are computed.
+:attr:`Synthesizer.sample_rate` is the rate the features analyse (and the rate a stream's
+``push`` expects).  The output is at :attr:`Synthesizer.frame_rate`; the caller resamples.
+``gain`` / ``offset`` have one meaning for every system, :func:`headmotion.motion.control.apply_gain`
+about the training data's mean pose ``mean_pose_`` (pitch, yaw, roll in radians).
+
+Capabilities are declared, not sniffed: ``capabilities`` is a frozenset of :data:`CAUSAL`
+(``stream()`` works), :data:`EMBEDDING` (``embed(audio, fps=, n_frames=)`` gives a learned
+embedding), :data:`NEEDS_OTHER_SPEAKERS` (train on the other speakers' recordings).
+
+Subclasses implement ``fit``, ``_predict(audio, *, seed) -> Motion`` (raw, before gain),
+``_stream(*, seed)`` when causal, ``_get_state`` / ``_set_state`` for persistence through
+:mod:`headmotion.models.serialization` (no pickle), and ``_legacy_mean_pose`` for model files
+written before ``mean_pose`` was stored.
 """
 
 from __future__ import annotations
 
 import importlib
+import inspect
 from abc import ABC, abstractmethod
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
@@ -21,12 +52,13 @@ import numpy as np
 
 from ..errors import ModelFileError, NotFittedError, ParameterError
 from ..models.serialization import load_model_file, save_model_file
+from ..motion.control import apply_gain, as_triple
 from ..types import Audio, Motion
 
 #: registry name → "module:Class" (modules are imported on first use)
 SYSTEMS: dict[str, str] = {
-    "tws-basic": "headmotion.systems.tws_basic:TwsBasic",
-    "tws-hier": "headmotion.systems.tws_hier:TwsHier",
+    "tws-basic": "headmotion.systems.tws.basic:TwsBasic",
+    "tws-hier": "headmotion.systems.tws.hier:TwsHier",
     "le2012": "headmotion.systems.le2012:Le2012",
     "cccae": "headmotion.systems.dnn:CccaeSystem",
     "ae-dnn": "headmotion.systems.dnn:AeDnnSystem",
@@ -36,18 +68,29 @@ SYSTEMS: dict[str, str] = {
     "wav-dnn": "headmotion.systems.dnn:WavDnnSystem",
 }
 
-#: anchors (evaluation conditions, thesis §4.2.4, §4.3.1) — not trainable models
-ANCHORS: dict[str, str] = {
-    "ground-truth": "headmotion.systems.anchors:GroundTruth",
-    "desync": "headmotion.systems.anchors:Desync",
-    "other-speaker": "headmotion.systems.anchors:OtherSpeaker",
-    "shaped-noise": "headmotion.systems.anchors:ShapedNoise",
-    "still": "headmotion.systems.anchors:Still",
-}
+#: capability names
+CAUSAL = "causal"
+EMBEDDING = "embedding"
+NEEDS_OTHER_SPEAKERS = "needs_other_speakers"
+
+#: the ``stochastic`` vocabulary, and the thesis's words for "choice"
+STOCHASTIC = ("none", "choice", "params", "both")
+STOCHASTIC_ALIASES = {"class": "choice", "cluster": "choice"}
+
+
+def check_stochastic(value, system: str) -> str:
+    """The canonical ``stochastic`` value, or ParameterError naming the vocabulary."""
+    v = STOCHASTIC_ALIASES.get(value, value)
+    if v not in STOCHASTIC:
+        raise ParameterError(
+            f"the 'stochastic' parameter of {system} must be one of {list(STOCHASTIC)} "
+            f"(or 'class' / 'cluster' for 'choice'); got {value!r}")
+    return v
 
 
 class MotionStream(Protocol):
-    """Incremental synthesis: push audio, get the frames that are final."""
+    """Incremental synthesis: push audio samples (float, at the model's ``sample_rate``), get the
+    frames that are final; ``flush()`` gives the rest."""
 
     latency_ms: float
 
@@ -56,13 +99,68 @@ class MotionStream(Protocol):
     def flush(self) -> Motion: ...
 
 
+class _GainedStream:
+    """A :class:`MotionStream` whose output goes through :func:`apply_gain`."""
+
+    def __init__(self, inner, mean_pose, gain, offset):
+        self.inner, self.mean_pose, self.gain, self.offset = inner, mean_pose, gain, offset
+        self.latency_ms = inner.latency_ms
+
+    def push(self, samples) -> Motion:
+        return apply_gain(self.inner.push(samples), self.mean_pose, self.gain, self.offset)
+
+    def flush(self) -> Motion:
+        return apply_gain(self.inner.flush(), self.mean_pose, self.gain, self.offset)
+
+
 class Synthesizer(ABC):
-    """Base class of every system: speech in, head motion out."""
+    """Base class of every system: speech in, head motion out (see the module docstring)."""
 
     #: the registry name, e.g. ``"tws-hier"``
     name: ClassVar[str] = ""
-    #: True when ``stream()`` is available
-    causal: ClassVar[bool] = False
+    #: what the system can do beyond ``predict``: a subset of {CAUSAL, EMBEDDING, NEEDS_OTHER_SPEAKERS}
+    capabilities: ClassVar[frozenset[str]] = frozenset()
+
+    # -- parameters (scikit-learn style) ----------------------------------------------------
+    @classmethod
+    def _param_names(cls) -> list[str]:
+        sig = inspect.signature(cls.__init__)
+        return [p.name for p in sig.parameters.values()
+                if p.name != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+
+    def get_params(self) -> dict[str, Any]:
+        """The ``__init__`` parameters and their current values."""
+        return {k: getattr(self, k) for k in self._param_names()}
+
+    def set_params(self, **params) -> "Synthesizer":
+        """Change parameters (validated at the next ``fit`` / ``predict``); returns ``self``."""
+        names = self._param_names()
+        for k, v in params.items():
+            if k not in names:
+                raise ParameterError(f"{self.name or type(self).__name__} has no parameter {k!r}; "
+                                     f"its parameters are {names}")
+            setattr(self, k, v)
+        return self
+
+    def _validate_params(self) -> None:  # noqa: B027  (an optional hook: no parameters to check by default)
+        """Raise ParameterError for a bad parameter (called by ``fit`` and ``predict``)."""
+
+    @property
+    def causal(self) -> bool:
+        return CAUSAL in self.capabilities
+
+    # -- rates --------------------------------------------------------------------------------
+    @property
+    def sample_rate(self) -> int:
+        """Hz of the audio the model's features analyse (a stream's ``push`` expects this rate)."""
+        self._check_fitted()
+        return int(self.sample_rate_)
+
+    @property
+    def frame_rate(self) -> float:
+        """Frames per second of ``predict``'s and ``stream``'s output."""
+        self._check_fitted()
+        return float(self.fps_)
 
     # -- the interface -------------------------------------------------------------------------
     @abstractmethod
@@ -70,11 +168,33 @@ class Synthesizer(ABC):
         """Learn from a corpus; returns ``self``.  ``progress`` is an optional callable
         ``progress(done: float, total: float, description: str)``."""
 
-    @abstractmethod
-    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
-        """Synthesise head motion for ``audio``."""
+    def predict(self, audio: Audio, *, seed: int | None = None, gain=1.0, offset=0.0) -> Motion:
+        """Head motion for ``audio`` (any sample rate) at :attr:`frame_rate`.
 
-    def stream(self, *, seed: int | None = None) -> MotionStream:
+        ``seed`` — synthesis randomness (default: the model's ``seed`` parameter, if any);
+        ``gain``, ``offset`` — scalar or (pitch, yaw, roll), see :mod:`headmotion.motion.control`."""
+        self._check_fitted()
+        if not isinstance(audio, Audio):
+            raise ParameterError(f"{self.name}.predict expects an Audio; got {type(audio).__name__}")
+        as_triple(gain, "gain"), as_triple(offset, "offset")
+        self._validate_params()
+        motion = self._predict(audio, seed=seed)
+        return apply_gain(motion, self.mean_pose_, gain, offset)
+
+    @abstractmethod
+    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
+        """The system's motion before gain and offset."""
+
+    def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0) -> MotionStream:
+        """Incremental synthesis (systems with the CAUSAL capability)."""
+        if CAUSAL not in self.capabilities:
+            raise ParameterError(f"system {self.name!r} is not causal and cannot stream")
+        self._check_fitted()
+        as_triple(gain, "gain"), as_triple(offset, "offset")
+        self._validate_params()
+        return _GainedStream(self._stream(seed=seed), self.mean_pose_, gain, offset)
+
+    def _stream(self, *, seed: int | None) -> MotionStream:  # noqa: ARG002  (the causal systems' hook)
         raise ParameterError(f"system {self.name!r} is not causal and cannot stream")
 
     @abstractmethod
@@ -84,6 +204,10 @@ class Synthesizer(ABC):
     @abstractmethod
     def _set_state(self, config: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
         """Restore a fitted model from what ``_get_state`` returned."""
+
+    def _legacy_mean_pose(self) -> np.ndarray:
+        """The mean pose for a model file without one (older files); override per system."""
+        return np.zeros(3)
 
     # -- shared behaviour --------------------------------------------------------------------
     @property
@@ -99,14 +223,22 @@ class Synthesizer(ABC):
         config, arrays = self._get_state()
         config = dict(config)
         config.setdefault("corpus", getattr(self, "corpus_summary_", None))
+        arrays = dict(arrays)
+        arrays["mean_pose"] = np.asarray(self.mean_pose_, dtype=np.float64)
         return save_model_file(path, system=self.name, config=config, arrays=arrays)
 
     @classmethod
     def load(cls, path) -> "Synthesizer":
         config, arrays = load_model_file(path, expect_system=cls.name or None)
+        return cls._from_state(path, config, arrays)
+
+    @classmethod
+    def _from_state(cls, path, config, arrays) -> "Synthesizer":
         obj = cls.__new__(cls)
         try:
             obj._set_state(config, arrays)
+            obj.mean_pose_ = (np.asarray(arrays["mean_pose"], dtype=np.float64) if "mean_pose" in arrays
+                              else np.asarray(obj._legacy_mean_pose(), dtype=np.float64))
         except (KeyError, ValueError, TypeError, IndexError) as exc:
             raise ModelFileError(f"{path}: model file is damaged or incomplete ({type(exc).__name__}: {exc})") from exc
         obj.corpus_summary_ = config.get("corpus")
@@ -120,13 +252,10 @@ def _import(spec: str):
 
 
 def system_class(name: str) -> type:
-    """The class registered under ``name`` (a system or an anchor)."""
+    """The class registered under ``name``."""
     if name in SYSTEMS:
         return _import(SYSTEMS[name])
-    if name in ANCHORS:
-        return _import(ANCHORS[name])
-    raise ParameterError(
-        f"unknown system {name!r}; expected one of {sorted(SYSTEMS)} or anchors {sorted(ANCHORS)}")
+    raise ParameterError(f"unknown system {name!r}; expected one of {sorted(SYSTEMS)}")
 
 
 def create(name: str, **params) -> Synthesizer:
@@ -135,12 +264,13 @@ def create(name: str, **params) -> Synthesizer:
 
 
 def load_model(path) -> Synthesizer:
-    """Load any model file, whatever system made it."""
-    config, _ = load_model_file(path)
+    """Load any model file, whatever system made it (the file is read once)."""
+    config, arrays = load_model_file(path)
     system = config.get("system")
     if system not in SYSTEMS:
         raise ModelFileError(f"{path}: model is for system {system!r}, which this headmotion does not know")
-    return system_class(system).load(path)
+    return system_class(system)._from_state(path, config, arrays)
 
 
-__all__ = ["Synthesizer", "MotionStream", "SYSTEMS", "ANCHORS", "system_class", "create", "load_model"]
+__all__ = ["Synthesizer", "MotionStream", "SYSTEMS", "system_class", "create", "load_model", "CAUSAL", "EMBEDDING",
+           "NEEDS_OTHER_SPEAKERS", "STOCHASTIC", "check_stochastic"]

@@ -40,8 +40,10 @@ speaker speaks (:meth:`~headmotion.corpus.Recording.speaking_mask`); prediction 
 Fitted models record which recording went where (``splits_``) so the paper's tables can be
 computed on the right sets.
 
-Beyond the common interface: ``predict(audio, fps=...)`` chooses the output frame rate;
-``predict_features(track)`` runs the model on an already extracted 100-fps feature track and
+Output rate — ``predict`` gives motion at the model rate (``model_fps``, 100 fps), the contract's
+``frame_rate``; the caller resamples (the CLI's ``--fps``, the evaluation to the reference rate).
+
+Beyond the common interface: ``predict_features(track)`` runs the model on an already extracted 100-fps feature track and
 raises :class:`~headmotion.errors.ParameterError` when its dimension or rate is not the one the
 model was trained on; ``embed(audio, fps=..., n_frames=...)`` (CCCAE / AE systems) returns the
 learned embedding as a :class:`~headmotion.types.FeatureTrack` for the paper's Table 1.
@@ -50,7 +52,7 @@ Training length — Adam (lr 0.0002) for at most ``ae_max_epochs`` (60) autoenco
 ``pretrain_epochs`` (3) per pre-training layer, ``max_epochs`` (30) regressor and post-filter
 epochs, each stopped after ``patience`` (4) epochs without a better validation loss.
 
-Determinism — ``fit`` seeds torch inside ``torch.random.fork_rng`` (the caller's global generator
+Determinism — ``fit`` seeds torch with ``random_state`` inside ``torch.random.fork_rng`` (the caller's global generator
 is left untouched), enables ``torch.use_deterministic_algorithms`` for the duration of ``fit``, and
 uses ``n_threads`` intra-op threads in ``fit`` and ``predict`` (``None``: torch's setting); the same
 seed and thread count give the same model bit for bit on CPU.  The default is **one** thread: the
@@ -58,7 +60,7 @@ networks are small (mini-batches of 256–1000 frames × a few hundred units), s
 gains little on an idle machine and loses badly on a shared one — on this 2-core machine with other
 jobs running, fitting ``cccae`` on 5 minutes of speech took 59 s with one thread and 134 s with two.
 
-Libraries considered: PyTorch for the networks (DESIGN.md); scikit-learn's ``MLPRegressor`` has no
+Libraries considered: PyTorch for the networks (docs/design.md); scikit-learn's ``MLPRegressor`` has no
 custom loss or layer-wise pre-training.
 """
 
@@ -71,23 +73,15 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..align import fit_length as _fit_length
 from ..align import n_frames as _n_frames
 from ..errors import ParameterError
+from ..motion.control import mean_pose_of
+from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, FeatureTrack, Motion
-from .base import Synthesizer
+from .base import EMBEDDING, Synthesizer
 
 MODEL_FPS = 100.0
-
-
-def _fit_length(a: np.ndarray, n: int) -> np.ndarray:
-    """Trim or edge-pad ``a (T, D)`` to ``n`` frames."""
-    if len(a) == n:
-        return a
-    if len(a) > n:
-        return a[:n]
-    if len(a) == 0:
-        return np.zeros((n,) + a.shape[1:], dtype=a.dtype)
-    return np.concatenate([a, np.repeat(a[-1:], n - len(a), axis=0)], 0)
 
 
 def _clean_json(x):
@@ -138,19 +132,12 @@ class _DnnSystem(Synthesizer):
     """Shared implementation; see the module docstring.  Use the registered subclasses."""
 
     name: ClassVar[str] = ""
-    causal: ClassVar[bool] = False
     default_feature: ClassVar[str] = "wav"
     #: whether the system learns a waveform embedding (CCCAE / AE) before the regressor
     uses_embedding: ClassVar[bool] = False
     #: the weight of the CCA term when ``alpha`` is not given, and whether it may be changed
     default_alpha: ClassVar[float | None] = None
     alpha_fixed: ClassVar[bool] = False
-
-    _PARAMS = ("features", "feature_params", "alpha", "embedding_dim", "ae_hidden", "ae_activation", "regressor_hidden",
-               "context", "dropout", "postfilter", "postfilter_hidden", "postfilter_code", "segment",
-               "postfilter_noise", "model_fps", "batch_size", "cca_batch_size", "cca_reg",
-               "learning_rate", "max_epochs", "ae_max_epochs", "pretrain_epochs", "patience",
-               "valid_fraction", "holdout_test", "seed", "n_threads")
 
     def __init__(self, *, features: str | None = None, feature_params: dict | None = None,
                  alpha: float | None = None, embedding_dim: int = 30,
@@ -161,15 +148,11 @@ class _DnnSystem(Synthesizer):
                  postfilter_noise: float = 0.3, model_fps: float = MODEL_FPS, batch_size: int = 256,
                  cca_batch_size: int = 1000, cca_reg: float = 1e-3, learning_rate: float = 2e-4,
                  max_epochs: int = 30, ae_max_epochs: int = 60, pretrain_epochs: int = 3, patience: int = 4,
-                 valid_fraction: float = 0.15, holdout_test: bool = True, seed: int = 0,
+                 valid_fraction: float = 0.15, holdout_test: bool = True, random_state: int = 0,
                  n_threads: int | None = 1):
         self.features = features
         self.feature_params = feature_params
-        if self.alpha_fixed and alpha not in (None, self.default_alpha):
-            raise ParameterError(
-                f"{self.name} is the autoencoder with alpha = {self.default_alpha:g}; use the 'cccae' system for "
-                f"another alpha (got {alpha!r})")
-        self.alpha = self.default_alpha if alpha is None else alpha
+        self.alpha = alpha
         self.embedding_dim = embedding_dim
         self.ae_hidden = ae_hidden
         self.ae_activation = ae_activation
@@ -192,18 +175,20 @@ class _DnnSystem(Synthesizer):
         self.patience = patience
         self.valid_fraction = valid_fraction
         self.holdout_test = holdout_test
-        self.seed = seed
+        self.random_state = random_state
         self.n_threads = n_threads
 
     # -- parameters ---------------------------------------------------------------------------
-    def get_params(self) -> dict[str, Any]:
-        out = {}
-        for k in self._PARAMS:
-            v = getattr(self, k)
-            out[k] = list(v) if isinstance(v, tuple) else v
-        return out
+    @property
+    def alpha_value(self) -> float | None:
+        """The CCA weight in use: ``alpha``, or the system's default when it is None."""
+        return self.default_alpha if self.alpha is None else self.alpha
 
-    def _check_params(self) -> None:
+    def _validate_params(self) -> None:
+        if self.alpha_fixed and self.alpha not in (None, self.default_alpha):
+            raise ParameterError(
+                f"{self.name} is the autoencoder with alpha = {self.default_alpha:g}; use the 'cccae' system for "
+                f"another alpha (got {self.alpha!r})")
         def pos_int(name, lo=1):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
@@ -221,7 +206,7 @@ class _DnnSystem(Synthesizer):
 
         for n in ("embedding_dim", "batch_size", "max_epochs", "ae_max_epochs", "patience"):
             pos_int(n)
-        for n in ("context", "pretrain_epochs", "seed"):
+        for n in ("context", "pretrain_epochs", "random_state"):
             pos_int(n, 0)
         pos_int("segment", 2)
         pos_int("cca_batch_size", 2)
@@ -244,7 +229,8 @@ class _DnnSystem(Synthesizer):
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ParameterError(f"the {n!r} parameter of {self.name} must be a number >= 0; got {v!r}")
         if self.uses_embedding:
-            if not (isinstance(self.alpha, (int, float)) and math.isfinite(self.alpha) and self.alpha >= 0):
+            a = self.alpha_value
+            if not (isinstance(a, (int, float)) and math.isfinite(a) and a >= 0):
                 raise ParameterError(f"the 'alpha' parameter of {self.name} must be a number >= 0; got {self.alpha!r}")
         if self.ae_activation not in ("relu", "tanh", "sigmoid"):
             raise ParameterError(
@@ -274,7 +260,8 @@ class _DnnSystem(Synthesizer):
         motion = _fit_length(np.asarray(mot.rotvec, dtype=np.float64), T)
         if rec.speaking is not None:
             src = np.asarray(rec.speaking, dtype=bool)
-            idx = np.minimum(((np.arange(T) + 0.5) * rec.motion.fps / fps).astype(np.int64), len(src) - 1)
+            # the motion frame holding each model frame's time t / fps (the align convention)
+            idx = np.minimum(np.floor(np.arange(T) * rec.motion.fps / fps + 1e-9).astype(np.int64), len(src) - 1)
             speaking = src[idx] if len(src) else np.zeros(T, bool)
         else:
             from ..features.vad import speaking_mask
@@ -286,7 +273,7 @@ class _DnnSystem(Synthesizer):
         from ..corpus import paper_split
 
         explicit = all(e.split for e in corpus.entries)
-        split = paper_split(corpus, seed=int(self.seed))
+        split = paper_split(corpus, seed=int(self.random_state))
         if not explicit:
             split = {k: ("train" if v == "test" else v) for k, v in split.items()}
         elif not self.holdout_test:
@@ -302,12 +289,7 @@ class _DnnSystem(Synthesizer):
         corpus : Corpus — one speaker's recordings (speaker-dependent models, paper §4.1)
         progress : callable ``progress(done, total, description)`` or None
         """
-        import torch
-
-        from ..features import Normalizer
-        from ..models import nets
-
-        self._check_params()
+        self._validate_params()
         t0 = time.perf_counter()
         if len(corpus) == 0:
             raise ParameterError(f"cannot fit {self.name} on an empty corpus")
@@ -328,6 +310,49 @@ class _DnnSystem(Synthesizer):
 
         if progress is not None:
             progress(0, n_stages, f"{self.name}: extracting {self.feature_name} features")
+        train, valid = self._training_data(train_recs, valid_recs, config)
+        feat_norm, mot_norm = self._normalise(train, valid)
+        history: dict[str, Any] = {}
+        with _torch_context(int(self.random_state), self.n_threads):
+            ae, emb_norm = None, None
+            if self.uses_embedding:
+                ae, emb_norm, history["autoencoder"] = self._fit_embedding(train, valid, report("autoencoder"))
+                stage[0] += 1
+            else:
+                for p in train + valid:
+                    p.r = p.x
+            reg, history["regressor"] = self._fit_regressor(train, valid, report("regressor"))
+            stage[0] += 1
+            pf = None
+            if self.postfilter:
+                pf, history["postfilter"] = self._fit_postfilter(train, valid, report("post-filter"))
+                stage[0] += 1
+
+        self.feature_config_ = config
+        self.input_dim_ = int(train[0].feats.shape[1])
+        self.feature_norm_ = feat_norm
+        self.motion_norm_ = mot_norm
+        self.embedding_norm_ = emb_norm
+        self.autoencoder_ = ae
+        self.regressor_ = reg
+        self.postfilter_ = pf
+        fps_list = sorted({float(r.motion.fps) for r in train_recs})
+        self.output_fps_ = fps_list[0] if len(fps_list) == 1 else float(self.model_fps)  # informational
+        self.splits_ = {r.id: split[r.id] for r in corpus}
+        self.fps_ = float(self.model_fps)
+        self.sample_rate_ = int(train_recs[0].audio.sample_rate)
+        self.mean_pose_ = mean_pose_of([p.motion for p in train])
+        self.history_ = _clean_json(history)
+        self.fit_seconds_ = time.perf_counter() - t0
+        self.corpus_summary_ = corpus.summary()
+        self.fitted_ = True
+        if progress is not None:
+            progress(n_stages, n_stages, f"{self.name}: done in {self.fit_seconds_:.1f} s")
+        return self
+
+    def _training_data(self, train_recs, valid_recs, config) -> tuple[list[_Prepared], list[_Prepared]]:
+        """Features and motion at the model rate; validation recordings, or (when there are none)
+        the tail of every training recording; checks there is enough speech."""
         train = [self._prepare(r, config) for r in train_recs]
         valid = [self._prepare(r, config) for r in valid_recs]
         if not valid:  # documented fallback: the tail of every training recording
@@ -337,7 +362,6 @@ class _DnnSystem(Synthesizer):
                 tr.append(p.part(0, cut, ""))
                 va.append(p.part(cut, None, "#tail"))
             train, valid = tr, va
-        dim = train[0].feats.shape[1]
         n_speak = sum(int(p.speaking.sum()) for p in train)
         if n_speak < max(2 * int(self.context) + 1, 50):
             raise ParameterError(
@@ -349,89 +373,82 @@ class _DnnSystem(Synthesizer):
         valid = [p for p in valid if len(p.feats)]
         if not valid:
             raise ParameterError(f"{self.name}: no validation frames (valid_fraction {self.valid_fraction})")
+        return train, valid
+
+    @staticmethod
+    def _normalise(train, valid):
+        """Feature and motion normalisers fitted on the speaking training frames; sets ``p.x``, ``p.y``."""
+        from ..features import Normalizer
 
         feat_norm = Normalizer().fit([p.feats[p.speaking] for p in train])
         mot_norm = Normalizer().fit([p.motion[p.speaking] for p in train])
         for p in train + valid:
             p.x = np.asarray(feat_norm.transform(p.feats), dtype=np.float32)
             p.y = np.asarray(mot_norm.transform(p.motion), dtype=np.float32)
+        return feat_norm, mot_norm
 
-        history: dict[str, Any] = {}
-        with _torch_context(int(self.seed), self.n_threads):
-            ae = None
-            emb_norm = None
-            if self.uses_embedding:
-                ae = nets.StackedAutoencoder(dim, hidden=tuple(self.ae_hidden), code_dim=int(self.embedding_dim),
-                                             activation=str(self.ae_activation))
-                xt = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in train]))
-                yt = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in train]))
-                xv = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in valid]))
-                yv = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in valid]))
-                history["autoencoder"] = nets.train_autoencoder(
-                    ae, xt, yt, x_valid=xv, y_valid=yv, alpha=float(self.alpha),
-                    batch_size=int(self.cca_batch_size), lr=float(self.learning_rate),
-                    max_epochs=int(self.ae_max_epochs), patience=int(self.patience),
-                    pretrain_epochs=int(self.pretrain_epochs), reg=float(self.cca_reg),
-                    progress=report("autoencoder"))
-                stage[0] += 1
-                with torch.no_grad():
-                    for p in train + valid:
-                        p.z = ae.encode(torch.from_numpy(p.x)).numpy()
-                emb_norm = Normalizer().fit([p.z[p.speaking] for p in train])
-                for p in train + valid:
-                    p.r = np.asarray(emb_norm.transform(p.z), dtype=np.float32)
-            else:
-                for p in train + valid:
-                    p.r = p.x
-            in_dim = train[0].r.shape[1]
-            reg = nets.ContextRegressor(in_dim, context=int(self.context), hidden=tuple(self.regressor_hidden),
-                                        dropout=float(self.dropout))
-            tr_seq = nets.PaddedSequences([p.r for p in train], int(self.context))
-            va_seq = nets.PaddedSequences([p.r for p in valid], int(self.context))
-            tr_starts = np.concatenate([tr_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(train)])
-            va_starts = np.concatenate([va_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(valid)])
-            history["regressor"] = nets.train_regressor(
-                reg, tr_seq, tr_starts, np.concatenate([p.y[p.speaking] for p in train]),
-                va_seq, va_starts, np.concatenate([p.y[p.speaking] for p in valid]),
-                batch_size=int(self.batch_size), lr=float(self.learning_rate), max_epochs=int(self.max_epochs),
-                patience=int(self.patience), progress=report("regressor"))
-            stage[0] += 1
-            pf = None
-            if self.postfilter:
-                seg = int(self.segment)
-                pf = nets.make_postfilter(segment=seg, dims=3, hidden=tuple(self.postfilter_hidden),
-                                          code_dim=int(self.postfilter_code))
-                tr_seg = nets.motion_segments([p.y for p in train], segment=seg, hop=max(1, seg // 10))
-                va_seg = nets.motion_segments([p.y for p in valid], segment=seg, hop=max(1, seg // 10))
-                if len(tr_seg) == 0:
-                    raise ParameterError(
-                        f"{self.name}: the training motion is shorter than one post-filter segment ({seg} frames)")
-                if len(va_seg) == 0:
-                    va_seg = tr_seg[:: max(1, len(tr_seg) // 200)]
-                history["postfilter"] = nets.train_postfilter(
-                    pf, tr_seg, va_seg, noise=float(self.postfilter_noise), batch_size=int(self.batch_size),
-                    lr=float(self.learning_rate), max_epochs=int(self.max_epochs), patience=int(self.patience),
-                    progress=report("post-filter"))
-                stage[0] += 1
+    def _fit_embedding(self, train, valid, progress):
+        """The CCCAE / AE (paper §3.1); sets ``p.r`` to the normalised embedding."""
+        import torch
 
-        self.feature_config_ = config
-        self.input_dim_ = int(dim)
-        self.feature_norm_ = feat_norm
-        self.motion_norm_ = mot_norm
-        self.embedding_norm_ = emb_norm
-        self.autoencoder_ = ae
-        self.regressor_ = reg
-        self.postfilter_ = pf
-        fps_list = sorted({float(r.motion.fps) for r in train_recs})
-        self.output_fps_ = fps_list[0] if len(fps_list) == 1 else float(self.model_fps)
-        self.splits_ = {r.id: split[r.id] for r in corpus}
-        self.history_ = _clean_json(history)
-        self.fit_seconds_ = time.perf_counter() - t0
-        self.corpus_summary_ = corpus.summary()
-        self.fitted_ = True
-        if progress is not None:
-            progress(n_stages, n_stages, f"{self.name}: done in {self.fit_seconds_:.1f} s")
-        return self
+        from ..features import Normalizer
+        from ..models import nets
+
+        ae = nets.StackedAutoencoder(train[0].x.shape[1], hidden=tuple(self.ae_hidden),
+                                     code_dim=int(self.embedding_dim), activation=str(self.ae_activation))
+        xt = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in train]))
+        yt = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in train]))
+        xv = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in valid]))
+        yv = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in valid]))
+        hist = nets.train_autoencoder(
+            ae, xt, yt, x_valid=xv, y_valid=yv, alpha=float(self.alpha_value),
+            batch_size=int(self.cca_batch_size), lr=float(self.learning_rate),
+            max_epochs=int(self.ae_max_epochs), patience=int(self.patience),
+            pretrain_epochs=int(self.pretrain_epochs), reg=float(self.cca_reg), progress=progress)
+        with torch.no_grad():
+            for p in train + valid:
+                p.z = ae.encode(torch.from_numpy(p.x)).numpy()
+        emb_norm = Normalizer().fit([p.z[p.speaking] for p in train])
+        for p in train + valid:
+            p.r = np.asarray(emb_norm.transform(p.z), dtype=np.float32)
+        return ae, emb_norm, hist
+
+    def _fit_regressor(self, train, valid, progress):
+        """The ±context frame regressor (paper §3.2) from ``p.r`` to ``p.y`` on speaking frames."""
+        from ..models import nets
+
+        reg = nets.ContextRegressor(train[0].r.shape[1], context=int(self.context),
+                                    hidden=tuple(self.regressor_hidden), dropout=float(self.dropout))
+        tr_seq = nets.PaddedSequences([p.r for p in train], int(self.context))
+        va_seq = nets.PaddedSequences([p.r for p in valid], int(self.context))
+        tr_starts = np.concatenate([tr_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(train)])
+        va_starts = np.concatenate([va_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(valid)])
+        hist = nets.train_regressor(
+            reg, tr_seq, tr_starts, np.concatenate([p.y[p.speaking] for p in train]),
+            va_seq, va_starts, np.concatenate([p.y[p.speaking] for p in valid]),
+            batch_size=int(self.batch_size), lr=float(self.learning_rate), max_epochs=int(self.max_epochs),
+            patience=int(self.patience), progress=progress)
+        return reg, hist
+
+    def _fit_postfilter(self, train, valid, progress):
+        """The denoising motion autoencoder on ``segment``-frame windows (paper §3.3)."""
+        from ..models import nets
+
+        seg = int(self.segment)
+        pf = nets.make_postfilter(segment=seg, dims=3, hidden=tuple(self.postfilter_hidden),
+                                  code_dim=int(self.postfilter_code))
+        tr_seg = nets.motion_segments([p.y for p in train], segment=seg, hop=max(1, seg // 10))
+        va_seg = nets.motion_segments([p.y for p in valid], segment=seg, hop=max(1, seg // 10))
+        if len(tr_seg) == 0:
+            raise ParameterError(
+                f"{self.name}: the training motion is shorter than one post-filter segment ({seg} frames)")
+        if len(va_seg) == 0:
+            va_seg = tr_seg[:: max(1, len(tr_seg) // 200)]
+        hist = nets.train_postfilter(
+            pf, tr_seg, va_seg, noise=float(self.postfilter_noise), batch_size=int(self.batch_size),
+            lr=float(self.learning_rate), max_epochs=int(self.max_epochs), patience=int(self.patience),
+            progress=progress)
+        return pf, hist
 
     # -- inference ----------------------------------------------------------------------------------
     def _check_features(self, values: np.ndarray, what: str) -> None:
@@ -475,30 +492,15 @@ class _DnnSystem(Synthesizer):
             rv = self._predict_values(values)
         return Motion(rv, float(self.model_fps), meta={"system": self.name})
 
-    def predict(self, audio: Audio, *, seed: int | None = None, fps: float | None = None) -> Motion:
-        """Head motion for ``audio`` (deterministic; ``seed`` is accepted for the common interface
-        and ignored).
-
-        The frame rate is ``fps`` when given, else the training corpus's frame rate (the model
-        rate, 100 fps, when the training recordings had several rates); the number of frames is
-        :func:`headmotion.align.n_frames` of the audio at that rate."""
-        self._check_fitted()
-        if not isinstance(audio, Audio):
-            raise ParameterError(f"predict needs an Audio; got {type(audio).__name__}")
+    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:  # noqa: ARG002  (deterministic)
+        """Head motion for ``audio`` at the model rate (deterministic: ``seed`` is not used); the
+        number of frames is :func:`headmotion.align.n_frames` of the audio at that rate."""
         mfps = float(self.model_fps)
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
         with _torch_context(0, getattr(self, "n_threads", None)):
             rv = self._predict_values(feats)
-        out_fps = float(self.output_fps_ if fps is None else fps)
-        if not (math.isfinite(out_fps) and out_fps > 0):
-            raise ParameterError(f"fps must be a positive number; got {fps!r}")
-        n_out = _n_frames(len(audio.samples), audio.sample_rate, out_fps)
-        motion = Motion(rv, mfps, meta={"system": self.name})
-        if abs(out_fps - mfps) > 1e-9 and len(rv) > 0:
-            motion = motion.resample(out_fps)
-        rv_out = _fit_length(np.asarray(motion.rotvec), n_out)
-        return Motion(rv_out, out_fps, meta={"system": self.name, "model_fps": mfps})
+        return Motion(rv, mfps, meta={"system": self.name})
 
     def embed(self, audio: Audio, *, fps: float | None = None, n_frames: int | None = None) -> FeatureTrack:
         """The learned waveform embedding (Wav_CCCAE / Wav_AE, paper Table 1) of ``audio``.
@@ -535,14 +537,19 @@ class _DnnSystem(Synthesizer):
         return track
 
     # -- persistence --------------------------------------------------------------------------------
+    def _legacy_mean_pose(self) -> np.ndarray:
+        return rotvec_to_pitch_yaw_roll(np.asarray(self.motion_norm_.mean_, dtype=np.float64)[None])[0]
+
     def _get_state(self):
         from ..models import nets
 
+        params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.get_params().items()}
         config = {
-            "params": self.get_params(),
+            "params": params,
             "feature_config": self.feature_config_.to_dict(),
             "input_dim": self.input_dim_,
             "output_fps": self.output_fps_,
+            "sample_rate": self.sample_rate_,
             "splits": self.splits_,
             "history": self.history_,
             "fit_seconds": self.fit_seconds_,
@@ -570,9 +577,13 @@ class _DnnSystem(Synthesizer):
         from ..models import nets
 
         params = dict(config["params"])
-        for k in self._PARAMS:
+        if "seed" in params:  # older files: the training seed was called seed
+            params["random_state"] = params.pop("seed")
+        for k in self._param_names():
             v = params[k]
             setattr(self, k, tuple(v) if k.endswith("hidden") and v is not None else v)
+        self.fps_ = float(self.model_fps)
+        self.sample_rate_ = int(config.get("sample_rate", 16000))
         self.feature_config_ = FeatureConfig.from_dict(config["feature_config"])
         self.input_dim_ = int(config["input_dim"])
         self.output_fps_ = float(config["output_fps"])
@@ -609,6 +620,7 @@ class CccaeSystem(_DnnSystem):
     """M_CCCAE (paper §3): waveform → CCCAE embedding (α = 1 by default) → regressor → post-filter."""
 
     name = "cccae"
+    capabilities = frozenset({EMBEDDING})
     default_feature = "wav"
     uses_embedding = True
     default_alpha = 1.0
@@ -618,6 +630,7 @@ class AeDnnSystem(_DnnSystem):
     """M_AE (paper §4.2): the same pipeline with a plain autoencoder (α = 0)."""
 
     name = "ae-dnn"
+    capabilities = frozenset({EMBEDDING})
     default_feature = "wav"
     uses_embedding = True
     default_alpha = 0.0

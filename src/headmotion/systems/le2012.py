@@ -26,29 +26,38 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
+from ..models.gmm import GMMRegression
+from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
 from .base import Synthesizer
+from .tws.features import make_feature_config
 
 
-class _GMM:
-    """A fitted full-covariance GMM with log density and gradient (standardised space)."""
+def _fit_gmm(Z: np.ndarray, n_dims_z: int, n_components: int, random_state) -> GMMRegression:
+    """EM on standardised rows ``Z = [z, f]`` (scikit-learn), as a :class:`GMMRegression` of ``z``
+    (motion, first ``n_dims_z`` columns) given ``f`` (speech)."""
+    from sklearn.mixture import GaussianMixture
 
-    def __init__(self, w, mu, cov):
-        self.w, self.mu = np.asarray(w, float), np.asarray(mu, float)
-        self.cov = np.asarray(cov, float)
-        self.prec = np.linalg.inv(self.cov)
-        sign, logdet = np.linalg.slogdet(self.cov)
-        self.logc = np.log(np.maximum(self.w, 1e-300)) - 0.5 * (logdet + self.mu.shape[1] * np.log(2 * np.pi))
+    k = int(max(1, min(n_components, len(Z) // 20)))
+    g = GaussianMixture(k, covariance_type="full", reg_covar=1e-3, random_state=random_state,
+                        max_iter=50, tol=1e-3).fit(Z)
+    return _as_regression(g.weights_, g.means_, g.covariances_, n_dims_z)
 
-    @classmethod
-    def fit(cls, Z, n_components, random_state):
-        from sklearn.mixture import GaussianMixture
 
-        k = int(max(1, min(n_components, len(Z) // 20)))
-        g = GaussianMixture(k, covariance_type="full", reg_covar=1e-3, random_state=random_state,
-                            max_iter=50, tol=1e-3).fit(Z)
-        return cls(g.weights_, g.means_, g.covariances_)
+def _as_regression(w, mu, cov, n_dims_z: int) -> GMMRegression:
+    """A joint GMM stored ``[z, f]``-first (the model file's layout) as a regression of z on f."""
+    mu, cov = np.asarray(mu, float), np.asarray(cov, float)
+    D = mu.shape[1]
+    perm = list(range(n_dims_z, D)) + list(range(n_dims_z))
+    return GMMRegression.from_params(w, mu[:, perm], cov[:, perm][:, :, perm], dim_x=D - n_dims_z)
+
+
+def _joint_arrays(g: GMMRegression) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(weights, means, covariances)`` back in the ``[z, f]`` layout."""
+    D, dz = g.means_.shape[1], g.dim_y_
+    perm = list(range(D - dz, D)) + list(range(D - dz))
+    return g.weights_, g.means_[:, perm], g.covariances_[:, perm][:, :, perm]
 
 
 class Le2012(Synthesizer):
@@ -63,13 +72,13 @@ class Le2012(Synthesizer):
     n_steps : int, gradient-ascent steps per frame
     step : float, step size (in standardised units)
     max_train_frames : int, frames sampled for EM (speed)
-    random_state : int
+    random_state : int, training seed (EM, frame sampling)
+    seed : int, default synthesis seed (the synthesis is deterministic; kept for the contract)
     compiled : bool, run the per-frame ascent as a compiled numba kernel (same arithmetic as the
         numpy reference loop, ~100× faster); False uses the numpy loop
     """
 
     name = "le2012"
-    causal = False
 
     def __init__(self, features="prosody", *, fps: float | None = None, n_components: int = 10,
                  joint: bool = False, n_steps: int = 12, step: float = 0.05,
@@ -86,30 +95,36 @@ class Le2012(Synthesizer):
         self.random_state = random_state
         self.seed = seed
 
-    def get_params(self):
-        return {k: getattr(self, k) for k in ("features", "fps", "n_components", "joint", "n_steps", "step",
-                                              "max_train_frames", "random_state", "seed", "compiled")}
+    def _validate_params(self) -> None:
+        for k in ("n_components", "n_steps", "max_train_frames"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ParameterError(f"the {k!r} parameter of le2012 must be a whole number >= 1; got {v!r}")
+        if not (isinstance(self.step, (int, float)) and self.step > 0):
+            raise ParameterError(f"the 'step' parameter of le2012 must be a positive number; got {self.step!r}")
+        if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
+            raise ParameterError(f"the 'fps' parameter of le2012 must be a positive number or None; got {self.fps!r}")
 
     def _config(self):
-        from .tws_common import make_feature_config
-
         return make_feature_config(self.features, self.fps_)
 
     def fit(self, corpus, *, progress=None):
         from ..features import Normalizer
 
+        self._validate_params()
         recs = list(corpus)
         if not recs:
             raise ParameterError("cannot train le2012 on an empty corpus")
         self.fps_ = float(self.fps) if self.fps else float(recs[0].motion.fps)
         self.sample_rate_ = int(recs[0].audio.sample_rate)
         cfg = self._config()
-        ang, feats = [], []
+        ang, feats, rvs = [], [], []
         for i, r in enumerate(recs):
             m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
             if len(m) < 3:
                 continue
             ang.append(rotvec_to_pitch_yaw_roll(m.rotvec))
+            rvs.append(m.rotvec)
             feats.append(np.asarray(cfg.extract(r.audio, n_frames=len(m)).values, dtype=np.float64))
             if progress:
                 progress(i + 1, len(recs) + 1, f"features {r.id}")
@@ -132,42 +147,32 @@ class Le2012(Synthesizer):
         Zs = (Z - self.z_mu_) / self.z_sd_
         Fi = list(range(5, Z.shape[1]))
         if self.joint:
-            self.gmms_ = {"joint": _GMM.fit(Zs, self.n_components, self.random_state)}
+            self.gmms_ = {"joint": _fit_gmm(Zs, 5, self.n_components, self.random_state)}
         else:
-            self.gmms_ = {f"angle{k}": _GMM.fit(Zs[:, [k] + Fi], self.n_components, self.random_state) for k in range(3)}
-            self.gmms_["vel"] = _GMM.fit(Zs[:, [3] + Fi], self.n_components, self.random_state)
-            self.gmms_["acc"] = _GMM.fit(Zs[:, [4] + Fi], self.n_components, self.random_state)
+            self.gmms_ = {f"angle{k}": _fit_gmm(Zs[:, [k] + Fi], 1, self.n_components, self.random_state)
+                          for k in range(3)}
+            self.gmms_["vel"] = _fit_gmm(Zs[:, [3] + Fi], 1, self.n_components, self.random_state)
+            self.gmms_["acc"] = _fit_gmm(Zs[:, [4] + Fi], 1, self.n_components, self.random_state)
         allA = np.vstack(ang)
         self.start_ = allA.mean(axis=0)
         self.lo_, self.hi_ = allA.min(axis=0), allA.max(axis=0)
+        self.mean_pose_ = mean_pose_of(rvs)
         self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
         self.fitted_ = True
         return self
 
     # -- synthesis ----------------------------------------------------------------------------
     def _conditionals(self, Fs: np.ndarray):
-        """Condition every GMM on the speech features of every frame (vectorised over T).
+        """Condition every GMM on the speech features of every frame (vectorised over T) with
+        :meth:`GMMRegression.condition`.
 
-        Returns per GMM: log weights (T, M) incl. log N(f_t), conditional means (T, M, Dz) and
-        conditional precisions (M, Dz, Dz) with their log-determinant terms (M,)."""
+        Returns per GMM: log weights (T, M) = ``log p(f_t, m) - 0.5 log |C_m|`` (so that
+        ``logw - 0.5 (z - cm)' P (z - cm)`` is the log density up to a constant), conditional means
+        (T, M, Dz) and conditional precisions P (M, Dz, Dz)."""
         out = {}
         for key, g in self.gmms_.items():
-            Dz = 5 if key == "joint" else 1
-            mu_z, mu_f = g.mu[:, :Dz], g.mu[:, Dz:]
-            S = g.cov
-            Szz, Szf, Sff = S[:, :Dz, :Dz], S[:, :Dz, Dz:], S[:, Dz:, Dz:]
-            Sff_inv = np.linalg.inv(Sff)
-            A = np.einsum("mij,mjk->mik", Szf, Sff_inv)  # (M, Dz, Df)
-            C = Szz - np.einsum("mik,mjk->mij", A, Szf)
-            P = np.linalg.inv(C)
-            _, ldC = np.linalg.slogdet(C)
-            _, ldF = np.linalg.slogdet(Sff)
-            df = Fs[:, None, :] - mu_f[None]  # (T, M, Df)
-            q = np.einsum("tmi,mij,tmj->tm", df, Sff_inv, df)
-            logw = (np.log(np.maximum(g.w, 1e-300))[None] - 0.5 * (q + ldF[None] + Fs.shape[1] * np.log(2 * np.pi))
-                    - 0.5 * ldC[None])
-            cm = mu_z[None] + np.einsum("mij,tmj->tmi", A, df)
-            out[key] = (logw, cm, P)
+            c = g.condition(Fs)
+            out[key] = (c.log_joint - 0.5 * c.log_det[None], c.means, c.precisions)
         return out
 
     @staticmethod
@@ -212,15 +217,10 @@ class Le2012(Synthesizer):
             out[t] = theta
 
 
-    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
-        """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``)."""
+    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:  # noqa: ARG002  (deterministic)
+        """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``); deterministic."""
         from ..align import n_frames as _n
 
-        self._check_fitted()
-        if audio.sample_rate != self.sample_rate_:
-            from ..io.audio import resample
-
-            audio = Audio(resample(audio.samples, audio.sample_rate, self.sample_rate_), self.sample_rate_)
         T = _n(len(audio.samples), audio.sample_rate, self.fps_)
         if T == 0:
             return Motion(np.zeros((0, 3)), self.fps_)
@@ -254,12 +254,14 @@ class Le2012(Synthesizer):
         return Motion(rv, self.fps_, meta={"system": self.name})
 
     # -- persistence --------------------------------------------------------------------------
-    def _get_state(self):
-        from .tws_common import make_feature_config
+    def _legacy_mean_pose(self) -> np.ndarray:
+        return np.asarray(self.start_, dtype=np.float64)
 
+    def _get_state(self):
         arrays = {"z_mu": self.z_mu_, "z_sd": self.z_sd_, "start": self.start_, "lo": self.lo_, "hi": self.hi_}
         for k, g in self.gmms_.items():
-            arrays.update({f"{k}_w": g.w, f"{k}_mu": g.mu, f"{k}_cov": g.cov})
+            w, mu, cov = _joint_arrays(g)
+            arrays.update({f"{k}_w": w, f"{k}_mu": mu, f"{k}_cov": cov})
         arrays.update(self.normalizer_.to_arrays("norm_"))
         return {"params": self.get_params(), "fps": self.fps_, "sample_rate": self.sample_rate_,
                 "gmms": sorted(self.gmms_), "features": make_feature_config(self.features, self.fps_).to_dict()}, arrays
@@ -272,7 +274,8 @@ class Le2012(Synthesizer):
         self.sample_rate_ = int(config["sample_rate"])
         self.z_mu_, self.z_sd_ = arrays["z_mu"], arrays["z_sd"]
         self.start_, self.lo_, self.hi_ = arrays["start"], arrays["lo"], arrays["hi"]
-        self.gmms_ = {k: _GMM(arrays[f"{k}_w"], arrays[f"{k}_mu"], arrays[f"{k}_cov"]) for k in config["gmms"]}
+        self.gmms_ = {k: _as_regression(arrays[f"{k}_w"], arrays[f"{k}_mu"], arrays[f"{k}_cov"], 5 if k == "joint" else 1)
+                      for k in config["gmms"]}
         self.normalizer_ = Normalizer.from_arrays(arrays, "norm_")
 
 

@@ -1,15 +1,17 @@
 """Evaluation anchors (thesis §4.2.4, §4.3.1, §5.9 Table 5.8): ground truth, desynchronised,
 other speaker, head-motion-shaped noise, still head.
 
-Anchors are not trained models: they need the evaluation corpus.  Their interface:
+Anchors are evaluation conditions, not synthesis systems: they need the evaluation corpus, not
+speech.  Their protocol (:class:`Anchor`):
 
-* ``fit(corpus)`` stores the reference motions (and, for shaped noise, the average magnitude
-  spectrum of their motion);
-* ``predict_for(recording, corpus=None, seed=None) -> Motion`` makes the anchor's motion for one
-  recording of that corpus, with exactly the recording's length and frame rate;
-* ``predict(audio, seed=None)`` works only where the audio alone suffices (``still``,
-  ``shaped-noise``); the others raise :class:`~headmotion.errors.ParameterError` telling to use
-  ``predict_for``.
+* ``fit(corpus) -> self`` stores the reference motions (and, for shaped noise, the average
+  magnitude spectrum of their motion);
+* ``motion_for(recording, *, seed=None) -> Motion`` makes the anchor's motion for one recording,
+  with exactly the recording's length and frame rate;
+* ``needs_other_speakers`` (class attribute): fit it on the *other* speakers' recordings.
+
+:data:`ANCHORS` maps the names ``headmotion evaluate --systems`` accepts to the classes;
+:func:`create_anchor` makes one.
 
 Definitions:
 
@@ -28,13 +30,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..align import n_frames as _n_frames
-from ..errors import ParameterError
-from ..types import Audio, Motion
-from .base import Synthesizer
+from abc import ABC, abstractmethod
+from typing import ClassVar
+
+from ..errors import NotFittedError, ParameterError
+from ..types import Motion
 
 
-def _fit_length(rv: np.ndarray, T: int) -> np.ndarray:
+def loop_to_length(rv: np.ndarray, T: int) -> np.ndarray:
     """Cut or loop (with mirroring, so there is no jump) to T frames."""
     if len(rv) == 0:
         return np.zeros((T, 3))
@@ -44,17 +47,18 @@ def _fit_length(rv: np.ndarray, T: int) -> np.ndarray:
     return out[:T]
 
 
-class _Anchor(Synthesizer):
-    causal = False
+class Anchor(ABC):
+    """An evaluation condition: fitted on a corpus, gives the motion for one recording."""
 
-    def __init__(self, *, fps: float | None = None):
-        self.fps = fps
+    name: ClassVar[str] = ""
+    #: fit on the other speakers' recordings (the evaluation arranges it)
+    needs_other_speakers: ClassVar[bool] = False
 
-    def fit(self, corpus, *, progress=None):
+    def fit(self, corpus) -> "Anchor":
         recs = list(corpus)
         if not recs:
             raise ParameterError(f"anchor {self.name!r} needs a corpus with at least one recording")
-        self.fps_ = float(self.fps) if self.fps else float(recs[0].motion.fps)
+        self.fps_ = float(recs[0].motion.fps)
         self.refs_ = []
         for r in recs:
             m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
@@ -62,22 +66,16 @@ class _Anchor(Synthesizer):
         allr = np.vstack([x for _, _, x in self.refs_])
         self.mean_ = allr.mean(axis=0)
         self.sd_ = allr.std(axis=0)
-        self.sample_rate_ = int(recs[0].audio.sample_rate)
-        self.fitted_ = True
         self._after_fit()
         return self
 
-    def _after_fit(self):
-        pass
+    def _after_fit(self) -> None:  # noqa: B027  (an optional hook, empty by default)
+        """Hook for what an anchor learns beyond the reference motions."""
 
-    def _n(self, audio: Audio) -> int:
-        return _n_frames(len(audio.samples), audio.sample_rate, self.fps_)
-
-    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
-        raise ParameterError(f"anchor {self.name!r} needs the evaluation corpus: use predict_for(recording, corpus)")
-
-    def predict_for(self, recording, corpus=None, *, seed: int | None = None) -> Motion:
-        self._check_fitted()
+    def motion_for(self, recording, *, seed: int | None = None) -> Motion:
+        """The anchor's motion for ``recording`` (its length and frame rate)."""
+        if not hasattr(self, "refs_"):
+            raise NotFittedError(f"anchor {self.name!r} is not fitted: call fit(corpus)")
         return Motion(self._rotvec_for(recording, seed), recording.motion.fps, meta={"system": self.name})
 
     def _pick(self, recording, *, same_speaker: bool, seed):
@@ -90,56 +88,46 @@ class _Anchor(Synthesizer):
         rng = np.random.default_rng(seed)
         return cands[int(rng.integers(len(cands)))][1]
 
-    def _rotvec_for(self, recording, seed):
-        raise NotImplementedError
-
-    def _get_state(self):
-        return {"fps": self.fps_}, {"mean": self.mean_, "sd": self.sd_}
-
-    def _set_state(self, config, arrays):
-        self.fps = self.fps_ = float(config["fps"])
-        self.mean_, self.sd_ = arrays["mean"], arrays["sd"]
-        self.refs_ = []
+    @abstractmethod
+    def _rotvec_for(self, recording, seed) -> np.ndarray:
+        """``(T, 3)`` rotation vectors for the recording."""
 
 
-class GroundTruth(_Anchor):
+class GroundTruth(Anchor):
     """The recording's own motion."""
 
     name = "ground-truth"
 
-    def _rotvec_for(self, recording, seed):
+    def _rotvec_for(self, recording, seed):  # noqa: ARG002  (deterministic)
         return np.asarray(recording.motion.rotvec)
 
 
-class Desync(_Anchor):
+class Desync(Anchor):
     """Motion of another recording of the same speaker."""
 
     name = "desync"
 
     def _rotvec_for(self, recording, seed):
-        return _fit_length(self._pick(recording, same_speaker=True, seed=seed), len(recording.motion))
+        return loop_to_length(self._pick(recording, same_speaker=True, seed=seed), len(recording.motion))
 
 
-class OtherSpeaker(_Anchor):
+class OtherSpeaker(Anchor):
     """Motion of a recording of another speaker."""
 
     name = "other-speaker"
+    needs_other_speakers = True
 
     def _rotvec_for(self, recording, seed):
-        return _fit_length(self._pick(recording, same_speaker=False, seed=seed), len(recording.motion))
+        return loop_to_length(self._pick(recording, same_speaker=False, seed=seed), len(recording.motion))
 
 
-class Still(_Anchor):
+class Still(Anchor):
     """The mean pose, held."""
 
     name = "still"
 
-    def _rotvec_for(self, recording, seed):
+    def _rotvec_for(self, recording, seed):  # noqa: ARG002  (deterministic)
         return np.tile(self.mean_, (len(recording.motion), 1))
-
-    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
-        self._check_fitted()
-        return Motion(np.tile(self.mean_, (self._n(audio), 1)), self.fps_, meta={"system": self.name})
 
 
 def shaped_noise(n_frames: int, magnitude: np.ndarray, *, rng: np.random.Generator, fps: float,
@@ -164,7 +152,7 @@ def shaped_noise(n_frames: int, magnitude: np.ndarray, *, rng: np.random.Generat
     return mean + x * (sd / np.where(s > 0, s, 1.0))
 
 
-class ShapedNoise(_Anchor):
+class ShapedNoise(Anchor):
     """Head-motion-shaped noise (thesis §4.2.4)."""
 
     name = "shaped-noise"
@@ -186,22 +174,20 @@ class ShapedNoise(_Anchor):
 
     def _rotvec_for(self, recording, seed):
         return shaped_noise(len(recording.motion), self.magnitude_, rng=np.random.default_rng(seed),
-                            fps=self.fps_, sd=self.sd_, mean=self.mean_)
-
-    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
-        self._check_fitted()
-        rv = shaped_noise(self._n(audio), self.magnitude_, rng=np.random.default_rng(seed), fps=self.fps_,
-                          sd=self.sd_, mean=self.mean_)
-        return Motion(rv, self.fps_, meta={"system": self.name})
-
-    def _get_state(self):
-        cfg, arr = super()._get_state()
-        arr["magnitude"] = self.magnitude_
-        return cfg, arr
-
-    def _set_state(self, config, arrays):
-        super()._set_state(config, arrays)
-        self.magnitude_ = arrays["magnitude"]
+                            fps=float(recording.motion.fps), sd=self.sd_, mean=self.mean_)
 
 
-__all__ = ["GroundTruth", "Desync", "OtherSpeaker", "ShapedNoise", "Still", "shaped_noise"]
+
+#: anchor name → class (the names ``headmotion evaluate --systems`` accepts besides systems)
+ANCHORS: dict[str, type[Anchor]] = {c.name: c for c in (GroundTruth, Desync, OtherSpeaker, ShapedNoise, Still)}
+
+
+def create_anchor(name: str) -> Anchor:
+    """A new anchor by name; ParameterError naming the anchors for an unknown one."""
+    if name not in ANCHORS:
+        raise ParameterError(f"unknown anchor {name!r}; expected one of {sorted(ANCHORS)}")
+    return ANCHORS[name]()
+
+
+__all__ = ["Anchor", "ANCHORS", "create_anchor", "GroundTruth", "Desync", "OtherSpeaker", "ShapedNoise", "Still",
+           "shaped_noise", "loop_to_length"]

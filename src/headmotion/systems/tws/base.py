@@ -1,0 +1,176 @@
+"""What the two template-warping systems share (thesis §5.4–5.8): feature handling, training
+(vectors, limits, then the subclass's models), generation, streaming and persistence.
+
+The parts live in :mod:`.features` (blocked extraction), :mod:`.vectors` (training vectors at change
+points), :mod:`.limits` (safety limits) and :mod:`.generator` (the causal generator and stream).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...align import n_frames as _n_frames
+from ...errors import ParameterError
+from ...motion.control import mean_pose_of
+from ...motion.segmentation import min_segment_frames
+from ...rotations import rotvec_to_pitch_yaw_roll
+from ...types import Audio, Motion
+from ..base import CAUSAL, Synthesizer, check_stochastic
+from .features import extract_blocked, make_feature_config
+from .generator import Generator, TwsStream
+from .limits import Limits
+from .vectors import collect
+
+
+class TwsBase(Synthesizer):
+    """Feature handling, training-data collection, generation, streaming and persistence shared
+    by :class:`~headmotion.systems.tws.basic.TwsBasic` and
+    :class:`~headmotion.systems.tws.hier.TwsHier`.  Subclasses implement ``_fit_axes(data)``,
+    ``_choose(...)``, ``_model_state()`` and ``_load_model_state(config, arrays)``."""
+
+    capabilities = frozenset({CAUSAL})
+    _with_frames = False
+    #: the values of ``method``: how (d, a) is taken from the conditional distribution
+    METHODS = ("ml", "mmse", "sample")
+
+    def _validate_params(self) -> None:
+        if self.method not in self.METHODS:
+            raise ParameterError(f"the 'method' parameter of {self.name} must be one of {list(self.METHODS)}; "
+                                 f"got {self.method!r}")
+        check_stochastic(self.stochastic, self.name)
+        for k in ("feature_block", "feature_context"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (1 if k == "feature_block" else 0):
+                raise ParameterError(f"the {k!r} parameter of {self.name} must be a whole number "
+                                     f"{'>= 1' if k == 'feature_block' else '>= 0'}; got {v!r}")
+        if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
+            raise ParameterError(f"the 'fps' parameter of {self.name} must be a positive number or None; got {self.fps!r}")
+
+    @property
+    def _stochastic(self) -> str:
+        return check_stochastic(self.stochastic, self.name)
+
+    # -- features ---------------------------------------------------------------------------
+    def _config(self):
+        if not hasattr(self, "feature_config_"):
+            self.feature_config_ = make_feature_config(self.features, self.fps_)
+        return self.feature_config_
+
+    def _features_full(self, audio: Audio, T: int) -> np.ndarray:
+        tr = self._config().extract(audio, n_frames=T)
+        return np.asarray(self.normalizer_.transform(np.asarray(tr.values, dtype=np.float64)), dtype=np.float64)
+
+    def _features_blocks(self, audio: Audio, T: int, *, start_block: int = 0, stop_frame: int | None = None):
+        F = extract_blocked(audio, self._config(), T, block=self.feature_block, context=self.feature_context,
+                            start_block=start_block, stop_frame=stop_frame)
+        if F.size == 0:
+            return np.zeros((0, self.n_features_))
+        return np.asarray(self.normalizer_.transform(F), dtype=np.float64)
+
+    # -- training ---------------------------------------------------------------------------
+    def fit(self, corpus, *, progress=None):
+        from ...features import Normalizer
+
+        self._validate_params()
+        recs = list(corpus)
+        if not recs:
+            raise ParameterError("cannot train on an empty corpus")
+        fps_set = sorted({float(r.motion.fps) for r in recs})
+        self.fps_ = float(self.fps) if self.fps else fps_set[0]
+        self.sample_rate_ = int(recs[0].audio.sample_rate)
+        self.feature_config_ = make_feature_config(self.features, self.fps_)
+        total = len(recs) + 2
+        motions, raw, names = [], [], []
+        for i, r in enumerate(recs):
+            m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
+            T = len(m)
+            if T < 2 * min_segment_frames(self.fps_):
+                continue
+            tr = self.feature_config_.extract(r.audio, n_frames=T)
+            motions.append(np.asarray(m.rotvec))
+            raw.append(np.asarray(tr.values, dtype=np.float64))
+            names = list(tr.names)
+            if progress:
+                progress(i + 1, total, f"features {r.id}")
+        if not motions:
+            raise ParameterError(
+                f"no recording in the corpus is long enough to train {self.name} "
+                f"(need at least {2 * min_segment_frames(self.fps_)} frames)")
+        self.train_seconds_ = sum(len(m) for m in motions) / self.fps_
+        self.normalizer_ = Normalizer().fit(raw)
+        feats = [np.asarray(self.normalizer_.transform(f), dtype=np.float64) for f in raw]
+        self.n_features_ = feats[0].shape[1]
+        self.feature_names_ = names
+        data = collect(motions, feats, self.fps_, with_frames=self._with_frames)
+        n_seg = [len(d.y) for d in data]
+        if min(n_seg) < 4:
+            raise ParameterError(
+                f"too little motion to train {self.name}: segments per axis {n_seg} (need >= 4 each); "
+                "give longer recordings or more of them")
+        self.limits_ = Limits.from_training(motions, data, self.fps_)
+        self.mean_pose_ = mean_pose_of(motions)
+        if progress:
+            progress(len(recs) + 1, total, "models")
+        self._fit_axes(data, progress=progress)
+        self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
+        self.fitted_ = True
+        if progress:
+            progress(total, total, "done")
+        return self
+
+    # -- synthesis ----------------------------------------------------------------------------
+    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
+        """Generation over the whole utterance; features over the whole utterance (as in
+        training) or, with ``blocked=True``, block by block exactly as :meth:`stream` computes
+        them, so the output equals the streamed output sample for sample."""
+        T = _n_frames(len(audio.samples), audio.sample_rate, self.fps_)
+        if T == 0:
+            return Motion(np.zeros((0, 3)), self.fps_, meta={"system": self.name})
+        seed = self.seed if seed is None else seed
+        gen = Generator(self, rng=np.random.default_rng(seed), fps=self.fps_)
+        gen.push_features(self._features_blocks(audio, T) if self.blocked else self._features_full(audio, T))
+        gen.run()
+        return Motion(gen.render(0, T), self.fps_, meta={"system": self.name, "seed": seed})
+
+    def _stream(self, *, seed: int | None) -> TwsStream:
+        return TwsStream(self, seed=self.seed if seed is None else seed)
+
+    def _init_generation(self) -> dict:
+        """Per-utterance state handed to ``_choose`` (none by default)."""
+        return {}
+
+    # -- persistence --------------------------------------------------------------------------
+    def _legacy_mean_pose(self) -> np.ndarray:
+        return rotvec_to_pitch_yaw_roll(self.limits_.mean[None])[0]
+
+    def _get_state(self):
+        cfg, arrays = self._model_state()
+        cfg = dict(cfg)
+        params = self.get_params()
+        if hasattr(params["features"], "to_dict"):
+            params["features"] = params["features"].to_dict()
+        cfg.update({"params": params, "fps": self.fps_, "sample_rate": self.sample_rate_,
+                    "features": self.feature_config_.to_dict(), "n_features": self.n_features_,
+                    "feature_names": list(self.feature_names_)})
+        arrays = dict(arrays)
+        arrays.update(self.limits_.to_arrays())
+        arrays.update(self.normalizer_.to_arrays("norm_"))
+        return cfg, arrays
+
+    def _set_state(self, config, arrays):
+        from ...features import FeatureConfig, Normalizer
+
+        params = dict(config["params"])
+        params.pop("gain", None)  # older files: a per-model gain (always 1.0 in practice)
+        self.__init__(**params)
+        self.fps_ = float(config["fps"])
+        self.sample_rate_ = int(config["sample_rate"])
+        self.feature_config_ = FeatureConfig.from_dict(config["features"])
+        self.n_features_ = int(config["n_features"])
+        self.feature_names_ = list(config.get("feature_names", []))
+        self.limits_ = Limits.from_arrays(arrays)
+        self.normalizer_ = Normalizer.from_arrays(arrays, "norm_")
+        self._load_model_state(config, arrays)
+
+
+__all__ = ["TwsBase"]
