@@ -378,9 +378,10 @@ def realism(reference, candidate, *, fps: float | None = None, speech_mask=None,
             limits_deg=None, samples=None, n_shifts: int = 200, seed=0) -> dict:
     """All measures on one (reference, candidate) pair → one flat dict (a metrics.csv row's
     columns).  Measures whose context is not given (mask, onsets, features, limits, samples) are
-    nan.  Both motions must have the same rate; lengths are trimmed to the shorter."""
+    nan.  Both motions must have the same rate (a bare-array candidate takes the reference's); lengths
+    are trimmed to the shorter."""
     r, f = _deg(reference, fps)
-    c, fc = _deg(candidate, fps)
+    c, fc = _deg(candidate, fps if fps is not None or isinstance(candidate, Motion) else f)
     if abs(f - fc) > 1e-6:
         raise ParameterError(f"reference is at {f:g} fps but candidate at {fc:g} fps; resample one first")
     n = min(len(r), len(c))
