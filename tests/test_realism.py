@@ -132,3 +132,34 @@ def test_realism_row_and_rows(rng):
     assert summ["bob"]["spectral_l1"] > 1.8
     assert summ["gt"]["fcca_p_pooled"] < 0.01
     assert summ["bob"]["saturation"] == 0.0
+
+
+def test_figures(tmp_path):
+    from headmotion.evaluation import realism_figures as RF
+
+    conds = {"ground-truth": [sine(0.3, seconds=30)], "bob": [sine(2.5, seconds=30)]}
+    p = RF.mean_psd(conds["bob"])
+    assert abs(RF.GRID[np.argmax(p[:, 0])] - 2.5) <= 0.1
+    RF.spectra_figure(conds, path=tmp_path / "s.png")
+    RF.speed_histogram_figure(conds, path=tmp_path / "h.png")
+    rows = R.realism_rows({"gt": [conds["ground-truth"][0]], "bob": conds["bob"]}, conds["ground-truth"],
+                          features=[conds["ground-truth"][0].rotvec[:, :2]], n_shifts=20)
+    RF.realism_coupling_scatter(rows, path=tmp_path / "c.png")
+    for f in ("s.png", "h.png", "c.png"):
+        assert (tmp_path / f).read_bytes()[:4] == b"\x89PNG"
+
+
+def test_real_zeggs_take_measures(shared_data):
+    from headmotion.io import load_motion
+    from headmotion.io.audio import load_audio
+
+    base = shared_data / "mocap_speech/zeggs/067_Speech_2_x_1_0"
+    m = load_motion(base.with_suffix(".bvh"))
+    a = load_audio(base.with_suffix(".wav"))
+    mask = R.speech_mask_for(a, m)
+    row = R.realism(m, m, speech_mask=mask, onsets=R.speech_onsets(a))
+    # real mocap: most power below 0.5 Hz, little in 1.5-4 Hz, no limit cycle, slower in pauses
+    assert row["band_0_0.5"] > 0.6 and row["band_1.5_4"] < 0.05
+    assert row["limit_cycle"] < 0.3
+    assert 0.2 < row["pause_ratio"] < 0.6
+    assert row["bc"] > 0.5
