@@ -30,6 +30,22 @@ def soft_clip(self, j, d, a, c, sign, fps):
     if away > 0:
         a = a * max(0.0, 1.0 - away)
     return ORIG_CLIP(self, j, d, a, c, sign, fps)
+class _ScaledRng:
+    """Sampling temperature: the regression noise drawn with standard_normal is scaled."""
+    def __init__(self, rng, temp):
+        self._rng, self._temp = rng, temp
+    def standard_normal(self, *a, **k):
+        return self._temp * self._rng.standard_normal(*a, **k)
+    def __getattr__(self, n):
+        return getattr(self._rng, n)
+import headmotion.systems.tws_hier as _TH
+_ORIG_CHOOSE = _TH.TwsHier._choose
+def _wrap_choose(temp):
+    if temp == 1.0:
+        return _ORIG_CHOOSE
+    def choose(self, j, tau, state, F, t, rng):
+        return _ORIG_CHOOSE(self, j, tau, state, F, t, _ScaledRng(rng, temp))
+    return choose
 which = sys.argv[1]  # video | zeggs
 systems = sys.argv[2].split(',')
 variants = sys.argv[3].split(',')
@@ -38,7 +54,7 @@ if which=='video':
 else:
     recs=zeggs_folds(4); folds=[[i] for i in range(len(recs))]
 ctx={}
-KEYS=['band_1.5_4','band_1.5_4_ref','spectral_l1','sd_ratio_pitch','sd_ratio_yaw','sd_ratio_roll','speed_hellinger','limit_cycle','limit_cycle_ref','saturation','pause_ratio','pause_ratio_ref','fcca_excess','fcca_p_pooled','diversity']
+KEYS=['fcca_excess_seed1','fcca_p_pooled_seed1','band_1.5_4','band_1.5_4_ref','spectral_l1','sd_ratio_pitch','sd_ratio_yaw','sd_ratio_roll','speed_hellinger','limit_cycle','limit_cycle_ref','saturation','pause_ratio','pause_ratio_ref','fcca_excess','fcca_p_pooled','diversity']
 def variant(v):
     d=dict(stoch='none', hyst=None, pause=None)
     for part in v.split('+'):
@@ -46,6 +62,7 @@ def variant(v):
         elif part.startswith('h'): d['hyst']=float(part[1:])
         elif part.startswith('p'): d['pause']=float(part[1:])
         elif part=='soft': d['soft']=True
+        elif part.startswith('t'): d['temp']=float(part[1:])
     return d
 for sysname in systems:
     for v in variants:
@@ -56,6 +73,8 @@ for sysname in systems:
         else:
             TC.segment_axis=ORIG
         TC.Limits.clip = soft_clip if cfg.get('soft') else ORIG_CLIP
+        import headmotion.systems.tws_hier as TH
+        TH.TwsHier._choose = _wrap_choose(cfg.get('temp', 1.0))
         kw={}
         st=cfg['stoch']
         if sysname=='tws-basic': kw['stochastic']={'none':'none','params':'params','both':'both','class':'class'}.get(st,'none')
@@ -74,4 +93,6 @@ for sysname in systems:
         masks,ons,feats=zip(*[context(r,ctx) for r in recs])
         rows=R.realism_rows({v:[preds[r.id][0] for r in recs]},[r.motion for r in recs],speech_masks=masks,onsets=ons,features=feats,limits_deg={v:limits_of(recs)},samples={v:[preds[r.id] for r in recs]},n_shifts=100)
         s=rows[-1]
+        rows1=R.realism_rows({v:[preds[r.id][1] for r in recs]},[r.motion for r in recs],features=feats,n_shifts=100)
+        s['fcca_excess_seed1']=rows1[-1]['fcca_excess']; s['fcca_p_pooled_seed1']=rows1[-1]['fcca_p_pooled']
         print(f"{which} {sysname} {v}: "+' '.join(f"{k}={s.get(k,np.nan):.3g}" for k in KEYS)+f" ({time.time()-t:.0f}s)",flush=True)
