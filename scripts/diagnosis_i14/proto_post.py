@@ -33,12 +33,27 @@ def gv_p(p,sd,mu,f,m): return settle_in_pauses(gv(p,sd,mu,f,m),m,fps=f,idle=0.4)
 def detrend(p,sd,mu,f,m):
     w=int(4*f); lo=uniform_filter1d(p,w,axis=0,mode='nearest'); return p-lo+mu
 def detrend_p(p,sd,mu,f,m): return settle_in_pauses(detrend(p,sd,mu,f,m),m,fps=f,idle=0.4)
+def ou(T, f, tau, rng):
+    a = np.exp(-1.0 / (tau * f)); e = rng.standard_normal((T, 3)) * np.sqrt(1 - a * a)
+    x = np.zeros((T, 3)); x[0] = rng.standard_normal(3)
+    for t in range(1, T):
+        x[t] = a * x[t - 1] + e[t]
+    return x
+def gv_drift_p(p, sd, mu, f, m, slow=0.6, tau=2.0):
+    c = p.mean(0); s = p.std(0)
+    fast = (p - c) / np.maximum(s, 1e-9) * sd * np.sqrt(1 - slow)
+    y = c + fast + ou(len(p), f, tau, np.random.default_rng(0)) * sd * np.sqrt(slow)
+    return settle_in_pauses(y, m, fps=f, idle=0.4)
 z=zeggs_folds(4); zf=[[i] for i in range(4)]
 v=[r for r in video_corpus(HOME/'corpus/talking_video') if r.duration>=4]
 import hashlib
 ids=[r.id for r in v]
 zz=np.load(HOME/'realism_report/video_mfcc-dnn.npz'); have={k.rsplit('_s',1)[0] for k in zz.files}
 v=[r for r in v if r.id in have]; vf=speaker_folds(v,2)
+if len(sys.argv) > 1 and sys.argv[1] == 'drift':
+    for tag,recs,folds in (('zeggs',z,zf),('video',v,vf)):
+        evaluate(tag,recs,folds,'mfcc-dnn',gv_drift_p,'gv+OU(tau2s,60%)+pause0.4')
+    sys.exit()
 for tag,recs,folds in (('zeggs',z,zf),('video',v,vf)):
     evaluate(tag,recs,folds,'mfcc-dnn',ident,'asis')
     evaluate(tag,recs,folds,'mfcc-dnn',gv,'gv')
