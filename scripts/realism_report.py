@@ -69,7 +69,6 @@ def zeggs_folds(n_folds: int = 4) -> list[Recording]:
             cuts.append(c)
     cuts.append(T)
     out = []
-    sr = rec.audio.sample_rate
     for i, (s, e) in enumerate(zip(cuts[:-1], cuts[1:])):
         mo = rec.motion.slice_frames(s, e)
         au = rec.audio.slice_seconds(s / f, e / f)

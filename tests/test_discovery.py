@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from headmotion.motion import discovery as Dsc
 from headmotion.types import Motion

@@ -1,10 +1,9 @@
 """Issue 14 diagnosis probe (pauses); run from the repository root with PYTHONPATH=src."""
 import sys; sys.path.insert(0,'scripts')
 import numpy as np
-from realism_report import zeggs_folds, video_corpus, HOME
+from realism_report import video_corpus, HOME
 from headmotion.evaluation import realism as R
 from headmotion.features.vad import _runs
-from pathlib import Path
 bins=[(0,0.25),(0.25,0.5),(0.5,1.0),(1.0,2.0),(2.0,4.0)]
 def profile(recs):
     acc={b:[] for b in bins}; post={b:[] for b in [(0,0.25),(0.25,0.5),(0.5,1.0)]}

@@ -46,7 +46,6 @@ def gv_drift_p(p, sd, mu, f, m, slow=0.6, tau=2.0):
     return settle_in_pauses(y, m, fps=f, idle=0.4)
 z=zeggs_folds(4); zf=[[i] for i in range(4)]
 v=[r for r in video_corpus(HOME/'corpus/talking_video') if r.duration>=4]
-import hashlib
 ids=[r.id for r in v]
 zz=np.load(HOME/'realism_report/video_mfcc-dnn.npz'); have={k.rsplit('_s',1)[0] for k in zz.files}
 v=[r for r in v if r.id in have]; vf=speaker_folds(v,2)

@@ -20,7 +20,6 @@ from headmotion.motion.pauses import settle_in_pauses
 from headmotion.motion.segmentation import segment_axis as _seg
 ORIG = TC.segment_axis
 ORIG_CLIP = TC.Limits.clip
-import math
 def soft_clip(self, j, d, a, c, sign, fps):
     # pull back towards the mean pose: the amplitude of a move away from the mean shrinks
     # linearly to 0 as the start approaches the training range's edge on that side

@@ -1,7 +1,7 @@
 """Issue 14 diagnosis probe (seg); run from the repository root with PYTHONPATH=src."""
 import sys; sys.path.insert(0,'scripts')
 import numpy as np
-from realism_report import zeggs_folds, video_corpus, HOME, ZEGGS
+from realism_report import video_corpus, HOME, ZEGGS
 from headmotion.motion.segmentation import segment
 from headmotion.io import load_motion
 def stats(motions, name, fps=100.0):

@@ -20,8 +20,6 @@ proto = np.load(HOME / 'diagnosis_i14/video_tws-hier_params+h0.5+p0.4.npz')[rid]
 t = np.arange(n) / f
 fig, axes = plt.subplots(3, 1, figsize=(13, 8), sharex=True)
 for j, ax in enumerate(axes):
-    for a, b in R._runs(~mask[:n]) if hasattr(R, '_runs') else []:
-        pass
     from headmotion.features.vad import _runs
     for a, b in _runs(~mask[:n]):
         ax.axvspan(a / f, b / f, color='0.92', lw=0)
