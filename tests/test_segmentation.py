@@ -55,3 +55,24 @@ def test_smoothing_is_5_frames_wide_at_100hz():
     x[10] = 1.0
     y = smooth(x, fps=100)
     assert np.count_nonzero(y > 1e-12) == 5
+
+
+def test_min_swing_ignores_jitter_but_keeps_real_turns():
+    from headmotion.motion.segmentation import noise_sd, segment_axis, zigzag_extrema
+
+    fps = 100.0
+    t = np.arange(600) / fps
+    slow = 0.1 * np.sin(2 * np.pi * 0.5 * t)  # extrema at 0.5, 1.5, 2.5, ... s
+    jitter = 0.004 * np.sin(2 * np.pi * 7.0 * t + 0.3)  # small fast wiggles
+    x = slow + jitter
+    b_lit = segment_axis(x, fps=fps)
+    b = segment_axis(x, fps=fps, min_swing=0.05)
+    assert len(b_lit) > len(b)
+    inner = b[1:-1] / fps
+    assert len(inner) == 6 and np.allclose(inner, [0.5, 1.5, 2.5, 3.5, 4.5, 5.5], atol=0.06)
+    # alternation max/min and every swing at least min_swing
+    sw = np.abs(np.diff(x[zigzag_extrema(x, 0.05)]))
+    assert np.all(sw >= 0.05)
+    assert segment_axis(x, fps=fps, min_swing=0.0).tolist() == b_lit.tolist()
+    rng = np.random.default_rng(0)
+    assert noise_sd(slow + 0.01 * rng.standard_normal(len(t)), fps=fps) == pytest.approx(0.01, rel=0.3)

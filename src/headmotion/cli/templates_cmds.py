@@ -71,13 +71,11 @@ def analyse_cmd(
     n_main: int = typer.Option(120, "--n-main", help="Initialisers for the intra/inter analysis."),
     states: int = typer.Option(4, "--states", help="HMM states per segment model (3-5)."),
     seed: int = typer.Option(0, "--seed"),
+    min_swing: float = typer.Option(1.0, "--min-swing", help="Smallest swing between extrema, degrees (0 = the thesis's literal segmentation; 1 suits video-derived pose)."),
+    native_rate: bool = typer.Option(False, "--native-rate", help="Segment at the motion's own rate instead of 100 Hz (the thesis's)."),
 ):
     """§5.3 template discovery: Figs 5.4–5.6 (+ Fig 5.12 BIC) written to DIR."""
-    import numpy as np
-
-    from ..models.gmm import bic_curve
     from ..motion.discovery import analyse
-    from ..systems.tws_common import collect
 
     if not 3 <= states <= 5:
         raise ParameterError(f"--states must be 3, 4 or 5 (thesis §5.3); got {states}")
@@ -85,34 +83,13 @@ def analyse_cmd(
         sizes = tuple(int(s) for s in initialisers.split(","))
     except ValueError:
         raise ParameterError(f"--initialisers must be comma-separated integers; got {initialisers!r}") from None
+    if min_swing < 0:
+        raise ParameterError(f"--min-swing must be >= 0 degrees; got {min_swing}")
     c = _load_corpus(corpus, speaker)
     motions = [r.motion for r in c]
     with progress_bar("template discovery", total=None):
-        res = analyse(motions, output, n_initialisers=sizes, n_sets=sets, n_init_main=n_main,
-                      n_states=states, seed=seed)
-    # Fig 5.12: BIC of GMM structures over warping parameters (+ previous parameters), all axes
-    data = collect([m.rotvec for m in motions], [np.zeros((len(m), 1)) for m in motions], motions[0].fps)
-    Z = np.vstack([np.hstack([d.arrays()["y"], d.arrays()["prev"]]) for d in data])
-    if len(Z) >= 20:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        comps = (1, 2, 3, 4, 5, 6)
-        bic = bic_curve(Z, components=comps)
-        res["bic"] = bic
-        fig, ax = plt.subplots(figsize=(6, 4))
-        for ct, vals in bic.items():
-            ax.plot(comps, vals, "o-", label=f"{ct} covariance")
-        ax.set_xlabel("mixture components")
-        ax.set_ylabel("BIC")
-        ax.set_title("Fig 5.12: BIC of GMM structures")
-        ax.legend()
-        fig.tight_layout()
-        fig.savefig(Path(output) / "fig5_12_bic.png", dpi=100)
-        plt.close(fig)
-        (Path(output) / "discovery.json").write_text(json.dumps(res, indent=2))
+        res = analyse(motions, output, n_initialisers=sizes, n_sets=sets, n_init_main=n_main, n_states=states,
+                      seed=seed, fps=None if native_rate else 100.0, min_swing_deg=min_swing)
     console.print(f"{res['segments']} segments; clusters chosen {res['k_selected']} with sizes {res['cluster_sizes']}")
     console.print(f"figures → {output}")
 

@@ -2,6 +2,9 @@
 
 * :mod:`.metrics` — the one implementation of every metric (NMSE, global/local CCA, Forced CCA,
   SD, jerk/acceleration, distribution statistics).
+* :mod:`.realism` — does motion look like a head (band shares, amplitude, drift, speed/acceleration
+  Hellinger, limit cycles, saturation, pauses, diversity, beat consistency, pooled coupling);
+  :mod:`.realism_figures` draws them.
 * :mod:`.chance` — chance levels of CCA-type scores by circular shifts; the paper's chance score.
 * :mod:`.protocols` — cross-validation (leave-one-recording-out, the paper split) of systems and
   of the :mod:`.anchors` (evaluation conditions: ground truth, desync, other speaker, shaped

@@ -1,0 +1,67 @@
+"""Known-answer tests of settling in pauses (issue 14 §3)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from headmotion.errors import ParameterError
+from headmotion.motion.pauses import pause_weight, settle_in_pauses
+from headmotion.types import Motion
+
+FPS = 100.0
+
+
+def test_pause_weight_ramps_and_short_gaps():
+    m = np.ones(500, bool)
+    m[100:300] = False  # 2 s pause
+    m[400:420] = False  # 0.2 s gap: not a pause
+    w = pause_weight(m, fps=FPS, ramp_s=0.2)
+    assert np.all(w[m] == 0) and np.all(w[400:420] == 0)
+    assert np.all(w[120:280] == 1.0)
+    assert 0 < w[100] < 0.1 and 0 < w[299] < 0.1
+    assert np.max(np.abs(np.diff(w))) < 0.1  # smooth
+
+
+def test_all_speech_is_unchanged():
+    x = np.random.default_rng(0).standard_normal((200, 3))
+    assert settle_in_pauses(x, np.ones(200, bool), fps=FPS) is x
+
+
+def test_speed_in_pause_is_idle_times_original_and_rejoins():
+    T = 1000
+    t = np.arange(T) / FPS
+    x = np.stack([np.sin(2 * np.pi * 1.0 * t)] * 3, 1) * 0.05
+    m = np.ones(T, bool)
+    m[200:500] = False
+    y = settle_in_pauses(Motion(x, FPS), m, idle=0.4, ramp_s=0.2, relax_s=1.0).rotvec
+    sx = np.abs(np.diff(x[:, 0]))
+    sy = np.abs(np.diff(y[:, 0]))
+    inner = slice(225, 475)
+    assert sy[inner].sum() / sx[inner].sum() == pytest.approx(0.4, rel=1e-6)
+    assert np.allclose(y[:200], x[:200])
+    assert np.max(np.abs(y[-100:] - x[-100:])) < 0.05 * np.max(np.abs(y[500] - x[500])) + 1e-9  # rejoined
+    assert np.max(np.abs(np.diff(y, axis=0))) <= np.max(np.abs(np.diff(x, axis=0))) * 1.2  # no jump
+
+
+def test_idle_zero_holds_still_and_pull_goes_to_mean():
+    T = 600
+    x = np.linspace(0, 0.3, T)[:, None] * np.ones(3)
+    m = np.ones(T, bool)
+    m[100:500] = False
+    y = settle_in_pauses(x, m, fps=FPS, idle=0.0, ramp_s=0.0)
+    assert np.allclose(y[100:500], y[99])
+    mean = np.zeros(3)
+    yp = settle_in_pauses(x, m, fps=FPS, idle=0.0, ramp_s=0.0, pull=3.0, mean_pose=mean)
+    # 4 s at 3/s: exp(-12) of the distance left
+    assert np.all(np.abs(yp[499]) < 1e-4 * np.abs(y[499]) + 1e-9)
+    assert np.all(np.abs(yp[300]) < np.abs(yp[150]))
+
+
+def test_bad_input():
+    with pytest.raises(ParameterError):
+        settle_in_pauses(np.zeros((10, 3)), np.ones(9, bool), fps=FPS)
+    with pytest.raises(ParameterError):
+        settle_in_pauses(np.zeros((10, 3)), np.ones(10, bool), fps=FPS, idle=1.5)
+    with pytest.raises(ParameterError):
+        settle_in_pauses(np.zeros((10, 3)), np.ones(10, bool))
