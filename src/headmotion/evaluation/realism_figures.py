@@ -69,7 +69,7 @@ def spectra_figure(conditions: Mapping[str, Sequence], *, path, title: str = "")
             ax.semilogy(GRID[1:], p[1:, j], color="black" if n == GROUND_TRUTH else cmap(i % 10),
                         lw=2.5 if n == GROUND_TRUTH else 1.3, label=n)
     for j, ax in enumerate(axes):
-        for lo, hi in R.BANDS[1:]:
+        for lo, _hi in R.BANDS[1:]:
             ax.axvline(lo, color="0.8", lw=0.8, zorder=0)
         ax.set_title(f"{R.AXES[j]}")
         ax.set_xlabel("Hz")
