@@ -4,9 +4,13 @@
 * ``train CORPUS --system NAME -o MODEL.hmz [--speaker S] [--features f0e] [--seed N] [--fps F]`` — fit any
   registered system on a corpus directory (optionally one speaker) with a progress bar; prints one
   summary line: system, recordings, minutes, speakers, seconds taken, file.
-* ``synth SPEECH [-m MODEL] -o OUT.{bvh,csv,json,npz} [--seed N] [--gain G] [--offset P,Y,R]
-  [--stochastic S] [--samples K] [--fps F] [--video OUT.mp4]`` — without ``-m`` the default model
-  shipped in the package (``headmotion/data/default_model.hmz``) is used.
+* ``synth SPEECH [-m MODEL] -o OUT.{bvh,glb,gltf,csv,json,npz} [--seed N] [--gain G|P,Y,R]
+  [--gain-pitch/-yaw/-roll G] [--offset D|P,Y,R] [--offset-pitch/-yaw/-roll D] [--still]
+  [--style-from REF] [--neck-share S] [--stochastic S] [--samples K] [--fps F] [--video OUT.mp4]``
+  — without ``-m`` the default model shipped in the package (``headmotion/data/default_model.hmz``)
+  is used.  Gain and offset have one meaning (:mod:`headmotion.motion.control`); style is
+  :mod:`headmotion.motion.style`; ``--samples K --video`` renders the K samples as a labelled grid
+  (:mod:`headmotion.render.samples`).
 """
 
 from __future__ import annotations
@@ -93,44 +97,101 @@ def train(
                   f"speakers {', '.join(summ['speakers'])}, {time.perf_counter() - t0:.1f} s → {out}")
 
 
+def control_from_options(gain, offset, gain_pyr=(None, None, None), offset_pyr=(None, None, None)):
+    """(gain, offset) triples from ``--gain``/``--offset`` and the per-axis ``--gain-pitch`` …
+    ``--offset-roll`` options (offsets in degrees on the command line, radians returned)."""
+    import math
+
+    from ..motion.control import per_axis
+
+    g = per_axis(parse_triple(gain, "--gain", default=1.0), *gain_pyr, what="gain")
+    o_deg = [None if v is None else math.radians(v) for v in offset_pyr]
+    o = per_axis(parse_triple(offset, "--offset", default=0.0, degrees=True), *o_deg, what="offset")
+    return g, o
+
+
 @app.command()
 def synth(
     speech: Path = typer.Argument(..., help="Speech audio (wav, flac, mp3, or a video's audio track)."),
-    output: Path = typer.Option(..., "-o", "--output", help="Output motion: .bvh, .csv, .json or .npz."),
+    output: Path = typer.Option(..., "-o", "--output", help="Output motion: .bvh, .glb, .gltf, .csv, .json or .npz."),
     model: Optional[Path] = typer.Option(None, "-m", "--model", help="Model file (default: the shipped model)."),
     seed: int = typer.Option(0, "--seed", help="Random seed (stochastic modes, --samples)."),
-    gain: Optional[str] = typer.Option(None, "--gain", help="Amplitude scale about the training mean pose: G or "
-                                       "P,Y,R (1 = as trained, 0 = still)."),
+    gain: Optional[str] = typer.Option(None, "--gain", help="Amplitude scale about the model's mean pose: G or "
+                                       "P,Y,R (1 = as trained, 0 = held at the mean pose)."),
+    gain_pitch: Optional[float] = typer.Option(None, "--gain-pitch", help="Pitch amplitude scale (overrides --gain)."),
+    gain_yaw: Optional[float] = typer.Option(None, "--gain-yaw", help="Yaw amplitude scale (overrides --gain)."),
+    gain_roll: Optional[float] = typer.Option(None, "--gain-roll", help="Roll amplitude scale (overrides --gain)."),
     offset: Optional[str] = typer.Option(None, "--offset", help="Added to pitch,yaw,roll after the gain, degrees: "
                                          "D or P,Y,R."),
-    samples: int = typer.Option(1, "--samples", help="Number of different samples (OUT_1, OUT_2, ...)."),
+    offset_pitch: Optional[float] = typer.Option(None, "--offset-pitch", help="Degrees added to pitch (positive: nose down)."),
+    offset_yaw: Optional[float] = typer.Option(None, "--offset-yaw", help="Degrees added to yaw (positive: to the speaker's left)."),
+    offset_roll: Optional[float] = typer.Option(None, "--offset-roll", help="Degrees added to roll."),
+    still: bool = typer.Option(False, "--still", help="A head that does not move: every frame at the rest "
+                               "pose (plus any offset), the length and rate of the speech's motion."),
+    style_from: Optional[Path] = typer.Option(None, "--style-from", help="Move like this reference: a motion "
+                                              "file or a talking video (amplitude, mean pose, slow vs quick motion)."),
+    style_strength: float = typer.Option(1.0, "--style-strength", help="0 = the model's style, 1 = the reference's."),
+    style_keep_pose: bool = typer.Option(False, "--style-keep-pose", help="Keep the model's mean pose "
+                                         "(take only amplitude and spectral balance from the reference)."),
+    neck_share: Optional[float] = typer.Option(None, "--neck-share", help="BVH/glTF: share of the rotation on "
+                                               "the Neck joint, the rest on Head (default 0.93, measured on "
+                                               "real mocap; 0 = all on Head)."),
+    samples: int = typer.Option(1, "--samples", help="Number of different samples (OUT_1, OUT_2, ...; with "
+                                "--video, one labelled grid)."),
     stochastic: Optional[str] = typer.Option(None, "--stochastic",
                                              help="What to sample: none|choice|params|both (systems with a "
-                                                  "stochastic parameter); default 'both' when --samples > 1."),
+                                                  "stochastic parameter; default the model's)."),
     fps: Optional[float] = typer.Option(None, "--fps", help="Output frame rate (default: the model's)."),
     video: Optional[Path] = typer.Option(None, "--video", help="Also render a preview video (.mp4)."),
 ):
-    """Synthesise head motion for a speech file."""
+    """Synthesise head motion for a speech file.
+
+    Order of the controls: the model's motion → --style-from → --gain/--offset (about the mean pose:
+    the reference's when styled, else the model's) → --still replaces everything but the offset."""
     from ..io import load_audio, save_motion
+    from ..motion.control import apply_gain, mean_pose_of, still as still_motion
 
     if samples < 1:
         raise ParameterError(f"--samples must be >= 1; got {samples}")
-    g = parse_triple(gain, "--gain", default=1.0)
-    o = parse_triple(offset, "--offset", default=0.0, degrees=True)
+    if neck_share is not None and not 0.0 <= neck_share <= 1.0:
+        raise ParameterError(f"--neck-share must be between 0 and 1; got {neck_share}")
+    if not 0.0 <= style_strength <= 1.0:
+        raise ParameterError(f"--style-strength must be between 0 and 1; got {style_strength}")
+    g, o = control_from_options(gain, offset, (gain_pitch, gain_yaw, gain_roll),
+                                (offset_pitch, offset_yaw, offset_roll))
     m = load_cli_model(model)
     audio = load_audio(speech)
-    if stochastic is None and samples > 1 and "stochastic" in m.get_params():
-        stochastic = "both"
+    reference = None
+    if style_from is not None:
+        from ..motion.style import load_style_reference, style_profile
+
+        reference = style_profile(load_style_reference(style_from))
+    if stochastic is None and samples > 1 and m.get_params().get("stochastic") == "none":
+        stochastic = "params"  # K samples of a deterministic setting would be K copies
     if stochastic is not None:
         m.set_params(stochastic=stochastic)
+    save_opts = {} if neck_share is None else {"neck_share": float(neck_share)}
+    if neck_share is not None and output.suffix.lower() not in (".bvh", ".glb", ".gltf"):
+        raise ParameterError(f"--neck-share applies to .bvh, .glb and .gltf outputs; got {output.suffix!r}")
     outs = []
     t0 = time.perf_counter()
     for k in range(samples):
-        motion = m.predict(audio, seed=seed + k, gain=g, offset=o)
+        if still:
+            motion = still_motion(m.predict(audio, seed=seed + k), o)
+        elif reference is not None:
+            from ..motion.style import apply_style
+
+            motion = apply_style(m.predict(audio, seed=seed + k), reference, strength=style_strength,
+                                 match_mean=not style_keep_pose)
+            # gain about the styled mean pose (the reference's), or the model's when it is kept
+            mean = m.mean_pose_ if style_keep_pose else mean_pose_of([motion.rotvec])
+            motion = apply_gain(motion, mean, g, o)
+        else:
+            motion = m.predict(audio, seed=seed + k, gain=g, offset=o)
         if fps is not None:
             motion = motion.resample(fps)
         path = output if samples == 1 else output.with_name(f"{output.stem}_{k + 1}{output.suffix}")
-        save_motion(motion, path)
+        save_motion(motion, path, **save_opts)
         outs.append((path, motion))
     dt = time.perf_counter() - t0
     for path, motion in outs:
@@ -138,10 +199,11 @@ def synth(
     console.print(f"synthesised {audio.duration:.1f} s of speech with {m.name} in {dt:.2f} s")
     if video is not None:
         try:
-            from ..render import render_video
+            from ..render.samples import render_samples
         except ImportError as exc:
             raise ParameterError(f"--video needs headmotion.render, which is not available here ({exc})") from exc
-        # a preview plays at a video rate: motion above 60 fps (e.g. 100) is resampled to 25 fps
-        motion_fps = float(outs[0][1].fps)
-        render_video(outs[0][1], video, audio=audio, fps=motion_fps if motion_fps <= 60 else 25.0)
+        motions = [mo for _, mo in outs]
+        render_samples(motions, video, audio=audio,
+                       seeds=[seed + k for k in range(samples)] if samples > 1 else None,
+                       labels=None if samples > 1 else [m.name])
         console.print(f"video → {video}")

@@ -62,6 +62,28 @@ def apply_gain(motion: Motion, mean_pose, gain=1.0, offset=0.0) -> Motion:
     return motion.replace(rotvec=pitch_yaw_roll_to_rotvec(pyr[:, 0], pyr[:, 1], pyr[:, 2]))
 
 
+def per_axis(base, pitch=None, yaw=None, roll=None, *, what: str) -> np.ndarray:
+    """``base`` (a scalar or a triple) with any of its pitch / yaw / roll entries replaced.
+
+    The command line's ``--gain 1.2 --gain-yaw 0.5`` is ``per_axis(1.2, yaw=0.5, what="gain")``
+    = ``(1.2, 0.5, 1.2)``: a per-axis option overrides the all-axes one on its axis only."""
+    out = as_triple(base, what).copy()
+    for j, v in enumerate((pitch, yaw, roll)):
+        if v is not None:
+            out[j] = as_triple(v, what)[0]
+    return out
+
+
+def still(motion: Motion, offset=0.0) -> Motion:
+    """A motion of ``motion``'s length and rate that does not move: every frame is the rest pose
+    (zero rotation) plus ``offset`` (pitch, yaw, roll in radians).  ``--still`` on the command
+    line; unlike ``gain=0`` (the training mean pose), the head faces straight ahead."""
+    o = as_triple(offset, "offset")
+    rv = pitch_yaw_roll_to_rotvec(np.full(len(motion), o[0]), np.full(len(motion), o[1]),
+                                  np.full(len(motion), o[2]))
+    return motion.replace(rotvec=np.asarray(rv, dtype=np.float64).reshape(len(motion), 3))
+
+
 def mean_pose_of(rotvecs) -> np.ndarray:
     """The mean (pitch, yaw, roll) in radians over a list of rotation-vector arrays ``(T, 3)``."""
     arrs = [np.asarray(r, dtype=np.float64).reshape(-1, 3) for r in rotvecs]
@@ -71,4 +93,4 @@ def mean_pose_of(rotvecs) -> np.ndarray:
     return rotvec_to_pitch_yaw_roll(np.vstack(arrs)).mean(axis=0)
 
 
-__all__ = ["apply_gain", "apply_gain_angles", "as_triple", "is_identity", "mean_pose_of"]
+__all__ = ["apply_gain", "apply_gain_angles", "as_triple", "is_identity", "mean_pose_of", "per_axis", "still"]
