@@ -440,7 +440,8 @@ def realism_rows(conditions: Mapping[str, Sequence], references: Sequence, *, re
                  samples: Mapping[str, Sequence[Sequence]] | None = None, n_shifts: int = 200,
                  seed=0) -> list[dict]:
     """Rows for metrics.csv: one per (condition, recording) and one ``recording="ALL"`` per
-    condition (median of each measure over recordings; pooled coupling by Stouffer).
+    condition (median of each measure over recordings, except ``fcca_excess``/``lcca_excess``: the
+    mean, with ``fcca_p_pooled``/``lcca_p_pooled`` combined by Stouffer).
 
     Parameters
     ----------
