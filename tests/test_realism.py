@@ -163,3 +163,12 @@ def test_real_zeggs_take_measures(shared_data):
     assert row["limit_cycle"] < 0.3
     assert 0.2 < row["pause_ratio"] < 0.6
     assert row["bc"] > 0.5
+
+
+def test_long_rows():
+    ref = sine(0.3, seconds=20)
+    rows = R.realism_rows({"gt": [ref]}, [ref])
+    lr = R.long_rows(rows)
+    assert {r["system"] for r in lr} == {"gt"} and {r["recording"] for r in lr} == {"rec0", "ALL"}
+    got = {(r["recording"], r["metric"]): r["value"] for r in lr}
+    assert got[("rec0", "realism_spectral_l1")] == 0.0

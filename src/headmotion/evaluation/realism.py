@@ -42,7 +42,9 @@ roll for small angles) with ``fps`` given.
   into one p-value by Stouffer's method (z_i = Φ⁻¹(1 − p_i), Z = Σ z_i / √n).
 * :func:`realism_rows` — the one-liner for ``evaluate``: ``{condition: [motion per recording]}``
   and the ground truths → a list of metrics.csv rows (one per condition and recording) plus one
-  ``recording="ALL"`` summary row per condition (medians, the pooled p-values).
+  ``recording="ALL"`` summary row per condition (medians, the pooled p-values);
+  :func:`long_rows` turns them into ``evaluate``'s long ``{system, recording, metric, value}``
+  rows.
 
 Libraries considered: scipy (Welch, histograms, normal quantiles) and librosa (onsets) are used;
 no maintained library implements these head-motion measures as a set.
@@ -438,7 +440,8 @@ def realism_rows(conditions: Mapping[str, Sequence], references: Sequence, *, re
                  samples: Mapping[str, Sequence[Sequence]] | None = None, n_shifts: int = 200,
                  seed=0) -> list[dict]:
     """Rows for metrics.csv: one per (condition, recording) and one ``recording="ALL"`` per
-    condition (median of each measure over recordings; pooled coupling by Stouffer).
+    condition (median of each measure over recordings, except ``fcca_excess``/``lcca_excess``: the
+    mean, with ``fcca_p_pooled``/``lcca_p_pooled`` combined by Stouffer).
 
     Parameters
     ----------
@@ -475,8 +478,24 @@ def realism_rows(conditions: Mapping[str, Sequence], references: Sequence, *, re
     return out
 
 
+def long_rows(rows: Sequence[Mapping], *, prefix: str = "realism_") -> list[dict]:
+    """Wide rows of :func:`realism_rows` → the long ``{system, recording, metric, value}`` rows of
+    ``evaluate``'s metrics.csv (metric names prefixed, nan kept)."""
+    out = []
+    for r in rows:
+        for k, v in r.items():
+            if k in ("condition", "recording", "set"):
+                continue
+            try:
+                val = float(v)
+            except (TypeError, ValueError):
+                continue
+            out.append({"system": r["condition"], "recording": r["recording"], "metric": prefix + k, "value": val})
+    return out
+
+
 __all__ = [
-    "BANDS", "BAND_NAMES", "psd", "band_shares", "spectral_distance", "sd_ratio", "drift", "speed", "acceleration",
+    "long_rows", "BANDS", "BAND_NAMES", "psd", "band_shares", "spectral_distance", "sd_ratio", "drift", "speed", "acceleration",
     "histogram_edges", "histogram", "hellinger", "hellinger_values", "autocorrelation", "limit_cycle_index",
     "saturation", "speech_mask_for", "pause_mask", "pause_speed_ratio", "diversity", "speech_onsets",
     "motion_beats", "beat_consistency", "coupling", "stouffer", "pooled_coupling", "realism", "realism_rows",
