@@ -82,3 +82,22 @@ def test_neck_share_and_samples_grid(speech, tmp_path):
     assert (tmp_path / "head_1.bvh").exists() and (tmp_path / "head_2.bvh").exists() and vid.stat().st_size > 0
     assert main(["synth", str(speech), "-o", str(tmp_path / "x.npz"), "--neck-share", "0.5"]) != 0
     assert main(["synth", str(speech), "-o", str(out), "--neck-share", "1.5"]) != 0
+
+
+def test_stream_per_axis_gain_and_offset(speech):
+    import json
+    import subprocess
+    import sys
+
+    import soundfile as sf
+
+    x, sr = sf.read(speech, dtype="int16")
+    runs = []
+    for extra in ([], ["--gain-yaw", "0", "--offset-yaw", "5"]):
+        r = subprocess.run([sys.executable, "-m", "headmotion", "stream", "--sample-rate", str(sr), *extra],
+                           input=x.astype("<i2").tobytes(), capture_output=True, timeout=120, check=True)
+        runs.append(np.array([json.loads(line)["pitch_yaw_roll_deg"] for line in r.stdout.decode().splitlines()]))
+    a, b = runs
+    assert len(a) == len(b) > 100
+    np.testing.assert_allclose(b[:, [0, 2]], a[:, [0, 2]], atol=1e-3)
+    assert b[:, 1].std() < 1e-6 and abs(b[:, 1].mean() - 5.0) < 1.0  # held at the mean pose + 5 deg

@@ -19,7 +19,7 @@ import typer
 
 from ..errors import ParameterError
 from .app import app, err_console
-from .synth_cmds import load_cli_model, parse_triple
+from .synth_cmds import control_from_options, load_cli_model
 
 
 class PcmResampler:
@@ -55,6 +55,12 @@ def stream(
     seed: int = typer.Option(0, "--seed"),
     gain: Optional[str] = typer.Option(None, "--gain", help="G or P,Y,R (see synth --gain)."),
     offset: Optional[str] = typer.Option(None, "--offset", help="Degrees, D or P,Y,R (see synth --offset)."),
+    gain_pitch: Optional[float] = typer.Option(None, "--gain-pitch", help="Pitch amplitude scale (overrides --gain)."),
+    gain_yaw: Optional[float] = typer.Option(None, "--gain-yaw", help="Yaw amplitude scale (overrides --gain)."),
+    gain_roll: Optional[float] = typer.Option(None, "--gain-roll", help="Roll amplitude scale (overrides --gain)."),
+    offset_pitch: Optional[float] = typer.Option(None, "--offset-pitch", help="Degrees added to pitch."),
+    offset_yaw: Optional[float] = typer.Option(None, "--offset-yaw", help="Degrees added to yaw."),
+    offset_roll: Optional[float] = typer.Option(None, "--offset-roll", help="Degrees added to roll."),
 ):
     """Stream: raw 16-bit PCM (mono, little-endian) on stdin → JSON lines of head rotation on stdout.
 
@@ -66,8 +72,8 @@ def stream(
     m = load_cli_model(model)
     if not m.causal:
         raise ParameterError(f"system {m.name!r} is not causal and cannot stream")
-    st = m.stream(seed=seed, gain=parse_triple(gain, "--gain", default=1.0),
-                  offset=parse_triple(offset, "--offset", default=0.0, degrees=True))
+    g, o = control_from_options(gain, offset, (gain_pitch, gain_yaw, gain_roll), (offset_pitch, offset_yaw, offset_roll))
+    st = m.stream(seed=seed, gain=g, offset=o)
     in_sr = int(sample_rate or m.sample_rate)
     resample = PcmResampler(in_sr, m.sample_rate)
     err_console.print(f"streaming with {m.name}: {in_sr} Hz s16le in, JSON lines out; latency ≤ {st.latency_ms:.0f} ms")
