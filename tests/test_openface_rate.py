@@ -165,3 +165,33 @@ def test_every_failure_is_a_headmotion_error(tmp_path):
     p.write_text("frame, timestamp, success, pose_Rx, pose_Ry, pose_Rz\n1, 0.000, 1, x, 0, 0\n")
     with pytest.raises(FormatError, match="line 2: pose_Rx = 'x' is not a number"):
         load_motion(p)
+
+
+def test_corpus_fps_column_overrides_the_file_rate(tmp_path):
+    from headmotion.corpus import Corpus
+    from headmotion.io import save_audio
+    from headmotion.types import Audio
+
+    fps, T = 25.0, 250
+    p = write_openface(tmp_path / "take.csv", _angles(T, fps), fps)
+    # an image sequence: OpenFace writes no usable timestamps
+    lines = p.read_text().splitlines()
+    lines = [lines[0]] + [",".join(f if k != 2 else "0.000" for k, f in enumerate(l.split(","))) for l in lines[1:]]
+    p.write_text("\n".join(lines) + "\n")
+    t = np.arange(int(T / fps * 16000)) / 16000
+    save_audio(Audio(0.1 * np.sin(2 * np.pi * 150 * t), 16000), tmp_path / "take.wav")
+    (tmp_path / "corpus.csv").write_text("recording,speaker,task,audio,motion\nt1,s,read,take.wav,take.csv\n")
+    with pytest.raises(FormatError, match="cannot infer the frame rate"):
+        Corpus.load(tmp_path)[0]
+    (tmp_path / "corpus.csv").write_text("recording,speaker,task,audio,motion,fps\nt1,s,read,take.wav,take.csv,25\n")
+    c = Corpus.load(tmp_path)
+    r = c[0]
+    assert r.motion.fps == 25.0 and len(r.motion) == T and c.entries[0].fps == 25.0
+    c.save(tmp_path / "copy")  # the column survives a save (files written natively)
+    assert Corpus.load(tmp_path / "copy")[0].motion.fps == 25.0
+    c2 = Corpus.load(tmp_path)
+    c2.save()
+    assert "fps" in (tmp_path / "corpus.csv").read_text().splitlines()[0]
+    (tmp_path / "corpus.csv").write_text("recording,speaker,task,audio,motion,fps\nt1,s,read,take.wav,take.csv,fast\n")
+    with pytest.raises(FormatError, match=r"corpus\.csv, line 2: fps must be a number within 1–1000"):
+        Corpus.load(tmp_path)
