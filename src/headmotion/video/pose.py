@@ -20,10 +20,10 @@ FaceMesh z on the scale of x); and ``"pnp"`` — OpenCV ``solvePnP`` of the refe
 default: on the real clips it had the lower frame-to-frame jitter and passed the mirror and
 known-rotation tests (see tests/test_video_pose.py); PnP is kept for comparison.
 
-Depth weight and camera model (issue 15: "yaw from video is sometimes weak").  FaceMesh's x and y
+Camera model (issue 15: "yaw from video is sometimes weak").  FaceMesh's x and y
 are measured image positions; its z is a network's guess of relative depth.  Cross-checked on all
 59 real clips against an independent estimate (OpenCV ``solvePnP`` of the 2D landmarks against
-mediapipe's canonical face, ``scripts/pose_crosscheck.py``), two things mattered:
+mediapipe's canonical face, ``scripts/pose_crosscheck.py``):
 
 * **line of sight.**  A rigid fit of landmarks (like any weak-perspective / crop-based fit)
   measures the face's orientation relative to the ray from the camera to the face, not to the
@@ -35,13 +35,11 @@ mediapipe's canonical face, ``scripts/pose_crosscheck.py``), two things mattered
   ≈ 40° for a square crop; a longer lens is the safer guess for crops of larger frames, as it
   corrects less).  This raised the worst clip's yaw agreement from 0.54–0.84 to 0.78–0.90
   (depending on the focal length the check assumes) and roll's from 0.84–0.88 to ≥ 0.95.
-* **depth weight.**  z counts with ``depth_weight`` (default 0.5) against x and y: the fit
-  alternates between the Kabsch solution and replacing z by ``w·z_observed + (1 − w)·z_fitted``,
-  so at convergence z residuals are down-weighted.  On GRID clips (head nearly still) FaceMesh's z
-  moved with the mouth and put a +0.65 correlation between mouth opening and pitch; halving z's
-  weight took the number of clips whose pitch agrees with the check below 0.85 from 7 to 3 at
-  unchanged jitter (blink leak into pitch 0.18 → 0.20; 0 would be a 2D fit, which leaks blinks
-  more, 0.27).
+* **depth weight** (tried, not kept).  Giving FaceMesh's predicted z half the weight of x, y
+  (alternating fit) moved pitch towards the 2D check on GRID clips, but did not reduce the leak of
+  mouth opening into pitch (median |r| 0.28 → 0.30) and let more blinking in (0.18 → 0.19); on a
+  synthetic face whose lower half swells in depth it cut the pitch error by under 3 %: x, y say
+  little about pitch for a face this flat, so z stays in at full weight.
 * **landmark subset.**  Dropping the lower nose and most cheek points (an "upper face" subset)
   made every axis agree less (fewer points, more noise); the 122-point set is kept.
 
@@ -188,22 +186,14 @@ def build_reference(X: np.ndarray, *, n_iter: int = 3, near_median_deg: float = 
     return ref, w / w.mean()
 
 
-def _robust_kabsch(ref, X, w_lm, n_iter: int = 2, depth_weight: float = 1.0, depth_iter: int = 8):
-    """Huber-reweighted similarity fit; with ``depth_weight < 1`` the z of the landmarks is pulled
-    towards the fitted z (``w·z + (1 − w)·ẑ``) for ``depth_iter`` rounds, down-weighting depth."""
+def _robust_kabsch(ref, X, w_lm, n_iter: int = 2):
     R, s, c = batch_kabsch(ref, X, w_lm)
-    Y = X
-    rounds = max(n_iter, depth_iter if depth_weight < 1.0 else 0)
-    for it in range(rounds):
+    for _ in range(n_iter):
         pred = s[:, None, None] * np.einsum("tij,nj->tni", R, ref) + c[:, None]
-        if depth_weight < 1.0:
-            Y = X.copy()
-            Y[:, :, 2] = depth_weight * X[:, :, 2] + (1.0 - depth_weight) * pred[:, :, 2]
-        if it < n_iter:
-            r = np.linalg.norm(Y - pred, axis=2)  # (T, N)
-            k = 2.0 * np.median(r, axis=1, keepdims=True) + 1e-9
-            huber = np.where(r <= k, 1.0, k / np.maximum(r, 1e-12))
-        R, s, c = batch_kabsch(ref, Y, w_lm[None] * huber)
+        r = np.linalg.norm(X - pred, axis=2)  # (T, N)
+        k = 2.0 * np.median(r, axis=1, keepdims=True) + 1e-9
+        huber = np.where(r <= k, 1.0, k / np.maximum(r, 1e-12))
+        R, s, c = batch_kabsch(ref, X, w_lm[None] * huber)
     pred = s[:, None, None] * np.einsum("tij,nj->tni", R, ref) + c[:, None]
     res = np.sqrt(((X - pred) ** 2).sum(2).mean(1)) / np.maximum(s, 1e-12)
     return R, s, c, res
@@ -249,14 +239,9 @@ def _pnp(ref_h: np.ndarray, pts2d: np.ndarray, scale_px: float, *, width: int, h
     return out
 
 
-#: Weight of FaceMesh's predicted depth against the measured x, y in the rigid fit (module docstring).
-DEFAULT_DEPTH_WEIGHT = 0.5
-
-
 def estimate_pose(points: np.ndarray, valid: np.ndarray | None = None, *, method: str = "kabsch",
                   width: int | None = None, height: int | None = None, focal: float | None = None,
-                  reference: np.ndarray | None = None, depth_weight: float = DEFAULT_DEPTH_WEIGHT,
-                  line_of_sight_correction: bool = True) -> PoseFit:
+                  reference: np.ndarray | None = None, line_of_sight_correction: bool = True) -> PoseFit:
     """Head rotation per frame from FaceMesh landmarks.
 
     Parameters
@@ -273,7 +258,6 @@ def estimate_pose(points: np.ndarray, valid: np.ndarray | None = None, *, method
         image diagonal for the line-of-sight correction)
     reference : np.ndarray [shape=(N, 3)], optional
         Use this rigid shape (head axes) instead of building one from the clip.
-    depth_weight : float in (0, 1], weight of the landmarks' z against x, y (``"kabsch"``)
     line_of_sight_correction : bool, put the rotation into camera axes (``"kabsch"``, needs
         ``width`` and ``height``; see the module docstring)
 
@@ -306,9 +290,7 @@ def estimate_pose(points: np.ndarray, valid: np.ndarray | None = None, *, method
         ref = np.asarray(reference, float)
         ref = (ref - ref.mean(0)) / np.sqrt(((ref - ref.mean(0)) ** 2).sum(1).mean())
         w_lm = np.ones(N)
-    if not 0.0 < float(depth_weight) <= 1.0:
-        raise ParameterError(f"depth_weight must be in (0, 1]; got {depth_weight!r}")
-    R, s_fit, c_fit, res = _robust_kabsch(ref, X, w_lm, depth_weight=float(depth_weight))
+    R, s_fit, c_fit, res = _robust_kabsch(ref, X, w_lm)
     if method == "kabsch" and line_of_sight_correction and width is not None and height is not None:
         R = np.einsum("tij,tjk->tik", line_of_sight(c[:, :2] * CAMERA_TO_HEAD[:2], width=width, height=height,
                                                     focal=focal), R)
@@ -346,5 +328,5 @@ def project(reference: np.ndarray, rotvec: np.ndarray, *, scale: float = 100.0,
     return Ph * CAMERA_TO_HEAD + np.asarray(center, float)
 
 
-__all__ = ["RIGID_LANDMARKS", "CAMERA_TO_HEAD", "DEFAULT_DEPTH_WEIGHT", "PoseFit", "batch_kabsch",
+__all__ = ["RIGID_LANDMARKS", "CAMERA_TO_HEAD", "PoseFit", "batch_kabsch",
            "build_reference", "estimate_pose", "line_of_sight", "project"]
