@@ -130,7 +130,7 @@ def ours_track(analysis, method: str = "kabsch") -> tuple[np.ndarray, list[int]]
     lm = analysis.landmarks
     P = lm.points[:, RIGID_LANDMARKS].astype(float)
     det = lm.detected
-    cuts = q.detect_cuts(P, det)
+    cuts = q.detect_cuts(P, det, fps=analysis.fps, image_diff=analysis.image_diff)
     rv = np.full((len(lm), 3), np.nan)
     bounds = [0] + cuts + [len(lm)]
     for a, b in zip(bounds[:-1], bounds[1:]):
