@@ -195,3 +195,17 @@ def test_corpus_fps_column_overrides_the_file_rate(tmp_path):
     (tmp_path / "corpus.csv").write_text("recording,speaker,task,audio,motion,fps\nt1,s,read,take.wav,take.csv,fast\n")
     with pytest.raises(FormatError, match=r"corpus\.csv, line 2: fps must be a number within 1–1000"):
         Corpus.load(tmp_path)
+
+
+def test_corpus_fps_column_retimes_a_file_with_its_own_rate(tmp_path):
+    from headmotion.corpus import Corpus
+    from headmotion.io import save_audio, save_motion
+    from headmotion.types import Audio, Motion
+
+    rv = 0.1 * np.sin(np.linspace(0, 6, 250))[:, None] * np.ones(3)
+    save_motion(Motion(rv, 30.0), tmp_path / "take.bvh")  # a BVH that states the wrong rate
+    save_audio(Audio(np.zeros(16000 * 10), 16000), tmp_path / "take.wav")
+    (tmp_path / "corpus.csv").write_text("recording,speaker,task,audio,motion,fps\nt,s,read,take.wav,take.bvh,25\n")
+    r = Corpus.load(tmp_path)[0]
+    assert r.motion.fps == 25.0 and len(r.motion) == 250 and r.motion.meta["fps_from"] == "corpus.csv"
+    np.testing.assert_allclose(r.motion.rotvec, rv, atol=1e-6)

@@ -249,13 +249,13 @@ class Corpus(Sequence[Recording]):
         audio = load_audio(base / e.audio, sample_rate=self.sample_rate)
         if e.fps is None:
             motion = load_motion(base / e.motion)
-        else:  # the reader takes the rate when it can (OpenFace, Live Link, plain CSV) ...
-            try:
-                motion = load_motion(base / e.motion, fps=e.fps)
-            except ParameterError as exc:
-                if "option not understood" not in str(exc):
-                    raise
-                motion = load_motion(base / e.motion)  # ... else the file's frames are re-timed
+        else:  # the reader takes the rate when it can (files whose rate may be missing) ...
+            from .io.motion import detect_format
+
+            path = base / e.motion
+            takes_fps = (path.is_file() and path.stat().st_size > 0
+                         and detect_format(path) in ("openface", "livelink", "smpl", "csv"))
+            motion = load_motion(path, fps=e.fps) if takes_fps else load_motion(path)  # ... else re-timed
             if motion.fps != e.fps:
                 motion = motion.replace(fps=e.fps)
             motion = motion.replace(meta={**motion.meta, "fps_from": "corpus.csv"})
