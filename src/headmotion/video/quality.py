@@ -341,5 +341,5 @@ def format_quality_table(rows: list[dict]):
 
 
 __all__ = ["DEFAULT_LOWPASS_HZ", "DEFAULT_MAX_GAP_S", "DEFAULT_MIN_PART_S", "DEFAULT_MIN_CONFIDENCE",
-           "confidence", "detect_cuts", "thumbnail", "MAX_TURN_DEG_S", "find_gaps", "fill_gaps", "split_segments", "lowpass",
-           "jitter_deg", "QUALITY_COLUMNS", "format_quality_table"]
+           "confidence", "detect_cuts", "thumbnail", "MAX_TURN_DEG_S", "find_gaps", "fill_gaps",
+           "split_segments", "lowpass", "jitter_deg", "QUALITY_COLUMNS", "format_quality_table"]
