@@ -7,7 +7,9 @@ where the recording is split because the pose before and after is not the same c
 Libraries: scipy.signal (Butterworth, zero-phase ``filtfilt``) for the low-pass and scipy's Slerp
 for gap filling; shot-cut detectors such as PySceneDetect work on pixel histograms, which a
 talking head barely changes between two shots of the same person, so cuts are detected here from
-the face itself (landmark and pose jumps), which is what matters for the motion.
+the face itself (jumps and steps of its position, size, shape and pose) and from a one-frame change
+of a 32 × 32 grey thumbnail of the picture, measured against the frames around it (PySceneDetect's
+thresholds are absolute and would need the same neighbourhood test; not added as a dependency).
 
 Low-pass default.  :data:`DEFAULT_LOWPASS_HZ` = 8 Hz (4th-order Butterworth, zero phase).  Head
 motion in speech lies mostly below 5 Hz (the thesis' speed classes split segments at 4.5 and
