@@ -114,9 +114,12 @@ def detect_cuts(points: np.ndarray, valid: np.ndarray, *, fps: float | None = No
        the joined clips' cuts reached 3.0–22.
 
     Cuts within two frames of each other count once (the first).  Measured on real joins of two
-    clips of one speaker (tests/test_video_cuts_real.py): each cut found at its frame, none found
-    in the 58 single-shot real clips; the margins are narrow on the fastest-moving speaker (see the
-    thresholds above), so a cut that changes neither framing, size nor head pose can be missed.
+    clips of one speaker (tests/test_video_cuts_real.py): each cut found at its frame; in the 59
+    real clips only the split the earlier detector already made (pc_avs Audio_Source_741400104,
+    frame 108: a 12° turn in one frame at 25 fps, where the picture does not change at once, so
+    possibly a very fast turn rather than a cut).  The margins are narrow on the fastest-moving
+    speaker (andrew), so a cut that changes neither the picture, the framing nor the pose can be
+    missed.
 
     Parameters
     ----------
