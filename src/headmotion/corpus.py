@@ -1,8 +1,10 @@
 """Recordings and corpora on disk; splits by recording (thesis §3.3, §3.5, §5.9; paper §4.1).
 
 A corpus is a directory holding ``corpus.csv`` with the columns
-``recording,speaker,task,audio,motion`` and optionally ``split`` and ``speaking`` (a per-frame or
-interval annotation of when the target speaker talks, see :mod:`headmotion.features.vad`).
+``recording,speaker,task,audio,motion`` and optionally ``split``, ``speaking`` (a per-frame or
+interval annotation of when the target speaker talks, see :mod:`headmotion.features.vad`) and
+``fps`` (the motion file's frame rate, overriding the one the file states or implies, e.g. for
+an OpenFace CSV of an image sequence or a file with a wrong rate).
 Paths are relative to the directory.  Audio and motion may be in any supported format.
 
 A :class:`Recording` pairs one take's audio (resampled to the corpus sample rate, 16 kHz by
@@ -30,7 +32,7 @@ from .types import Audio, Motion
 
 MANIFEST = "corpus.csv"
 REQUIRED_COLUMNS = ("recording", "speaker", "task", "audio", "motion")
-OPTIONAL_COLUMNS = ("split", "speaking")
+OPTIONAL_COLUMNS = ("split", "speaking", "fps")
 DEFAULT_SAMPLE_RATE = 16000
 
 
@@ -98,6 +100,7 @@ class CorpusEntry:
     motion: Path
     split: str | None = None
     speaking: Path | None = None
+    fps: float | None = None
 
 
 class Corpus(Sequence[Recording]):
@@ -155,10 +158,20 @@ class Corpus(Sequence[Recording]):
             if split is not None and split not in ("train", "valid", "test"):
                 raise FormatError(f"split must be train, valid or test; got {split!r}", path=manifest, line=lineno)
             spk = (row.get("speaking") or "").strip()
+            fps_s = (row.get("fps") or "").strip()
+            fps = None
+            if fps_s:
+                try:
+                    fps = float(fps_s)
+                except ValueError:
+                    fps = float("nan")
+                if not (1.0 <= fps <= 1000.0):
+                    raise FormatError(f"fps must be a number within 1–1000 (or empty); got {fps_s!r}",
+                                      path=manifest, line=lineno)
             entries.append(CorpusEntry(
                 recording=row["recording"].strip(), speaker=row["speaker"].strip(), task=row["task"].strip(),
                 audio=Path(row["audio"].strip()), motion=Path(row["motion"].strip()), split=split,
-                speaking=Path(spk) if spk else None))
+                speaking=Path(spk) if spk else None, fps=fps))
         return cls(root=root, entries=entries, sample_rate=sample_rate)
 
     def save(self, root=None) -> Path:
@@ -182,9 +195,13 @@ class Corpus(Sequence[Recording]):
                 save_motion(rec.motion, root / motion_rel)
             rows.append({"recording": e.recording, "speaker": e.speaker, "task": e.task,
                          "audio": audio_rel.as_posix(), "motion": motion_rel.as_posix(),
-                         "split": e.split or "", "speaking": "" if e.speaking is None else e.speaking.as_posix()})
+                         "split": e.split or "", "speaking": "" if e.speaking is None else e.speaking.as_posix(),
+                         "fps": "" if e.fps is None else f"{e.fps:g}"})
+        cols = list(REQUIRED_COLUMNS) + list(OPTIONAL_COLUMNS)
+        if all(e.fps is None for e in self._entries):
+            cols.remove("fps")  # written only when used
         buf = _io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=list(REQUIRED_COLUMNS) + list(OPTIONAL_COLUMNS), lineterminator="\n")
+        w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n", extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
         atomic_write_text(root / MANIFEST, buf.getvalue())
@@ -230,7 +247,18 @@ class Corpus(Sequence[Recording]):
 
         base = self.root if self.root is not None else Path()
         audio = load_audio(base / e.audio, sample_rate=self.sample_rate)
-        motion = load_motion(base / e.motion)
+        if e.fps is None:
+            motion = load_motion(base / e.motion)
+        else:  # the reader takes the rate when it can (files whose rate may be missing) ...
+            from .io.motion import detect_format
+
+            path = base / e.motion
+            takes_fps = (path.is_file() and path.stat().st_size > 0
+                         and detect_format(path) in ("openface", "livelink", "smpl", "csv"))
+            motion = load_motion(path, fps=e.fps) if takes_fps else load_motion(path)  # ... else re-timed
+            if motion.fps != e.fps:
+                motion = motion.replace(fps=e.fps)
+            motion = motion.replace(meta={**motion.meta, "fps_from": "corpus.csv"})
         audio, motion = align_tracks(audio, motion, names=(str(e.audio), str(e.motion)))
         speaking = None
         if e.speaking is not None:

@@ -3,7 +3,8 @@
 
 :func:`load_motion` picks the reader from ``format=`` or the extension; a ``.csv`` is sniffed
 from its first lines: ``Format Version`` → OptiTrack Motive, ``Timecode``…``HeadYaw`` → Live Link
-Face, ``pose_Rx`` → OpenFace, ``# headmotion-motion`` or ``rx,ry,rz`` columns → native.
+Face, ``pose_Rx`` → OpenFace, ``# headmotion-motion`` or ``rx,ry,rz`` columns → native; a ``.npz``
+from its array names: ``poses`` / ``pose_body`` (no ``rotvec``) → SMPL, else native.
 :func:`save_motion` writes ``bvh``, ``csv``, ``json``, ``npz``, ``glb``/``gltf`` (by extension) or
 ``livelink`` (``format="livelink"``).  Every reader maps the file's axes onto the one convention of
 :mod:`headmotion.rotations`; see each module's docstring for how.
@@ -16,6 +17,7 @@ optitrack  .csv (sniffed)        :mod:`headmotion.io.optitrack` no
 c3d        .c3d                  :mod:`headmotion.io.c3d`       no
 openface   .csv (sniffed)        :mod:`headmotion.io.openface`  no
 livelink   .csv (sniffed)        :mod:`headmotion.io.livelink`  yes
+smpl       .npz (sniffed)        :mod:`headmotion.io.smpl`      no
 csv        .csv                  :mod:`headmotion.io.native`    yes
 json       .json                 :mod:`headmotion.io.native`    yes
 npz        .npz                  :mod:`headmotion.io.native`    yes
@@ -39,10 +41,11 @@ import numpy as np
 from ..errors import FormatError, ParameterError
 from ..types import Motion
 
-READ_FORMATS = ("bvh", "optitrack", "c3d", "openface", "livelink", "csv", "json", "npz")
+READ_FORMATS = ("bvh", "optitrack", "c3d", "openface", "livelink", "smpl", "csv", "json", "npz")
 WRITE_FORMATS = ("bvh", "csv", "json", "npz", "livelink", "gltf")
 _EXT = {".bvh": "bvh", ".c3d": "c3d", ".json": "json", ".npz": "npz", ".csv": "csv"}
-_ALIASES = {"motive": "optitrack", "live-link": "livelink", "live_link": "livelink", "native": "csv"}
+_ALIASES = {"motive": "optitrack", "live-link": "livelink", "live_link": "livelink", "native": "csv",
+            "smplx": "smpl", "smpl-x": "smpl", "smplh": "smpl", "smpl-h": "smpl"}
 
 
 def _norm_format(fmt: str, allowed) -> str:
@@ -73,6 +76,20 @@ def sniff_csv(path) -> str:
         f"OpenFace or headmotion CSV header; pass format=", path=path, line=1)
 
 
+def sniff_npz(path) -> str:
+    """Which kind of ``.npz`` ``path`` is: ``smpl`` (SMPL-family parameters) or ``npz`` (ours)."""
+    import zipfile
+
+    from .smpl import is_smpl_npz
+
+    try:
+        with zipfile.ZipFile(path) as zf:
+            names = [n[:-4] if n.endswith(".npy") else n for n in zf.namelist()]
+    except (zipfile.BadZipFile, OSError) as exc:
+        raise FormatError(f"not a readable .npz file ({exc})", path=path) from None
+    return "smpl" if is_smpl_npz(names) else "npz"
+
+
 def detect_format(path) -> str:
     """The reader for ``path`` from its extension (and, for ``.csv``, its header)."""
     p = Path(path)
@@ -83,6 +100,8 @@ def detect_format(path) -> str:
     fmt = _EXT[ext]
     if fmt == "csv":
         fmt = sniff_csv(p)
+    elif fmt == "npz":
+        fmt = sniff_npz(p)
     return fmt
 
 
@@ -102,12 +121,12 @@ def load_motion(path, *, format: str | None = None, **options) -> Motion:
     ----------
     path : str or Path
     format : str, optional
-        One of ``bvh, optitrack, c3d, openface, livelink, csv, json, npz``; from the extension
-        (and a CSV's header) when omitted.
+        One of ``bvh, optitrack, c3d, openface, livelink, smpl, csv, json, npz``; from the
+        extension (and a CSV's header or an npz's arrays) when omitted.
     **options
         Passed to the reader, e.g. ``head="Head"``, ``relative_to="Spine2"`` (BVH),
         ``head_markers=[...]``, ``body_markers=[...]``, ``max_gap=0.1`` (OptiTrack, C3D),
-        ``fps=`` (OpenFace, Live Link, plain CSV).
+        ``fps=`` (OpenFace, Live Link, SMPL, plain CSV).
 
     Returns
     -------
@@ -127,6 +146,8 @@ def load_motion(path, *, format: str | None = None, **options) -> Motion:
             from .openface import load_openface as fn
         elif fmt == "livelink":
             from .livelink import load_livelink as fn
+        elif fmt == "smpl":
+            from .smpl import load_smpl as fn
         elif fmt == "csv":
             from .native import load_csv as fn
         elif fmt == "json":
@@ -230,7 +251,7 @@ def motion_info(path) -> dict:
     info.setdefault("fps", m.fps)
     info.setdefault("duration", m.duration)
     info["sd_deg"] = dict(zip(("pitch", "yaw", "roll"), np.degrees(m.rotvec.std(axis=0)).round(3).tolist()))
-    for k in ("head_joint", "relative_to", "head", "head_markers", "fallback", "layout"):
+    for k in ("head_joint", "relative_to", "head", "head_markers", "fallback", "layout", "model"):
         if k in m.meta and k not in info:
             info[k] = m.meta[k]
     gaps = m.meta.get("gaps")
@@ -239,5 +260,5 @@ def motion_info(path) -> dict:
     return info
 
 
-__all__ = ["load_motion", "save_motion", "motion_info", "detect_format", "sniff_csv",
+__all__ = ["load_motion", "save_motion", "motion_info", "detect_format", "sniff_csv", "sniff_npz",
            "READ_FORMATS", "WRITE_FORMATS"]

@@ -15,9 +15,21 @@ Rx(a)``, ``C Ry(b) C = Ry(−b)``, ``C Rz(c) C = Rz(−c)``, this is intrinsic `
 (down), and positive pitch is nose-down in ours too.
 
 The rotation is relative to the **camera**, not the torso (``meta["relative_to"] = "camera"``);
-a frontal face is about zero.  Frames with ``success == 0`` or ``confidence < min_confidence`` are
-treated as missing and interpolated (gaps longer than ``max_gap`` s reported).  The frame rate
-comes from the ``timestamp`` column (median step) unless ``fps=`` is given.
+a frontal face is about zero.
+
+Frame rate.  OpenFace writes ``timestamp`` rounded to the millisecond (0.000, 0.033, 0.067, …),
+so the median step of a 30 fps file is 0.033 s (30.3 fps) and a 20 s take would drift by 0.15 s.
+The rate is therefore taken from the whole span: ``(frame_last − frame_first) / (t_last −
+t_first)`` (row count − 1 without a ``frame`` column), and snapped to the nearest standard rate
+(:data:`STANDARD_RATES`) when within 0.5 % of it, or within the millisecond rounding of the span
+(``0.001 / span``) for short files.  ``fps=`` overrides it; a manifest's ``fps`` column does the
+same for a corpus.  Rates must be finite and within 1–1000 fps.
+
+Gaps.  Frames with ``success == 0`` or ``confidence < min_confidence`` (or NaN/inf pose values)
+and frame numbers missing from the ``frame`` column (rows a user filtered out) are NaN frames
+that are interpolated; gaps longer than ``max_gap`` s are kept interpolated but reported in
+``Motion.meta["gaps"]["long_gaps"]`` with a warning.  Timestamps or frame numbers that go
+backwards are an error naming the line.
 
 Libraries considered: py-feat (reads these files through pandas; heavy), pandas (not a
 dependency); the stdlib ``csv`` module with ``skipinitialspace`` handles both layouts.
@@ -30,12 +42,24 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, ParameterError
 from ..rotations import euler_to_rotvec, unwrap_rotvec
 from ..types import Motion
 from ._mocap import fill_gaps
 
 REQUIRED = ("pose_Rx", "pose_Ry", "pose_Rz")
+#: Frame rates a measured rate is snapped to (video and camera rates).
+STANDARD_RATES = (23.976, 24.0, 25.0, 29.97, 30.0, 50.0, 59.94, 60.0, 100.0, 120.0)
+MIN_FPS, MAX_FPS = 1.0, 1000.0
+
+
+def snap_rate(fps: float, *, span: float | None = None, tolerance: float = 0.005) -> float:
+    """``fps`` moved to the nearest of :data:`STANDARD_RATES` when within ``tolerance`` (relative)
+    of it, or within the millisecond rounding of a ``span``-second timestamp range; else ``fps``."""
+    std = np.array(STANDARD_RATES)
+    k = int(np.argmin(np.abs(std - fps) / std))
+    tol = tolerance if span is None or span <= 0 else max(tolerance, 1e-3 / span)
+    return float(std[k]) if abs(std[k] - fps) / std[k] <= tol else float(fps)
 
 
 def _read_rows(path):
@@ -76,7 +100,7 @@ def load_openface(path, *, fps: float | None = None, min_confidence: float = 0.5
         except ValueError:
             raise FormatError(f"{name} = {v!r} is not a number", path=path, line=ln) from None
 
-    ang, tr, ts, ok = [], [], [], []
+    ang, tr, ts, fr, ok, lines = [], [], [], [], [], []
     for k, row in enumerate(rows):
         ln = k + 2
         if not row or all(not c.strip() for c in row):
@@ -86,22 +110,60 @@ def load_openface(path, *, fps: float | None = None, min_confidence: float = 0.5
         ang.append([col(c, row, ln) for c in REQUIRED])
         tr.append([col(c, row, ln) for c in ("pose_Tx", "pose_Ty", "pose_Tz")])
         ts.append(col("timestamp", row, ln))
+        fr.append(col("frame", row, ln))
         good = col("success", row, ln, 1.0) != 0 and col("confidence", row, ln, 1.0) >= min_confidence
         ok.append(bool(good))
+        lines.append(ln)
     if not ang:
         raise FormatError("OpenFace CSV has a header but no frames", path=path)
     ang = np.array(ang)
     tr = np.array(tr) * 1e-3
     ts = np.array(ts)
+    fr = np.array(fr)
+    lines = np.array(lines)
     ok = np.array(ok) & np.all(np.isfinite(ang), 1)
+    for name, v in (("timestamp", ts), ("frame", fr)):
+        fin = np.isfinite(v)
+        back = np.flatnonzero(np.diff(v[fin]) < 0) if name == "timestamp" else np.flatnonzero(np.diff(v[fin]) <= 0)
+        if len(back):
+            i, j = np.flatnonzero(fin)[back[0]], np.flatnonzero(fin)[back[0] + 1]
+            raise FormatError(
+                f"{name} goes backwards ({v[i]:g} then {v[j]:g}); expected increasing {name}s "
+                f"(one face, one video per file)", path=path, line=int(lines[j]))
+    # position of each row on the frame grid: from the frame numbers when present (rows that were
+    # left out become gaps), else one row per frame
+    use_frame = np.isfinite(fr).all() and np.all(fr == np.round(fr))
+    pos = (fr - fr[0]).astype(int) if use_frame else np.arange(len(ang))
     if fps is None:
-        d = np.diff(ts[np.isfinite(ts)])
-        d = d[d > 0]
-        if not len(d):
-            raise FormatError("cannot infer the frame rate from 'timestamp'; pass fps=", path=path)
-        fps = 1.0 / float(np.median(d))
+        fin = np.isfinite(ts)
+        span = float(ts[fin][-1] - ts[fin][0]) if fin.sum() > 1 else 0.0
+        steps = int(pos[np.flatnonzero(fin)[-1]] - pos[np.flatnonzero(fin)[0]]) if fin.sum() > 1 else 0
+        if not (span > 0 and steps > 0):
+            raise FormatError("cannot infer the frame rate: the 'timestamp' column does not advance; "
+                              "pass fps= (or an fps column in corpus.csv)", path=path)
+        fps = snap_rate(steps / span, span=span)
+        if not (MIN_FPS <= fps <= MAX_FPS):
+            raise FormatError(f"timestamps give a frame rate of {fps:.6g} fps ({steps} frames in "
+                              f"{span:.6g} s); expected {MIN_FPS:g}–{MAX_FPS:g} fps; pass fps=", path=path)
+    else:
+        try:
+            fps = float(fps)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{path}: fps must be a number; got {fps!r}") from None
+        if not (np.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS):
+            raise ParameterError(f"{path}: fps must be within {MIN_FPS:g}–{MAX_FPS:g}; got {fps!r}")
     if not ok.any():
         raise FormatError("no frame with success == 1 and enough confidence", path=path)
+    n = int(pos[-1]) + 1
+    if n > 10 * len(pos) + 1000:
+        raise FormatError(f"frame numbers jump from {int(fr[0])} to {int(fr[-1])} over only {len(pos)} rows; "
+                          f"expected one row per frame (with few rows missing)", path=path)
+    grid_ang = np.full((n, 3), np.nan)
+    grid_tr = np.full((n, 3), np.nan)
+    grid_ang[pos[ok]] = ang[ok]
+    grid_tr[pos[ok]] = tr[ok]
+    ang, tr = grid_ang, grid_tr
+    ok = np.all(np.isfinite(ang), 1)
     rv = np.full((len(ang), 3), np.nan)
     a = ang[ok] * np.array([1.0, -1.0, -1.0])
     rv[ok] = unwrap_rotvec(euler_to_rotvec(a, "XYZ"))
@@ -124,4 +186,4 @@ def openface_info(path) -> dict:
             "layout": m.meta["layout"]}
 
 
-__all__ = ["load_openface", "openface_info"]
+__all__ = ["load_openface", "openface_info", "snap_rate", "STANDARD_RATES"]

@@ -53,6 +53,9 @@ class VideoAnalysis:
     fps : float, nominal frame rate (container's average; refined from timestamps)
     audio : Audio or None, 16 kHz mono, sample 0 at the first video frame
     audio_source : str, where the audio came from ("track", a .wav path, or "")
+    image_diff : np.ndarray [shape=(T,)] or None, mean absolute change of a 32 × 32 grey
+        thumbnail into each frame (0 for the first), for the picture-change cut test; None in
+        analyses cached before it existed (those still load; the test is then skipped)
     """
 
     source: str
@@ -60,6 +63,7 @@ class VideoAnalysis:
     fps: float
     audio: Audio | None
     audio_source: str = ""
+    image_diff: np.ndarray | None = None
 
     def save(self, path) -> None:
         from ..io.atomic import atomic_path
@@ -70,6 +74,8 @@ class VideoAnalysis:
         if self.audio is not None:
             arrays["audio"] = self.audio.samples
             meta["sample_rate"] = self.audio.sample_rate
+        if self.image_diff is not None:
+            arrays["image_diff"] = np.asarray(self.image_diff, np.float32)
         arrays["meta"] = np.array(json.dumps(meta))
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
@@ -83,7 +89,10 @@ class VideoAnalysis:
                 raise FormatError(f"cached analysis version {meta.get('version')} != {ANALYSIS_VERSION}", path=path)
             lm = LandmarkTrack.from_arrays({k[3:]: d[k] for k in d.files if k.startswith("lm_")})
             audio = Audio(d["audio"], meta["sample_rate"]) if "audio" in d.files else None
-        return cls(meta["source"], lm, float(meta["fps"]), audio, meta.get("audio_source", ""))
+            diff = np.asarray(d["image_diff"], float) if "image_diff" in d.files else None
+        if diff is not None and len(diff) != len(lm):
+            diff = None
+        return cls(meta["source"], lm, float(meta["fps"]), audio, meta.get("audio_source", ""), diff)
 
 
 def _resolve_audio(video: Path, audio: str | Path | None, has_track: bool) -> tuple[str, Path | None]:
@@ -135,7 +144,17 @@ def analyse_video(path, *, audio=None, max_side: int | None = DEFAULT_MAX_SIDE,
         import itertools
 
         frames = itertools.islice(frames, max_frames)
-    lm = track_landmarks(frames, width=info.width, height=info.height,
+    diffs: list[float] = []
+
+    def watched(it):  # the picture change between frames, for cut detection
+        prev = None
+        for t, rgb in it:
+            th = q.thumbnail(rgb)
+            diffs.append(0.0 if prev is None else float(np.abs(th - prev).mean()))
+            prev = th
+            yield t, rgb
+
+    lm = track_landmarks(watched(frames), width=info.width, height=info.height,
                          progress=None if progress is None else (lambda n: progress(n, max(total, n))))
     if len(lm) == 0:
         raise FormatError("contains no decodable video frames", path=path)
@@ -156,7 +175,7 @@ def analyse_video(path, *, audio=None, max_side: int | None = DEFAULT_MAX_SIDE,
         src = str(audio_path)
     if max_frames is not None and snd is not None:
         snd = snd.slice_seconds(0, (lm.times[-1] - t0) + 1.0 / fps)
-    return VideoAnalysis(str(path), lm, float(fps), snd, src)
+    return VideoAnalysis(str(path), lm, float(fps), snd, src, np.asarray(diffs, float))
 
 
 def cache_key(path, audio=None, max_side=DEFAULT_MAX_SIDE) -> str:
@@ -263,7 +282,7 @@ def parts_from_analysis(analysis: VideoAnalysis, *, rec_id: str, fps: float | No
     if not detected.any():
         raise FormatError(f"no face found in any of its {T} frames", path=src)
     P = lm.points[:, RIGID_LANDMARKS].astype(float)
-    cuts = q.detect_cuts(P, detected)
+    cuts = q.detect_cuts(P, detected, fps=vfps, image_diff=analysis.image_diff)
     rotvec = np.full((T, 3), np.nan)
     residual = np.full(T, np.nan)
     bounds = [0] + cuts + [T]

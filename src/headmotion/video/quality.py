@@ -7,7 +7,9 @@ where the recording is split because the pose before and after is not the same c
 Libraries: scipy.signal (Butterworth, zero-phase ``filtfilt``) for the low-pass and scipy's Slerp
 for gap filling; shot-cut detectors such as PySceneDetect work on pixel histograms, which a
 talking head barely changes between two shots of the same person, so cuts are detected here from
-the face itself (landmark and pose jumps), which is what matters for the motion.
+the face itself (jumps and steps of its position, size, shape and pose) and from a one-frame change
+of a 32 × 32 grey thumbnail of the picture, measured against the frames around it (PySceneDetect's
+thresholds are absolute and would need the same neighbourhood test; not added as a dependency).
 
 Low-pass default.  :data:`DEFAULT_LOWPASS_HZ` = 8 Hz (4th-order Butterworth, zero phase).  Head
 motion in speech lies mostly below 5 Hz (the thesis' speed classes split segments at 4.5 and
@@ -72,23 +74,63 @@ def confidence(points: np.ndarray, residual: np.ndarray, *, width: int, height: 
     return conf
 
 
-def detect_cuts(points: np.ndarray, valid: np.ndarray, *, rel_jump: float = 0.25,
-                scale_jump: float = 0.15, shape_jump: float = 0.06, factor: float = 8.0) -> list[int]:
-    """Frames where a new shot starts (a sudden jump of the face between consecutive valid frames).
+#: Largest head rotation speed taken as real motion between two frames (deg/s); more is a cut.
+MAX_TURN_DEG_S = 300.0
 
-    A jump is measured between each valid frame and the previous valid frame by: the shift of
-    the face centre relative to the face size, the relative change of face size, and the change
-    of face *shape* after removing position, size and rotation (Procrustes distance of the
-    normalised rigid landmarks; a different person or a different view gives a large one).  A
-    frame starts a new shot when any measure exceeds both its absolute threshold and ``factor``
-    times the clip's median of that measure (so a fast-moving but continuous head is not cut).
+
+def detect_cuts(points: np.ndarray, valid: np.ndarray, *, fps: float | None = None, rel_jump: float = 0.25,
+                scale_jump: float = 0.15, shape_jump: float = 0.06, factor: float = 8.0,
+                max_turn_deg_s: float = MAX_TURN_DEG_S, window: int = 5, step_threshold: float = 10.4,
+                spike_ratio: float = 3.9, image_diff: np.ndarray | None = None,
+                image_ratio: float = 2.7) -> list[int]:
+    """Frames where a new shot starts (a sudden jump of the face or of the picture).
+
+    Four tests, any of which marks a cut (issue 15 item 3; two shots of the same person may
+    barely change the picture or barely move the face, so both are watched):
+
+    1. **Jump of one measure.**  Between each valid frame and the previous one: the shift of the
+       face centre relative to the face size, the relative change of face size, and the change of
+       face *shape* after removing position, size and rotation (Procrustes distance of the
+       normalised rigid landmarks; a different person or view gives a large one).  A cut when a
+       measure exceeds both its absolute threshold and ``factor`` times the clip's median.
+    2. **Turn faster than a head turns.**  The rotation between the two frames' landmark sets
+       (Procrustes fit) above ``max_turn_deg_s / fps`` degrees (300 °/s: 10° in one frame at
+       30 fps; fast conversational head turns on the real clips peaked near 275 °/s).  Needs
+       ``fps``.
+    3. **A step, not a motion.**  The face's state — centre (in face sizes), log size and the
+       orientation chained from the frame-to-frame rotations — each divided by its typical
+       frame-to-frame change (1.4826 × MAD), is compared as the median of ``window`` frames before
+       against the median of ``window`` frames after: a cut when that step exceeds
+       ``step_threshold`` *and* the jump into the frame (state plus shape change) is more than
+       ``spike_ratio`` times every other jump in the window (the frame right after is left out,
+       as the tracker needs a frame to settle).  A fast but continuous head movement spreads over
+       several frames and fails the second condition; a one-frame tracking glitch comes back and
+       fails the first.
+    4. **A one-frame change of the picture** (needs ``image_diff``, the mean absolute difference
+       of consecutive 32 × 32 grey thumbnails, :func:`thumbnail`): a cut where it exceeds
+       ``image_ratio`` times every other difference within ``window`` frames (plus half a grey
+       level).  Camera motion, a moving head and compression change the picture over several
+       frames; a cut changes it at once.  On the real clips no frame of a single shot reached 2.3;
+       the joined clips' cuts reached 3.0–22.
+
+    Cuts within two frames of each other count once (the first).  Measured on real joins of two
+    clips of one speaker (tests/test_video_cuts_real.py): each cut found at its frame; in the 59
+    real clips only the split the earlier detector already made (pc_avs Audio_Source_741400104,
+    frame 108: a 12° turn in one frame at 25 fps, where the picture does not change at once, so
+    possibly a very fast turn rather than a cut).  The margins are narrow on the fastest-moving
+    speaker (andrew), so a cut that changes neither the picture, the framing nor the pose can be
+    missed.
 
     Parameters
     ----------
     points : np.ndarray [shape=(T, N, 3)], rigid landmarks in pixels, NaN where no face
     valid : np.ndarray [shape=(T,), dtype=bool]
-    rel_jump, scale_jump, shape_jump : float, absolute thresholds
-    factor : float
+    fps : float, optional, frame rate (enables test 2)
+    rel_jump, scale_jump, shape_jump, factor : test 1
+    max_turn_deg_s : float, test 2
+    window, step_threshold, spike_ratio : test 3
+    image_diff : np.ndarray [shape=(T,)], optional, picture change into each frame (test 4)
+    image_ratio : float, test 4
 
     Returns
     -------
@@ -97,8 +139,9 @@ def detect_cuts(points: np.ndarray, valid: np.ndarray, *, rel_jump: float = 0.25
     P = np.asarray(points, float)
     v = np.asarray(valid, bool) & np.all(np.isfinite(P), axis=(1, 2))
     idx = np.flatnonzero(v)
+    image_cuts = [] if image_diff is None else _picture_cuts(np.asarray(image_diff, float), window, image_ratio)
     if len(idx) < 2:
-        return []
+        return image_cuts
     Q = P[idx]
     c = Q.mean(1)
     X = Q - c[:, None]
@@ -113,7 +156,70 @@ def detect_cuts(points: np.ndarray, valid: np.ndarray, *, rel_jump: float = 0.25
     cut = np.zeros(len(idx) - 1, bool)
     for d, thr in ((d_pos, rel_jump), (d_scale, scale_jump), (d_shape, shape_jump)):
         cut |= (d > thr) & (d > factor * (np.median(d) + 1e-9))
-    return [int(idx[k + 1]) for k in np.flatnonzero(cut)]
+    turn = Rotation.from_matrix(Rb).magnitude()
+    if fps is not None and fps > 0:
+        cut |= np.degrees(turn) > max_turn_deg_s / fps
+    cut |= _steps(c, s, Rb, d_shape, window=window, step_threshold=step_threshold, spike_ratio=spike_ratio)
+    # a face cut at valid frame k+1 happened somewhere after valid frame k: where the picture
+    # changed, if it did in between, else at the face's return
+    found = sorted(set(int(idx[k + 1]) for k in np.flatnonzero(cut)) | set(image_cuts))
+    out: list[int] = []
+    for f in found:
+        if out and f - out[-1] <= 2:
+            continue
+        out.append(f)
+    return out
+
+
+def _picture_cuts(d: np.ndarray, window: int, ratio: float) -> list[int]:
+    """Test 4 of :func:`detect_cuts`: frames whose picture change ``d[k]`` (into frame k) stands
+    out of its neighbourhood."""
+    out = []
+    n = len(d)
+    for k in range(1, n):
+        around = np.r_[max(1, k - window):k, k + 1:min(n, k + 1 + window)]
+        if len(around) and np.isfinite(d[k]) and d[k] > ratio * (np.nanmax(d[around]) + 0.5):
+            out.append(k)
+    return out
+
+
+def thumbnail(rgb: np.ndarray, size: int = 32) -> np.ndarray:
+    """A ``size × size`` grey thumbnail (box-averaged, float32 0–255) of an RGB frame, for the
+    picture-change test of :func:`detect_cuts`."""
+    from PIL import Image
+
+    return np.asarray(Image.fromarray(np.ascontiguousarray(rgb)).convert("L").resize((size, size), Image.BOX),
+                      dtype=np.float32)
+
+
+def _steps(c, s, Rb, d_shape, *, window: int, step_threshold: float, spike_ratio: float) -> np.ndarray:
+    """Test 3 of :func:`detect_cuts` on valid frames; ``cut[k]`` is the jump from frame k to k+1."""
+    n = len(c)
+    cut = np.zeros(max(n - 1, 0), bool)
+    if n < 2 * window + 2:
+        return cut
+    O = np.empty((n, 3, 3))
+    O[0] = np.eye(3)
+    for k in range(1, n):
+        O[k] = Rb[k - 1] @ O[k - 1]
+    ori = Rotation.from_matrix(O).as_rotvec()
+    F = np.column_stack([c[:, :2] / np.median(s), np.log(s), ori])
+    dF = np.diff(F, axis=0)
+    sig = 1.4826 * np.median(np.abs(dF - np.median(dF, 0)), 0) + 1e-9
+    sig_sh = 1.4826 * np.median(np.abs(d_shape - np.median(d_shape))) + 1e-9
+    J = np.sqrt(((dF / sig) ** 2).sum(1) + np.clip((d_shape - np.median(d_shape)) / sig_sh, 0, None) ** 2)
+    Fn = F / sig
+    for k in range(1, n):  # a new shot starting at valid frame k
+        before, after = Fn[max(0, k - window):k], Fn[k:k + window]
+        if len(before) < 2 or len(after) < 2:
+            continue
+        step = np.linalg.norm(np.median(after, 0) - np.median(before, 0))
+        if step <= step_threshold:
+            continue
+        around = np.r_[max(0, k - 1 - window):k - 1, k + 1:min(n - 1, k + window)]
+        if J[k - 1] > spike_ratio * (J[around].max() if len(around) else 0.0):
+            cut[k - 1] = True
+    return cut
 
 
 def _pairwise_fit(A: np.ndarray, B: np.ndarray):
@@ -240,5 +346,5 @@ def format_quality_table(rows: list[dict]):
 
 
 __all__ = ["DEFAULT_LOWPASS_HZ", "DEFAULT_MAX_GAP_S", "DEFAULT_MIN_PART_S", "DEFAULT_MIN_CONFIDENCE",
-           "confidence", "detect_cuts", "find_gaps", "fill_gaps", "split_segments", "lowpass",
-           "jitter_deg", "QUALITY_COLUMNS", "format_quality_table"]
+           "confidence", "detect_cuts", "thumbnail", "MAX_TURN_DEG_S", "find_gaps", "fill_gaps",
+           "split_segments", "lowpass", "jitter_deg", "QUALITY_COLUMNS", "format_quality_table"]
