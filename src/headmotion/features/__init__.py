@@ -17,6 +17,7 @@ name         dims  what                                                     modu
 ``lsp``      16    line spectral frequencies, LPC order 16 (thesis §5.7.1)  :mod:`.lpc`
 ``lar``      16    log area ratios (thesis §5.7.1)                          :mod:`.lpc`
 ``prosody``  2     openSMILE-like pitch (semitones) + loudness (Le et al.)  :mod:`.prosody`
+``f0e-live`` 6     ``f0e`` on a stream: YIN, ≤ 64 ms lookahead (issue 16)   :mod:`.streaming`
 ===========  ====  =======================================================  ================
 
 Audio at any rate is first resampled to ``analysis_rate`` (16 kHz, thesis §3.4) with soxr, so
@@ -60,6 +61,7 @@ _BUILTIN: dict[str, tuple[str, int | None]] = {
     "lsp": ("lpc:lsp", ANALYSIS_RATE),
     "lar": ("lpc:lar", ANALYSIS_RATE),
     "prosody": ("prosody:prosody", ANALYSIS_RATE),
+    "f0e-live": ("streaming:f0e_live", ANALYSIS_RATE),
 }
 _REGISTRY: dict[str, Callable[..., Any]] = {}
 
