@@ -101,7 +101,7 @@ def test_memory_stays_bounded_on_minutes_of_silence():
         n += len(ex.push(z))
     n += len(ex.flush())
     assert n == 18000
-    assert len(ex._buf) < 4 * SR and len(ex._static) < 100
+    assert len(ex._buf) < 4 * SR and len(ex._static.arr) < 400
 
 
 def test_bad_input():

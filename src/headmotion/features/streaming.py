@@ -73,39 +73,81 @@ def regression_weights(width: int, lookahead: int) -> np.ndarray:
     return k / np.sum(k * k)
 
 
-def yin_frame(x: np.ndarray, win: int, tau_min: int, tau_max: int, threshold: float):
-    """YIN on one window ``x`` of ``win + tau_max`` samples.
+def yin_frames(X: np.ndarray, win: int, tau_min: int, tau_max: int, threshold: float):
+    """YIN on each row of ``X (n, win + tau_max)``.
 
-    Returns ``(period in samples (float), aperiodicity d'(τ*))``; ``(0, 1)`` for a silent window.
+    Every operation is per row (a ``np.correlate`` per row, cumulative sums and elementwise
+    arithmetic along rows), so a row's result does not depend on the other rows: one frame at a
+    time and a whole file at once give identical values.
+
+    Returns ``period (n,)`` in samples (0 for a silent window) and the aperiodicity ``d'(τ*) (n,)``
+    (1 for a silent window).
     """
-    x = np.asarray(x, dtype=np.float64)
-    r = np.correlate(x, x[:win], mode="valid")[: tau_max + 1]          # r(τ) = Σ_j x_j x_{j+τ}
-    c = np.concatenate(([0.0], np.cumsum(x * x)))
-    e = c[win:win + tau_max + 1] - c[:tau_max + 1]                      # e_τ = Σ_j x²_{j+τ}
-    d = e[0] + e - 2.0 * r
-    d[0] = 0.0
-    d = np.maximum(d, 0.0)
-    cs = np.cumsum(d[1:])
-    if cs[-1] <= 0.0:
-        return 0.0, 1.0
-    dn = np.ones(tau_max + 1)
-    dn[1:] = d[1:] * np.arange(1, tau_max + 1) / np.maximum(cs, 1e-30)
-    seg = dn[tau_min:tau_max + 1]
-    below = np.flatnonzero(seg < threshold)
-    if below.size:
-        i = int(below[0])
-        while i + 1 < seg.size and seg[i + 1] < seg[i]:   # walk down to the dip's bottom
-            i += 1
-    else:
-        i = int(np.argmin(seg))
+    X = np.asarray(X, dtype=np.float64)
+    n = X.shape[0]
+    if n == 0:
+        return np.zeros(0), np.ones(0)
+    r = np.stack([np.correlate(x, x[:win], mode="valid")[: tau_max + 1] for x in X])  # Σ_j x_j x_{j+τ}
+    c = np.zeros((n, X.shape[1] + 1))
+    np.cumsum(X * X, axis=1, out=c[:, 1:])
+    e = c[:, win:win + tau_max + 1] - c[:, :tau_max + 1]                              # Σ_j x²_{j+τ}
+    d = np.maximum(e[:, :1] + e - 2.0 * r, 0.0)
+    d[:, 0] = 0.0
+    cs = np.cumsum(d[:, 1:], axis=1)
+    silent = cs[:, -1] <= 0.0
+    dn = np.ones((n, tau_max + 1))
+    dn[:, 1:] = d[:, 1:] * np.arange(1, tau_max + 1) / np.maximum(cs, 1e-30)
+    seg = dn[:, tau_min:tau_max + 1]
+    L = seg.shape[1]
+    below = seg < threshold
+    has = below.any(axis=1)
+    i = np.where(has, np.argmax(below, axis=1), np.argmin(seg, axis=1))
+    rows = np.arange(n)
+    while True:                                   # walk down to the bottom of the first dip
+        step = has & (i + 1 < L)
+        step[step] = seg[rows[step], i[step] + 1] < seg[rows[step], i[step]]
+        if not step.any():
+            break
+        i = i + step
     tau = i + tau_min
-    ap = float(dn[tau])
-    if tau_min < tau < tau_max:                          # parabolic interpolation
-        a, b, cc = dn[tau - 1], dn[tau], dn[tau + 1]
-        den = a - 2.0 * b + cc
-        shift = 0.5 * (a - cc) / den if den > 0 else 0.0
-        return tau + float(np.clip(shift, -1.0, 1.0)), ap
-    return float(tau), ap
+    ap = dn[rows, tau]
+    inner = (tau > tau_min) & (tau < tau_max)
+    tc = np.clip(tau, 1, tau_max - 1)
+    a, b, cc = dn[rows, tc - 1], dn[rows, tc], dn[rows, tc + 1]
+    den = a - 2.0 * b + cc
+    with np.errstate(divide="ignore", invalid="ignore"):
+        shift = np.where(den > 0, 0.5 * (a - cc) / np.where(den > 0, den, 1.0), 0.0)
+    period = tau + np.where(inner, np.clip(shift, -1.0, 1.0), 0.0)
+    return np.where(silent, 0.0, period), np.where(silent, 1.0, ap)
+
+
+def yin_frame(x: np.ndarray, win: int, tau_min: int, tau_max: int, threshold: float):
+    """:func:`yin_frames` of one window: ``(period in samples, aperiodicity)``."""
+    p, a = yin_frames(np.asarray(x, dtype=np.float64)[None, :], win, tau_min, tau_max, threshold)
+    return float(p[0]), float(a[0])
+
+
+class _Store:
+    """Rows indexed by absolute frame number, the oldest ones forgettable."""
+
+    def __init__(self, dim: int):
+        self.arr = np.zeros((0, dim))
+        self.off = 0
+
+    def __len__(self):
+        return self.off + len(self.arr)
+
+    def extend(self, rows: np.ndarray) -> None:
+        self.arr = np.concatenate([self.arr, rows.reshape(-1, self.arr.shape[1])])
+
+    def take(self, idx: np.ndarray) -> np.ndarray:
+        return self.arr[idx - self.off]
+
+    def forget(self, before: int) -> None:
+        k = before - self.off
+        if k > 256:
+            self.arr = self.arr[k:].copy()
+            self.off = before
 
 
 class StreamingF0e:
@@ -164,7 +206,8 @@ class StreamingF0e:
         self.Wd = int(delta_width)
         self.w_delta = regression_weights(self.Wd, self.Ld)
         self.win = max(1, int(round(window_s * sample_rate)))             # energy / YIN integration
-        self.hamming = np.hamming(self.win)
+        self.hamming2 = np.hamming(self.win) ** 2
+        self.hamming2_sum = float(np.sum(self.hamming2))
         self.tau_min = max(2, int(math.floor(sample_rate / pitch_ceiling)))
         self.tau_max = int(math.ceil(sample_rate / pitch_floor))
         self.f0_len = self.win + self.tau_max                              # YIN window
@@ -179,10 +222,10 @@ class StreamingF0e:
         self._buf = np.zeros(0, dtype=np.float64)
         self._buf0 = 0            # absolute index of _buf[0]
         self._n_in = 0            # samples pushed so far
-        self._static: dict[int, np.ndarray] = {}
-        self._smooth: dict[int, np.ndarray] = {}
-        self._d1: dict[int, np.ndarray] = {}
-        self._voiced: dict[int, float] = {}
+        self._static = _Store(2)            # (log F0 held, energy dB)
+        self._voiced = _Store(1)
+        self._smooth = _Store(2)
+        self._d1 = _Store(2)
         self._last_logf0 = self.default_logf0
         self._recent: list[tuple[int, float]] = []   # (frame, log F0) of the last voiced frames
         self._n_static = 0        # frames with static values
@@ -217,78 +260,101 @@ class StreamingF0e:
     def frames_out(self) -> int:
         return self._n_out
 
-    # -- stages ----------------------------------------------------------------------------------
-    def _window(self, start: int, length: int) -> np.ndarray:
-        """Samples [start, start + length), zeros outside what was pushed (and before 0)."""
-        out = np.zeros(length, dtype=np.float64)
-        lo, hi = max(start, self._buf0), min(start + length, self._n_in)
-        if hi > lo:
-            out[lo - start:hi - start] = self._buf[lo - self._buf0:hi - self._buf0]
-        return out
+    # -- stages (each computes a batch of frames; every value depends on its own inputs only) ------
+    def _windows(self, t0: int, t1: int, length: int) -> np.ndarray:
+        """Rows ``[s_t, s_t + length)`` for frames ``t0 … t1−1``; zeros outside the pushed samples."""
+        starts = np.floor((np.arange(t0, t1) + 0.5) * self.sample_rate / self.fps - length / 2 + 0.5).astype(np.int64)
+        lo, hi = int(starts[0]), int(starts[-1]) + length
+        seg = np.zeros(hi - lo)
+        a, b = max(lo, self._buf0, 0), min(hi, self._n_in)
+        if b > a:
+            seg[a - lo:b - lo] = self._buf[a - self._buf0:b - self._buf0]
+        return np.lib.stride_tricks.sliding_window_view(seg, length)[starts - lo]
 
-    def _static_frame(self, t: int) -> None:
-        xe = self._window(self._start(t, self.win), self.win)
-        p = float(np.dot(xe * xe, self.hamming * self.hamming) / np.sum(self.hamming * self.hamming))
-        energy = max(10.0 * math.log10(max(p, 1e-30)), -100.0)
-        xf = self._window(self._start(t, self.f0_len), self.f0_len)
-        period, ap = yin_frame(xf, self.win, self.tau_min, self.tau_max, self.threshold)
-        voiced = period > 0 and ap < self.voicing_threshold and energy > self.silence_db
-        if voiced:
-            logf0 = math.log(self.sample_rate / period)
-            recent = [v for k, v in self._recent if k >= t - self.jump_memory]
-            if self.max_jump > 0 and recent and abs(logf0 - float(np.median(recent))) > self.max_jump:
-                voiced = False          # an octave-like jump away from the recent voiced frames
-            else:
-                self._recent = [(k, v) for k, v in self._recent if k >= t - self.jump_memory][-4:] + [(t, logf0)]
-                self._last_logf0 = logf0
-        self._static[t] = np.array([self._last_logf0, energy])
-        self._voiced[t] = 1.0 if voiced else 0.0
+    def _static_frames(self, t0: int, t1: int) -> None:
+        xe = self._windows(t0, t1, self.win)
+        p = np.sum(xe * xe * self.hamming2, axis=1) / self.hamming2_sum
+        energy = np.maximum(10.0 * np.log10(np.maximum(p, 1e-30)), -100.0)
+        period, ap = yin_frames(self._windows(t0, t1, self.f0_len), self.win, self.tau_min, self.tau_max,
+                                self.threshold)
+        logf0 = np.full(t1 - t0, self.default_logf0)
+        voiced = (period > 0) & (ap < self.voicing_threshold) & (energy > self.silence_db)
+        with np.errstate(divide="ignore"):
+            raw = np.log(self.sample_rate / np.where(voiced, period, 1.0))
+        for k in range(t1 - t0):                  # the hold and the octave-jump guard: sequential
+            t = t0 + k
+            if voiced[k]:
+                lf = float(raw[k])
+                recent = sorted(v for f, v in self._recent if f >= t - self.jump_memory)
+                med = 0.0
+                if recent:
+                    m = len(recent)
+                    med = recent[m // 2] if m % 2 else 0.5 * (recent[m // 2 - 1] + recent[m // 2])
+                if self.max_jump > 0 and recent and abs(lf - med) > self.max_jump:
+                    voiced[k] = False     # an octave-like jump away from the recent voiced frames
+                else:
+                    self._recent = [(f, v) for f, v in self._recent if f >= t - self.jump_memory][-4:] + [(t, lf)]
+                    self._last_logf0 = lf
+            logf0[k] = self._last_logf0
+        self._static.extend(np.stack([logf0, energy], axis=1))
+        self._voiced.extend(voiced.astype(np.float64))
 
-    def _clip(self, t: int) -> int:
-        t = max(t, 0)
-        return t if self._total is None else min(t, self._total - 1)
+    def _window_sum(self, src: _Store, t0: int, t1: int, back: int, ahead: int, weights=None) -> np.ndarray:
+        """Σ_k w_k · src[t + k] for k = −back … ahead (w = 1 without weights), indices clipped to
+        the stream.  The sum runs over the middle axis of ``(frames, k, dims)``, in k order for
+        every frame, so a frame's value does not depend on how many frames are in the batch."""
+        idx = np.arange(t0, t1)[:, None] + np.arange(-back, ahead + 1)[None, :]
+        np.maximum(idx, 0, out=idx)
+        if self._total is not None:
+            np.minimum(idx, self._total - 1, out=idx)
+        g = src.arr[idx - src.off]
+        if weights is not None:
+            g = g * weights[None, :, None]
+        return g.sum(axis=1)
 
-    def _smooth_frame(self, t: int) -> None:
-        idx = [self._clip(k) for k in range(t - (self.S - 1 - self.Ls), t + self.Ls + 1)]
-        self._smooth[t] = np.mean(np.stack([self._static[k] for k in idx]), axis=0)
-
-    def _delta(self, src: dict, t: int) -> np.ndarray:
-        idx = [self._clip(k) for k in range(t - (self.Wd - 1 - self.Ld), t + self.Ld + 1)]
-        return self.w_delta @ np.stack([src[k] for k in idx])
+    def _static_ready(self) -> int:
+        """Frames whose static values can be computed now."""
+        if self._total is not None:
+            return self._total
+        t = max(self._n_static, int((self._n_in - self.f0_len) * self.fps / self.sample_rate) - 2)
+        while t > self._n_static and self._needed(t - 1) > self._n_in:
+            t -= 1
+        while self._needed(t) <= self._n_in:
+            t += 1
+        return t
 
     def _advance(self) -> np.ndarray:
         total = self._total
-        # static values: all frames whose windows are in (or every frame, once the end is known)
-        while (self._n_in >= self._needed(self._n_static)) if total is None else self._n_static < total:
-            self._static_frame(self._n_static)
-            self._n_static += 1
-        ready = lambda n_src, t, la: (t + la < n_src) if total is None else (t < total)  # noqa: E731
-        while ready(self._n_static, self._n_smooth, self.Ls):
-            self._smooth_frame(self._n_smooth)
-            self._n_smooth += 1
-        while ready(self._n_smooth, self._n_d1, self.Ld):
-            self._d1[self._n_d1] = self._delta(self._smooth, self._n_d1)
-            self._n_d1 += 1
-        rows = []
-        while ready(self._n_d1, self._n_out, self.Ld):
-            t = self._n_out
-            d2 = self._delta(self._d1, t)
-            row = [self._smooth[t], self._d1[t], d2]
-            if self.voicing:
-                row.append(np.array([self._voiced[t]]))
-            rows.append(np.concatenate(row))
-            self._n_out += 1
-        self._forget()
-        if not rows:
+        t1 = self._static_ready()
+        if t1 > self._n_static:
+            self._static_frames(self._n_static, t1)
+            self._n_static = t1
+        stop = (lambda n_src, la: n_src - la) if total is None else (lambda n_src, la: total)  # noqa: E731
+        t1 = stop(self._n_static, self.Ls)
+        if t1 > self._n_smooth:
+            self._smooth.extend(self._window_sum(self._static, self._n_smooth, t1, self.S - 1 - self.Ls, self.Ls) / self.S)
+            self._n_smooth = t1
+        back = self.Wd - 1 - self.Ld
+        t1 = stop(self._n_smooth, self.Ld)
+        if t1 > self._n_d1:
+            self._d1.extend(self._window_sum(self._smooth, self._n_d1, t1, back, self.Ld, self.w_delta))
+            self._n_d1 = t1
+        t0, t1 = self._n_out, stop(self._n_d1, self.Ld)
+        if t1 <= t0:
             return np.zeros((0, len(self.names)))
-        return np.stack(rows)
+        t = np.arange(t0, t1)
+        cols = [self._smooth.take(t), self._d1.take(t), self._window_sum(self._d1, t0, t1, back, self.Ld, self.w_delta)]
+        if self.voicing:
+            cols.append(self._voiced.take(t))
+        self._n_out = t1
+        self._forget()
+        return np.hstack(cols)
 
     def _forget(self) -> None:
         """Drop frames and samples no later frame can need (memory stays bounded on long streams)."""
         keep_from = self._n_out - (self.S + 2 * self.Wd + 2)
         for store in (self._static, self._smooth, self._d1, self._voiced):
-            for k in [k for k in store if k < keep_from]:
-                del store[k]
+            store.forget(keep_from)
         first = min(self._start(self._n_static, self.f0_len), self._start(self._n_static, self.win))
         drop = first - self._buf0
         if drop > 4 * self.f0_len:
