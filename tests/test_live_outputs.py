@@ -374,3 +374,37 @@ def test_failing_output_is_dropped_and_the_others_continue():
                         [Broken(), JsonLinesOutput(out)], fps=100, on_message=msgs.append).run(max_seconds=10)
     assert stats["frames"] == 100 and len(out.getvalue().splitlines()) == 100
     assert len(msgs) == 1 and "broken output failed" in msgs[0]
+
+
+# -- the one call the stream command makes -------------------------------------------------------
+def test_stream_live_pcm_on_stdin_with_the_default_model():
+    from headmotion.live.session import stream_live
+    from headmotion.systems.base import load_model
+
+    model = load_model(MODEL)
+    t = np.arange(2 * 44100) / 44100
+    pcm = (0.2 * np.sin(2 * np.pi * 140 * t) * 32767).astype("<i2").tobytes()
+    out, msgs = io.StringIO(), []
+    stats = stream_live(model, input="-", sample_rate=44100, stdin=io.BytesIO(pcm), json_stream=out,
+                        on_message=msgs.append, max_seconds=60)
+    lines = [json.loads(s) for s in out.getvalue().splitlines()]
+    assert len(lines) == stats["frames"] and abs(len(lines) - 200) <= 1
+    assert set(lines[0]) == {"frame", "time", "rotvec", "pitch_yaw_roll_deg"}
+    assert lines[-1]["time"] == pytest.approx((len(lines) - 1) / 100)
+    assert "streaming with tws-hier: stdin" in msgs[0] and "algorithmic latency" in msgs[0]
+
+
+def test_stream_live_refuses_a_non_causal_model_and_bad_addresses():
+    from headmotion.errors import ParameterError
+    from headmotion.live.session import open_outputs, stream_live
+
+    class Offline:
+        name = "cccae"
+        causal = False
+
+    with pytest.raises(ParameterError, match="'cccae' is not causal and cannot stream"):
+        stream_live(Offline(), stdin=io.BytesIO(b""))
+    with pytest.raises(NetworkError, match="--websocket 'nowhere'"):
+        open_outputs(websocket="nowhere")
+    with pytest.raises(NetworkError, match="--vmc.*port must be a number"):
+        open_outputs(vmc="127.0.0.1:http")

@@ -112,12 +112,12 @@ def yin_frames(X: np.ndarray, win: int, tau_min: int, tau_max: int, threshold: f
     tau = i + tau_min
     ap = dn[rows, tau]
     inner = (tau > tau_min) & (tau < tau_max)
-    tc = np.clip(tau, 1, tau_max - 1)
+    tc = np.minimum(np.maximum(tau, 1), tau_max - 1)
     a, b, cc = dn[rows, tc - 1], dn[rows, tc], dn[rows, tc + 1]
     den = a - 2.0 * b + cc
-    with np.errstate(divide="ignore", invalid="ignore"):
-        shift = np.where(den > 0, 0.5 * (a - cc) / np.where(den > 0, den, 1.0), 0.0)
-    period = tau + np.where(inner, np.clip(shift, -1.0, 1.0), 0.0)
+    pos = den > 0
+    shift = np.where(pos, 0.5 * (a - cc) / np.where(pos, den, 1.0), 0.0)
+    period = tau + np.where(inner, np.minimum(np.maximum(shift, -1.0), 1.0), 0.0)
     return np.where(silent, 0.0, period), np.where(silent, 1.0, ap)
 
 
@@ -269,6 +269,8 @@ class StreamingF0e:
         a, b = max(lo, self._buf0, 0), min(hi, self._n_in)
         if b > a:
             seg[a - lo:b - lo] = self._buf[a - self._buf0:b - self._buf0]
+        if len(starts) == 1:
+            return seg[None, :]
         return np.lib.stride_tricks.sliding_window_view(seg, length)[starts - lo]
 
     def _static_frames(self, t0: int, t1: int) -> None:
@@ -279,8 +281,7 @@ class StreamingF0e:
                                 self.threshold)
         logf0 = np.full(t1 - t0, self.default_logf0)
         voiced = (period > 0) & (ap < self.voicing_threshold) & (energy > self.silence_db)
-        with np.errstate(divide="ignore"):
-            raw = np.log(self.sample_rate / np.where(voiced, period, 1.0))
+        raw = np.log(self.sample_rate / np.where(voiced, period, 1.0))
         for k in range(t1 - t0):                  # the hold and the octave-jump guard: sequential
             t = t0 + k
             if voiced[k]:

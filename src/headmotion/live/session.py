@@ -97,7 +97,7 @@ class LiveSession:
         rv = np.asarray(motion.rotvec if hasattr(motion, "rotvec") else motion).reshape(-1, 3)
         if len(rv) == 0:
             return
-        records = frame_records(rv, self.fps, self.frames)
+        records = frame_records(rv, float(getattr(motion, "fps", self.fps)), self.frames)
         self.frames += len(records)
         t0 = getattr(self.source, "t0", None)
         for out in list(self.outputs):
@@ -110,6 +110,9 @@ class LiveSession:
                     out.close()
                 except Exception:
                     pass
+                if not self.outputs:
+                    self.on_message("no output left: stopping")
+                    self.stop()
         if t0 is not None:
             self.latency.add(self.clock(), t0, [r["time"] for r in records])
 
@@ -152,4 +155,78 @@ class LiveSession:
         return {"frames": self.frames, "chunks": self.chunks, "latency": self.latency.summary()}
 
 
-__all__ = ["LiveSession", "LatencyMeter"]
+def open_outputs(*, json_stream=None, vmc: str | None = None, websocket: str | None = None,
+                 neck_share: float = 0.3) -> list:
+    """The outputs of ``headmotion stream``: JSON lines on ``json_stream`` (None: none),
+    ``vmc="HOST:PORT"`` (VMC over OSC), ``websocket="HOST:PORT"`` (started here).  Raises
+    :class:`~headmotion.errors.NetworkError` with the address on a bad address or a port in use
+    (outputs opened so far are closed)."""
+    from .frames import JsonLinesOutput
+    from .vmc import VMC_DEFAULT_PORT, VmcSender, parse_host_port
+
+    outs = []
+    try:
+        if json_stream is not None:
+            outs.append(JsonLinesOutput(json_stream))
+        if vmc:
+            host, port = parse_host_port(vmc, default_port=VMC_DEFAULT_PORT, what="--vmc")
+            outs.append(VmcSender(host, port, neck_share=neck_share))
+        if websocket:
+            from .websocket import WebSocketBroadcaster
+
+            host, port = parse_host_port(websocket, what="--websocket")
+            outs.append(WebSocketBroadcaster(host, port).start())
+    except BaseException:
+        for o in outs:
+            o.close()
+        raise
+    return outs
+
+
+def stream_live(model, *, input: str = "-", sample_rate: int | None = None, realtime: bool = False,
+                device=None, chunk_ms: float = 10.0, json_stream=None, vmc: str | None = None,
+                websocket: str | None = None, neck_share: float = 0.3, seed: int | None = 0,
+                stream_kwargs: dict | None = None, stdin=None, max_seconds: float | None = None,
+                on_message=_stderr, sd=None) -> dict:
+    """Everything ``headmotion stream`` does, as one call: open the input (``"-"`` PCM on
+    ``stdin`` at ``sample_rate``, ``"mic"`` with ``device``, or a file, ``realtime`` pacing it),
+    resampled on the stream to the model's rate; ``model.stream(seed=seed, **stream_kwargs)``;
+    the outputs of :func:`open_outputs`; run until the input ends or Ctrl-C; close the outputs.
+    Returns the statistics of :meth:`LiveSession.run`."""
+    from ..errors import ParameterError
+    from .inputs import open_input
+
+    if not getattr(model, "causal", False):
+        raise ParameterError(f"system {getattr(model, 'name', '?')!r} is not causal and cannot stream "
+                             "without lookahead; use a tws-basic, tws-hier or le2012 model")
+    rate = int(getattr(model, "sample_rate_", 16000))
+    fps = float(getattr(model, "fps_", 100.0))
+    stream = model.stream(seed=seed, **(stream_kwargs or {}))
+    source = open_input(input, out_rate=rate, sample_rate=sample_rate, realtime=realtime, device=device,
+                        chunk_ms=chunk_ms, stdin=stdin, on_message=on_message, sd=sd)
+    outputs = open_outputs(json_stream=json_stream, vmc=vmc, websocket=websocket, neck_share=neck_share)
+    names = ", ".join(getattr(o, "name", type(o).__name__) for o in outputs) or "no output"
+    ws = [o for o in outputs if hasattr(o, "port") and getattr(o, "name", "") == "WebSocket"]
+    where = f" (ws://{ws[0].host}:{ws[0].port})" if ws else ""
+    on_message(f"streaming with {getattr(model, 'name', '?')}: {source.name} → {names}{where}; "
+               f"algorithmic latency {float(getattr(stream, 'latency_ms', float('nan'))):.0f} ms")
+    session = LiveSession(source, stream, outputs, fps=fps, on_message=on_message)
+    try:
+        stats = session.run(max_seconds=max_seconds)
+    except KeyboardInterrupt:
+        session.stop()
+        stats = {"frames": session.frames, "chunks": session.chunks, "latency": session.latency.summary()}
+    finally:
+        for o in outputs:
+            try:
+                o.close()
+            except Exception:
+                pass
+    lat = stats["latency"]
+    if lat["frames"]:
+        on_message(f"{stats['frames']} frames; end-to-end latency median {lat['median_ms']:.0f} ms, "
+                   f"p95 {lat['p95_ms']:.0f} ms")
+    return stats
+
+
+__all__ = ["LiveSession", "LatencyMeter", "open_outputs", "stream_live"]
