@@ -83,3 +83,38 @@ def test_live_page_moves_head_with_fake_microphone(speech_wav):
             assert "latency median" in pg.inner_text("#stats")
         finally:
             b.close()
+
+
+def test_live_page_with_a_chosen_audio_file(speech_wav):
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.skip("playwright is not installed")
+    if not (Path(CHROMIUM).is_file() or shutil.which(CHROMIUM)):
+        pytest.skip(f"chromium not found at {CHROMIUM}")
+    from headmotion.systems.base import load_model
+    from headmotion.web.live import running_live_server
+
+    with running_live_server(load_model(MODEL)) as url, sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=[
+            "--no-sandbox", "--disable-gpu", "--headless", "--autoplay-policy=no-user-gesture-required",
+            "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        try:
+            pg = b.new_page(viewport={"width": 800, "height": 700})
+            errors = []
+            pg.on("pageerror", lambda e: errors.append(str(e)))
+            pg.goto(url)
+            pg.wait_for_function("document.body.dataset.ready", timeout=60000)
+            pg.set_input_files("#file", str(speech_wav))
+            # the 8 s file plays to its end; the flush at the end delivers the last frames
+            pg.wait_for_function("window.headmotionLive.status === 'file finished'", timeout=60000)
+            pg.wait_for_function("window.headmotionLive.frames >= 790", timeout=20000)
+            st = pg.evaluate("window.headmotionLive")
+            assert not errors and st["error"] is None, (errors, st["error"])
+            assert st["status"] == "file finished"
+            rv = np.array([f["rotvec"] for f in st["received"]])
+            assert abs(len(rv) - 800) <= 2      # every frame of the 8 s, in order
+            assert [f["frame"] for f in st["received"]] == list(range(len(rv)))
+            assert np.degrees(np.ptp(rv, axis=0)).max() > 2.0
+        finally:
+            b.close()
