@@ -207,9 +207,9 @@ def test_websocket_port_in_use_is_a_clear_error():
 def test_websocket_client_that_disconnects_does_not_stop_the_others():
     from websockets.sync.client import connect
 
-    with WebSocketBroadcaster("127.0.0.1", 0) as ws:
-        a = connect(f"ws://127.0.0.1:{ws.port}", open_timeout=5)
-        b = connect(f"ws://127.0.0.1:{ws.port}", open_timeout=5)
+    with WebSocketBroadcaster("127.0.0.1", 0) as ws, \
+            connect(f"ws://127.0.0.1:{ws.port}", open_timeout=5) as a, \
+            connect(f"ws://127.0.0.1:{ws.port}", open_timeout=5) as b:
         t_end = time.monotonic() + 5
         while ws.n_clients < 2 and time.monotonic() < t_end:
             time.sleep(0.01)
@@ -224,7 +224,6 @@ def test_websocket_client_that_disconnects_does_not_stop_the_others():
             ws.send(frame_records(np.zeros((1, 3)), 100, 99))
             time.sleep(0.05)
         assert ws.n_clients == 1
-        a.close()
 
 
 # -- inputs ------------------------------------------------------------------------------------
