@@ -29,6 +29,9 @@ What differs from the offline ``f0e`` (:mod:`headmotion.features.prosody`) and w
   (5, HTK's N = 2) frames ending ``delta_lookahead`` frames in the future (default 1; offline HTK:
   2) — the same regression weights as HTK, evaluated over a window shifted into the past — and ΔΔ
   is the same slope of Δ.  Indices before the first frame / after the last clip to the end frame.
+  Against ``f0e`` this shifts the smoothed streams 20 ms later (window centre 2.5 frames back
+  instead of 0.5) and Δ, ΔΔ a further 10 ms each — visible as a small lag in a plot of the two
+  (models trained on ``f0e-live`` learn with the lag they will see when streaming).
 
 Latency budget (defaults, 16 kHz, 100 fps; frame ``t``'s time is its start ``t / fps`` as in the
 stream's JSON lines, its centre is ``(t + 0.5) / fps``):
@@ -123,12 +126,10 @@ def yin_frames(X: np.ndarray, win: int, tau_min: int, tau_max: int, threshold: f
     has = below.any(axis=1)
     i = np.where(has, np.argmax(below, axis=1), np.argmin(seg, axis=1))
     rows = np.arange(n)
-    while True:                                   # walk down to the bottom of the first dip
-        step = has & (i + 1 < L)
-        step[step] = seg[rows[step], i[step] + 1] < seg[rows[step], i[step]]
-        if not step.any():
-            break
-        i = i + step
+    # walk down to the bottom of the first dip: the first j >= i where seg stops falling
+    stop = (seg[:, 1:] >= seg[:, :-1]) & (np.arange(L - 1)[None, :] >= i[:, None])
+    bottom = np.where(stop.any(axis=1), np.argmax(stop, axis=1), L - 1)
+    i = np.where(has, bottom, i)
     tau = i + tau_min
     ap = dn[rows, tau]
     inner = (tau > tau_min) & (tau < tau_max)
