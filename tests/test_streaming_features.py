@@ -132,3 +132,13 @@ def test_f0_agrees_with_praat_on_voiced_frames(shared_data):
     assert np.corrcoef(v[both, 0], np.log(f0[both]))[0, 1] > 0.95
     semis = 12 * np.abs(v[both, 0] - np.log(f0[both])) / np.log(2)
     assert np.median(semis) < 0.2
+
+
+@pytest.mark.parametrize("fps", [25.0, 29.97, 60.0])
+def test_streamed_equals_offline_at_other_frame_rates(fps, rng):
+    x = np.concatenate([_harmonic(180.0, 1.0), (0.05 * rng.standard_normal(SR)).astype(np.float32)])
+    off, _ = f0e_live(Audio(x, SR), fps=fps, n_frames=int(np.floor(len(x) * fps / SR + 0.5)))
+    got, ex = _stream(x, [160, 7, 999], fps=fps)
+    assert np.array_equal(got, off)
+    assert ex.latency_ms <= 100 + 1000 * 2.5 / fps   # the lookahead is in frames: longer at low rates
+    np.testing.assert_allclose(np.exp(off[int(0.3 * fps):int(0.7 * fps), 0]), 180.0, rtol=2e-3)

@@ -45,6 +45,10 @@ smoothing lookahead, 2 frames                          20 ms
 **features final** (``lookahead_s``)                 **64.2 ms**
 ===================================================  ==========
 
+The lookahead of smoothing and Δ is counted in frames, so it costs more at video frame rates:
+at 25 fps the defaults need 159 ms; ``smooth_lookahead=0, delta_lookahead=0`` brings that to
+39 ms (a causal average and backward-looking slopes: more lag, no lookahead).
+
 Add the push granularity (≤ 10 ms with 10 ms chunks) and the on-stream resampler's delay (0 at
 16 kHz in; a few ms through soxr otherwise): ≈ 75–80 ms, leaving ≥ 20 ms of the issue's 100 ms for
 the synthesiser (the template-warping generator itself is causal: it adds 0).  ``lookahead_s`` is
@@ -377,8 +381,8 @@ class StreamingF0e:
         keep_from = self._n_out - (self.S + 2 * self.Wd + 2)
         for store in (self._static, self._smooth, self._d1, self._voiced):
             store.forget(keep_from)
-        first = min(self._start(self._n_static, self.f0_len), self._start(self._n_static, self.win))
-        drop = first - self._buf0
+        first = min(self._start(self._n_static, self.f0_len), self._start(self._n_static, self.win), self._n_in)
+        drop = first - self._buf0        # (at low frame rates the next window may start past the input)
         if drop > 4 * self.f0_len:
             self._buf = self._buf[drop:]
             self._buf0 = first
