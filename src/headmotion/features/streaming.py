@@ -17,9 +17,14 @@ What differs from the offline ``f0e`` (:mod:`headmotion.features.prosody`) and w
   normalised, first dip under ``threshold`` (else the global minimum), parabolic interpolation.
   The frame is voiced when the dip is under ``voicing_threshold`` and the frame energy is above
   ``silence_db``.  Praat (the offline tracker, through parselmouth) works on the whole signal
-  (global silence threshold, Viterbi path) and cannot run on a stream; librosa's ``yin`` computes
-  the same normalised difference but returns no aperiodicity (so no voicing decision) and costs
-  ~10× more per single-window call; ``pyin`` needs the whole signal for its HMM.
+  (global silence threshold, Viterbi path) and cannot run on a stream; librosa's ``yin`` can be
+  called on one window (``center=False``) and computes the same normalised difference, but returns no aperiodicity (so no voicing decision), costs ~4× more
+  per call (612 against 169 µs, measured together) and gave 150.23 Hz on a 150 Hz harmonic tone
+  where this gives 149.997 Hz; ``pyin`` needs the whole signal for its HMM.
+* **Octave-jump guard**: a voiced frame more than ``max_jump_semitones`` (5) from the median of
+  the last (up to 5) voiced frames of the last 0.3 s counts as unvoiced — a causal stand-in for
+  Praat's path search; on our speech it raises the correlation with Praat on frames both call
+  voiced from 0.70–0.998 to 0.93–0.999.
 * **Unvoiced frames hold the last voiced log F0** (the causal half of the offline rule "ends hold
   the nearest voiced value"; interpolating towards the *next* voiced frame would need unbounded
   lookahead).  Before the first voiced frame: ``sqrt(floor · ceiling)`` as offline.
