@@ -298,6 +298,9 @@ class mic_source(AudioSource):  # noqa: N801
                         break
                     continue
                 yield self.resampler(x)
+        tail = self.resampler(np.zeros(0, np.float32), last=True)
+        if tail.size:
+            yield tail
         if self.overflows:
             self.on_message(f"{self.name}: dropped {self.overflows} audio blocks because processing fell behind")
 

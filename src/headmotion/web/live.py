@@ -67,7 +67,6 @@ def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
                 return
             resample = Resampler(sr, model_sr)
             stream = model.stream(seed=seed)
-            fps = None
             frame = 0
             await websocket.send_text(json.dumps({"ready": True, "latency_ms": float(getattr(stream, "latency_ms", 0.0))}))
             while True:
@@ -76,16 +75,19 @@ def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
                     break
                 data = msg.get("bytes")
                 if data is None:
-                    if msg.get("text") and json.loads(msg["text"]).get("end"):
-                        motion = stream.flush()
-                    else:
+                    if not (msg.get("text") and json.loads(msg["text"]).get("end")):
                         continue
+                    # end of the audio: what the resampler still holds, then the stream's rest
+                    tail = stream.push(resample(np.zeros(0, np.float32), last=True))
+                    rest = stream.flush()
+                    rv = np.vstack([tail.rotvec, rest.rotvec])
+                    fps = float(rest.fps)
                 else:
                     x = np.frombuffer(data[: len(data) // 4 * 4], dtype="<f4")
                     motion = stream.push(resample(x))
-                if len(motion):
-                    fps = float(motion.fps)
-                    recs = frame_records(motion.rotvec, fps, frame)
+                    rv, fps = motion.rotvec, float(motion.fps)
+                if len(rv):
+                    recs = frame_records(rv, fps, frame)
                     frame += len(recs)
                     await websocket.send_text(json.dumps({"frames": recs, "server_time": time.time()}))
                 if data is None:
