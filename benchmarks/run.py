@@ -151,7 +151,7 @@ def bench_stream(res: Results, quick: bool, cache: dict):
     import soundfile as sf
 
     from headmotion.cli.synth_cmds import default_model_path
-    from headmotion.live.inputs import file_source
+    from headmotion.live.inputs import FileSource
     from headmotion.live.session import LiveSession
     from headmotion.systems import load_model
 
@@ -160,7 +160,7 @@ def bench_stream(res: Results, quick: bool, cache: dict):
     with tempfile.TemporaryDirectory() as tmp:
         wav = Path(tmp) / "speech.wav"
         sf.write(wav, audio.samples[: int(secs * audio.sample_rate)], audio.sample_rate)
-        src = file_source(wav, out_rate=int(getattr(m, "sample_rate_", 16000)), realtime=True)
+        src = FileSource(wav, out_rate=int(getattr(m, "sample_rate_", 16000)), realtime=True)
         st = m.stream(seed=0)
         lat = LiveSession(src, st, [], fps=100.0).run(max_seconds=secs + 30)["latency"]
     # the floor of the live pipeline once the systems use f0e-live: the same paced session with the
@@ -181,7 +181,7 @@ def bench_stream(res: Results, quick: bool, cache: dict):
     with tempfile.TemporaryDirectory() as tmp:
         wav = Path(tmp) / "speech.wav"
         sf.write(wav, audio.samples[: int(secs * audio.sample_rate)], audio.sample_rate)
-        src = file_source(wav, out_rate=int(getattr(m, "sample_rate_", 16000)), realtime=True)
+        src = FileSource(wav, out_rate=int(getattr(m, "sample_rate_", 16000)), realtime=True)
         floor = LiveSession(src, FeaturesOnly(), [], fps=100.0).run(max_seconds=secs + 30)["latency"]
     res.add(Row("4 stream", f"f0e-live alone in the paced session ({secs:.0f} s): end-to-end latency median",
                 floor["median_ms"], "ms", "<= 100 ms", floor["median_ms"] <= 100,

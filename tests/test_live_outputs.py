@@ -5,7 +5,6 @@ clear messages while the others keep being served.  Every server and loop is bou
 
 from __future__ import annotations
 
-import asyncio
 import io
 import json
 import socket
@@ -19,9 +18,14 @@ from scipy.spatial.transform import Rotation
 
 from headmotion.errors import AudioDeviceError, NetworkError
 from headmotion.live.frames import JsonLinesOutput, frame_records
-from headmotion.live.inputs import file_source, mic_source, open_input, pcm_source
+from headmotion.live.inputs import FileSource, MicSource, open_input, PcmSource
 from headmotion.live.session import LiveSession
-from headmotion.live.vmc import VmcSender, package_quat_to_unity, parse_host_port, vmc_bone_quats
+from headmotion.live.vmc import (
+    VmcSender,
+    package_quat_to_unity,
+    parse_host_port,
+    vmc_bone_quats,
+)
 from headmotion.live.websocket import WebSocketBroadcaster
 from headmotion.types import Motion
 
@@ -150,7 +154,7 @@ def test_session_default_model_to_osc_websocket_and_json_lines(shared_data, tmp_
     assert ws.n_clients == 2
     vmc = VmcSender("127.0.0.1", srv.server_address[1], neck_share=0.3)
     try:
-        src = file_source(wav, out_rate=int(model.sample_rate_), realtime=True)
+        src = FileSource(wav, out_rate=int(model.sample_rate_), realtime=True)
         stats = LiveSession(src, model.stream(seed=0), [JsonLinesOutput(out), vmc, ws], fps=100).run(max_seconds=30)
         time.sleep(0.3)
     finally:
@@ -230,7 +234,7 @@ def test_websocket_client_that_disconnects_does_not_stop_the_others():
 def test_pcm_stream_that_stops_mid_sample():
     x = (np.sin(np.arange(1600) / 10) * 10000).astype("<i2").tobytes() + b"\x01"
     msgs = []
-    src = pcm_source(io.BytesIO(x), sample_rate=SR, out_rate=SR, on_message=msgs.append)
+    src = PcmSource(io.BytesIO(x), sample_rate=SR, out_rate=SR, on_message=msgs.append)
     out = io.StringIO()
     stats = LiveSession(src, FakeStream(), [JsonLinesOutput(out)], fps=100).run(max_seconds=10)
     assert stats["frames"] == 10
@@ -242,7 +246,7 @@ def test_pcm_resampled_on_the_stream_keeps_the_duration():
     sr_in = 44100
     t = np.arange(2 * sr_in) / sr_in
     x = (0.3 * np.sin(2 * np.pi * 200 * t) * 32767).astype("<i2").tobytes()
-    src = pcm_source(io.BytesIO(x), sample_rate=sr_in, out_rate=SR, chunk_ms=10)
+    src = PcmSource(io.BytesIO(x), sample_rate=sr_in, out_rate=SR, chunk_ms=10)
     y = np.concatenate(list(src))
     assert abs(len(y) - 2 * SR) <= 2
     spec = np.abs(np.fft.rfft(y[SR // 2: SR // 2 + SR]))
@@ -256,7 +260,7 @@ def test_minutes_of_silence_through_the_default_model():
     model = load_model(MODEL)
     z = np.zeros(2 * 60 * SR, dtype="<i2").tobytes()     # two minutes, not paced
     out = io.StringIO()
-    stats = LiveSession(pcm_source(io.BytesIO(z), sample_rate=SR, out_rate=SR),
+    stats = LiveSession(PcmSource(io.BytesIO(z), sample_rate=SR, out_rate=SR),
                         model.stream(seed=0), [JsonLinesOutput(out)], fps=100).run(max_seconds=90)
     assert stats["frames"] == 12000
     rv = np.array([json.loads(s)["rotvec"] for s in out.getvalue().splitlines()[-100:]])
@@ -304,7 +308,7 @@ class FakeSounddevice:
     def query_devices(self):
         return self.devices
 
-    def InputStream(self, **kw):  # noqa: N802
+    def InputStream(self, **kw):
         self.opened = kw
         return _FakeStreamCtx(**kw)
 
@@ -322,11 +326,11 @@ def test_mic_with_injected_device_streams_resampled_audio():
 
 def test_mic_errors_are_clear():
     with pytest.raises(AudioDeviceError, match="no audio input device"):
-        mic_source(None, out_rate=SR, sd=FakeSounddevice(devices=[{"name": "out", "max_input_channels": 0}]))
+        MicSource(None, out_rate=SR, sd=FakeSounddevice(devices=[{"name": "out", "max_input_channels": 0}]))
     with pytest.raises(AudioDeviceError, match=r"--device 7: .*1: USB Microphone"):
-        mic_source(7, out_rate=SR, sd=FakeSounddevice())
+        MicSource(7, out_rate=SR, sd=FakeSounddevice())
     with pytest.raises(AudioDeviceError, match="no input device name contains"):
-        mic_source("webcam", out_rate=SR, sd=FakeSounddevice())
+        MicSource("webcam", out_rate=SR, sd=FakeSounddevice())
 
 
 def test_mic_without_portaudio_is_a_clear_error(monkeypatch):
@@ -341,7 +345,7 @@ def test_mic_without_portaudio_is_a_clear_error(monkeypatch):
 
     monkeypatch.setattr(builtins, "__import__", fake_import)
     with pytest.raises(AudioDeviceError, match="PortAudio library"):
-        mic_source(None, out_rate=SR)
+        MicSource(None, out_rate=SR)
 
 
 def test_realtime_file_is_paced(tmp_path):
@@ -350,7 +354,7 @@ def test_realtime_file_is_paced(tmp_path):
     wav = tmp_path / "t.wav"
     sf.write(wav, np.zeros(SR // 2, np.float32), SR)
     t0 = time.monotonic()
-    stats = LiveSession(file_source(wav, out_rate=SR, realtime=True), FakeStream(), [], fps=100).run(max_seconds=10)
+    stats = LiveSession(FileSource(wav, out_rate=SR, realtime=True), FakeStream(), [], fps=100).run(max_seconds=10)
     took = time.monotonic() - t0
     assert stats["frames"] == 50 and 0.45 < took < 2.0
     assert 0 <= stats["latency"]["median_ms"] < 200
@@ -369,7 +373,7 @@ def test_failing_output_is_dropped_and_the_others_continue():
     msgs = []
     out = io.StringIO()
     z = np.zeros(SR, dtype="<i2").tobytes()
-    stats = LiveSession(pcm_source(io.BytesIO(z), sample_rate=SR, out_rate=SR), FakeStream(),
+    stats = LiveSession(PcmSource(io.BytesIO(z), sample_rate=SR, out_rate=SR), FakeStream(),
                         [Broken(), JsonLinesOutput(out)], fps=100, on_message=msgs.append).run(max_seconds=10)
     assert stats["frames"] == 100 and len(out.getvalue().splitlines()) == 100
     assert len(msgs) == 1 and "broken output failed" in msgs[0]

@@ -27,6 +27,7 @@ def _frames(msgs):
 
 
 def test_two_clients_one_leaves_the_other_gets_every_frame():
+    from websockets.exceptions import ConnectionClosed
     from websockets.sync.client import connect
 
     from headmotion.systems.base import load_model
@@ -41,7 +42,7 @@ def test_two_clients_one_leaves_the_other_gets_every_frame():
             for c in (a, b):
                 c.send(json.dumps({"sample_rate": sr}))
                 assert json.loads(c.recv(timeout=10))["ready"] is True
-            got_a, got_b = [], []
+            got_a = []
             for i in range(0, len(x), chunk):
                 a.send(x[i:i + chunk].tobytes())
                 if b is not None:
@@ -54,7 +55,7 @@ def test_two_clients_one_leaves_the_other_gets_every_frame():
             while True:
                 try:
                     got_a.append(json.loads(a.recv(timeout=10)))
-                except Exception:  # the server closes after the flush
+                except (TimeoutError, ConnectionClosed):  # the server closes after the flush
                     break
     frames = _frames(got_a)
     assert [f["frame"] for f in frames] == list(range(len(frames)))
@@ -69,8 +70,8 @@ def test_bad_handshake_is_a_clear_error():
     from headmotion.systems.base import load_model
     from headmotion.web.live import running_live_server
 
-    with running_live_server(load_model(MODEL)) as url:
-        with connect(url.replace("http", "ws") + "ws", open_timeout=5) as c:
-            c.send(json.dumps({"sample_rate": 3}))
-            msg = json.loads(c.recv(timeout=10))
+    with running_live_server(load_model(MODEL)) as url, \
+            connect(url.replace("http", "ws") + "ws", open_timeout=5) as c:
+        c.send(json.dumps({"sample_rate": 3}))
+        msg = json.loads(c.recv(timeout=10))
     assert "sample_rate must be 8000-192000 Hz; got 3" in msg["error"]

@@ -71,7 +71,7 @@ def test_streamed_equals_offline_exactly_on_real_speech(shared_data):
     x = a.samples[: 6 * SR]
     off = extract("f0e-live", Audio(x, SR)).values
     for sizes in ([160], [1], [37, 1000, 3, 480], [len(x)]):
-        got, ex = _stream(x, sizes)
+        got, _ = _stream(x, sizes)
         assert got.shape == off.shape
         assert np.array_equal(got.astype(np.float32), off), sizes
     # and in float64, chunkings agree bit for bit

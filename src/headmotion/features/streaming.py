@@ -360,7 +360,9 @@ class StreamingF0e:
         if t1 > self._n_static:
             self._static_frames(self._n_static, t1)
             self._n_static = t1
-        stop = (lambda n_src, la: n_src - la) if total is None else (lambda n_src, la: total)  # noqa: E731
+        def stop(n_src: int, la: int) -> int:  # frames final at a stage whose input has n_src frames
+            return n_src - la if total is None else total
+
         t1 = stop(self._n_static, self.Ls)
         if t1 > self._n_smooth:
             self._smooth.extend(self._window_sum(self._static, self._n_smooth, t1, self.S - 1 - self.Ls, self.Ls) / self.S)

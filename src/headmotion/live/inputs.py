@@ -3,12 +3,12 @@
 Every source is an iterator of mono float32 chunks at ``out_rate`` (the model's rate), each about
 ``chunk_ms`` long, resampled on the fly by :class:`Resampler` (``soxr.ResampleStream``):
 
-* :func:`pcm_source` — raw 16-bit little-endian mono PCM from a binary stream (stdin).  A stream
+* :class:`PcmSource` — raw 16-bit little-endian mono PCM from a binary stream (stdin).  A stream
   that stops in the middle of a sample drops the odd byte and says so through ``on_message``.
-* :func:`file_source` — any audio file :func:`headmotion.io.load_audio` reads; ``realtime=True``
+* :class:`FileSource` — any audio file :func:`headmotion.io.load_audio` reads; ``realtime=True``
   releases each chunk when its last sample would have been spoken (for demos, tests and the
   end-to-end latency benchmark).
-* :func:`mic_source` — a microphone through sounddevice (PortAudio).  ``device`` picks the input
+* :class:`MicSource` — a microphone through sounddevice (PortAudio).  ``device`` picks the input
   by index or by a part of its name; no PortAudio library, no input device, or an unknown device
   raise :class:`~headmotion.errors.AudioDeviceError` naming the devices that are there.  The
   ``sounddevice`` module can be injected (``sd=``), which is how it is tested without hardware.
@@ -34,8 +34,8 @@ import queue
 import sys
 import threading
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Callable, Iterator
 
 import numpy as np
 
@@ -83,7 +83,7 @@ class AudioSource:
         pass
 
 
-class pcm_source(AudioSource):  # noqa: N801 - used like a function
+class PcmSource(AudioSource):
     """16-bit little-endian mono PCM from a binary stream (default: stdin).
 
     Parameters
@@ -130,7 +130,7 @@ class pcm_source(AudioSource):  # noqa: N801 - used like a function
         self._closed = True
 
 
-class file_source(AudioSource):  # noqa: N801
+class FileSource(AudioSource):
     """An audio file in chunks, optionally paced at speech speed.
 
     Parameters
@@ -234,7 +234,7 @@ def pick_device(device, sd=None) -> tuple[int, str, float]:
                            "give the index or a longer part of the name")
 
 
-class mic_source(AudioSource):  # noqa: N801
+class MicSource(AudioSource):
     """A microphone through sounddevice (PortAudio), chunks resampled to ``out_rate``.
 
     Parameters
@@ -314,13 +314,13 @@ def open_input(spec: str, *, out_rate: int, sample_rate: int | None = None, real
     """The source for ``--input``: ``-`` (PCM on stdin at ``sample_rate``, default ``out_rate``),
     ``mic``, or a file path."""
     if spec == "-":
-        return pcm_source(stdin, sample_rate=sample_rate or out_rate, out_rate=out_rate, chunk_ms=chunk_ms,
+        return PcmSource(stdin, sample_rate=sample_rate or out_rate, out_rate=out_rate, chunk_ms=chunk_ms,
                           quality=quality, on_message=on_message)
     if spec == "mic":
-        return mic_source(device, out_rate=out_rate, chunk_ms=chunk_ms, sample_rate=sample_rate,
+        return MicSource(device, out_rate=out_rate, chunk_ms=chunk_ms, sample_rate=sample_rate,
                           quality=quality, sd=sd, on_message=on_message)
-    return file_source(spec, out_rate=out_rate, chunk_ms=chunk_ms, realtime=realtime, quality=quality)
+    return FileSource(spec, out_rate=out_rate, chunk_ms=chunk_ms, realtime=realtime, quality=quality)
 
 
-__all__ = ["Resampler", "AudioSource", "pcm_source", "file_source", "mic_source", "open_input",
+__all__ = ["Resampler", "AudioSource", "PcmSource", "FileSource", "MicSource", "open_input",
            "input_devices", "pick_device"]

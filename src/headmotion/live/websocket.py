@@ -48,7 +48,7 @@ class WebSocketBroadcaster:
         self._stop: asyncio.Event | None = None
 
     # -- lifecycle ---------------------------------------------------------------------------
-    def start(self, timeout: float = 5.0) -> "WebSocketBroadcaster":
+    def start(self, timeout: float = 5.0) -> WebSocketBroadcaster:
         self._thread = threading.Thread(target=self._run, name="headmotion-websocket", daemon=True)
         self._thread.start()
         if not self._ready.wait(timeout):
