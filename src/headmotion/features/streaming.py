@@ -119,7 +119,10 @@ def yin_frames(X: np.ndarray, win: int, tau_min: int, tau_max: int, threshold: f
     n = X.shape[0]
     if n == 0:
         return np.zeros(0), np.ones(0)
-    r = np.stack([np.correlate(x, x[:win], mode="valid")[: tau_max + 1] for x in X])  # Σ_j x_j x_{j+τ}
+    if n == 1:                                                                          # Σ_j x_j x_{j+τ}
+        r = np.correlate(X[0], X[0, :win], mode="valid")[None, : tau_max + 1]
+    else:
+        r = np.stack([np.correlate(x, x[:win], mode="valid")[: tau_max + 1] for x in X])
     c = np.zeros((n, X.shape[1] + 1))
     np.cumsum(X * X, axis=1, out=c[:, 1:])
     e = c[:, win:win + tau_max + 1] - c[:, :tau_max + 1]                              # Σ_j x²_{j+τ}
@@ -305,7 +308,8 @@ class StreamingF0e:
 
     def _static_frames(self, t0: int, t1: int) -> None:
         xe = self._windows(t0, t1, self.win)
-        p = np.sum(xe * xe * self.hamming2, axis=1) / self.hamming2_sum
+        xe = xe * xe * self.hamming2
+        p = np.sum(xe, axis=1) / self.hamming2_sum
         energy = np.maximum(10.0 * np.log10(np.maximum(p, 1e-30)), -100.0)
         period, ap = yin_frames(self._windows(t0, t1, self.f0_len), self.win, self.tau_min, self.tau_max,
                                 self.threshold)
