@@ -34,7 +34,7 @@ from harness import Results, Row, peak_rss_of, time_median  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("HEADMOTION_SHARED_DATA", ROOT.parent / "shared" / "data"))
 
-FEATURE_SETS = ("f0e", "f0e-live", "mfcc", "fbank", "wav", "prosody", "lsp", "lar")
+FEATURE_SETS = ("f0e", "f0e-live", "mfcc", "fbank", "wav", "prosody", "prosody-live", "lsp", "lar")
 SYNTH_SYSTEMS = ("tws-basic", "tws-hier", "le2012", "cccae", "mfcc-dnn")
 DNN_BENCH_PARAMS = {"max_epochs": 4, "ae_max_epochs": 4, "pretrain_epochs": 1, "patience": 2}
 

@@ -142,3 +142,38 @@ def test_streamed_equals_offline_at_other_frame_rates(fps, rng):
     assert np.array_equal(got, off)
     assert ex.latency_ms <= 100 + 1000 * 2.5 / fps   # the lookahead is in frames: longer at low rates
     np.testing.assert_allclose(np.exp(off[int(0.3 * fps):int(0.7 * fps), 0]), 180.0, rtol=2e-3)
+
+
+# -- prosody-live (the Le et al. baseline's pitch + loudness) ---------------------------------------
+def test_prosody_live_known_pitch_and_loudness():
+    from headmotion.features.streaming import StreamingProsody
+
+    t = np.arange(SR) / SR
+    x = (0.5 * np.sin(2 * np.pi * 220 * t)).astype(np.float32)
+    tr = extract("prosody-live", Audio(x, SR))
+    assert tr.names == ("pitch", "loudness")
+    np.testing.assert_allclose(tr.values[10:90, 0], 12 * np.log2(220 / 27.5), atol=0.01)   # 36 semitones
+    np.testing.assert_allclose(tr.values[10:90, 1], (0.125 / 1e-6) ** 0.3, rtol=1e-4)      # (I / I0)^0.3
+    hz = extract("prosody-live", Audio(x, SR), unit="hz").values
+    np.testing.assert_allclose(hz[10:90, 0], 220.0, rtol=1e-3)
+    # the same loudness as the offline openSMILE-like definition, frame for frame
+    np.testing.assert_allclose(tr.values[:, 1], extract("prosody", Audio(x, SR)).values[:, 1], rtol=1e-5)
+    ex = StreamingProsody()
+    assert ex.latency_ms < 25.0
+    with pytest.raises(ParameterError, match="no smoothing"):
+        StreamingProsody(smooth_frames=10)
+
+
+def test_prosody_live_streamed_equals_offline(rng):
+    from headmotion.features.streaming import StreamingProsody
+
+    x = np.concatenate([_harmonic(130.0, 1.0), (0.05 * rng.standard_normal(SR)).astype(np.float32)])
+    off = extract("prosody-live", Audio(x, SR)).values
+    ex = StreamingProsody()
+    la = int(round(ex.lookahead_s * SR))
+    out = []
+    for i in range(0, len(x), 160):
+        out.append(ex.push(x[i:i + 160]))
+        assert sum(len(o) for o in out) == max(0, (i + 160 - la) // 160 + 1)
+    out.append(ex.flush())
+    assert np.array_equal(np.vstack(out).astype(np.float32), off)

@@ -75,6 +75,10 @@ against Praat's 49–66 %).  After the hold and the smoothing, the ``logf0`` col
 and the hold-versus-interpolate difference dominate (Praat with a hold instead of interpolation
 correlates with itself at only 0.66–0.95); ``energy`` correlates at 0.95–0.99.
 
+:class:`StreamingProsody` (feature set ``"prosody-live"``) does the same for the Le et al. (2012)
+baseline's ``prosody`` set: pitch from the same YIN (semitones re 27.5 Hz, or Hz) and openSMILE's
+``cIntensity`` loudness, unsmoothed as offline, so only the F0 window is ahead: 24.2 ms.
+
 Using it in a system (phase 2): train and predict with ``FeatureConfig("f0e-live", fps)``; in
 ``stream()``, feed the model-rate samples to ``StreamingF0e(sample_rate=16000, fps=fps,
 **config.params)`` and cast its frames to float32 as :func:`headmotion.features.extract` does.
@@ -239,8 +243,11 @@ class StreamingF0e:
         self.Wd = int(delta_width)
         self.w_delta = regression_weights(self.Wd, self.Ld)
         self.win = max(1, int(round(window_s * sample_rate)))             # energy / YIN integration
-        self.hamming2 = np.hamming(self.win) ** 2
+        self.hamming = np.hamming(self.win)
+        self.hamming_sum = float(np.sum(self.hamming))
+        self.hamming2 = self.hamming ** 2
         self.hamming2_sum = float(np.sum(self.hamming2))
+        self._intensity: _Store | None = None
         self.tau_min = max(2, int(math.floor(sample_rate / pitch_ceiling)))
         self.tau_max = int(math.ceil(sample_rate / pitch_floor))
         self.f0_len = self.win + self.tau_max                              # YIN window
@@ -308,8 +315,10 @@ class StreamingF0e:
 
     def _static_frames(self, t0: int, t1: int) -> None:
         xe = self._windows(t0, t1, self.win)
-        xe = xe * xe * self.hamming2
-        p = np.sum(xe, axis=1) / self.hamming2_sum
+        sq = xe * xe
+        if self._intensity is not None:  # openSMILE's cIntensity: Hamming-weighted mean of x²
+            self._intensity.extend(np.sum(sq * self.hamming, axis=1) / self.hamming_sum)
+        p = np.sum(sq * self.hamming2, axis=1) / self.hamming2_sum
         energy = np.maximum(10.0 * np.log10(np.maximum(p, 1e-30)), -100.0)
         period, ap = yin_frames(self._windows(t0, t1, self.f0_len), self.win, self.tau_min, self.tau_max,
                                 self.threshold)
@@ -390,7 +399,9 @@ class StreamingF0e:
     def _forget(self) -> None:
         """Drop frames and samples no later frame can need (memory stays bounded on long streams)."""
         keep_from = self._n_out - (self.S + 2 * self.Wd + 2)
-        for store in (self._static, self._smooth, self._d1, self._voiced):
+        for store in (self._static, self._smooth, self._d1, self._voiced, self._intensity):
+            if store is None:
+                continue
             store.forget(keep_from)
         first = min(self._start(self._n_static, self.f0_len), self._start(self._n_static, self.win), self._n_in)
         drop = first - self._buf0        # (at low frame rates the next window may start past the input)
@@ -437,4 +448,52 @@ def f0e_live(audio: Audio, *, fps: float, n_frames: int, **params):
     return fit_length(values, n_frames), list(ex.names)
 
 
-__all__ = ["StreamingF0e", "f0e_live", "yin_frame", "regression_weights", "NAMES"]
+class StreamingProsody(StreamingF0e):
+    """Incremental ``pitch`` and ``loudness`` — the ``prosody`` set of the Le et al. (2012)
+    baseline (thesis §2.3, §5.5.1) — from the same YIN F0 (held through unvoiced frames) and
+    openSMILE's ``cIntensity`` loudness ``(I / 10⁻⁶)^0.3`` of a 25 ms Hamming window, with no
+    smoothing or Δ, so a frame is final once its F0 window is in: 24.2 ms after its start at
+    16 kHz and 100 fps.  ``unit="semitone"`` (re 27.5 Hz) or ``"hz"``; the ``loudness="auditory"``
+    variant of :func:`headmotion.features.prosody.prosody` is not offered here.
+    """
+
+    def __init__(self, *, unit: str = "semitone", exponent: float = 0.3, **kw):
+        if unit not in ("semitone", "hz"):
+            raise ParameterError(f"prosody unit must be 'semitone' or 'hz'; got {unit!r}")
+        for k in ("smooth_frames", "smooth_lookahead", "delta_lookahead", "voicing"):
+            if k in kw:
+                raise ParameterError(f"prosody-live has no parameter {k!r} (no smoothing, no deltas)")
+        super().__init__(smooth_frames=1, smooth_lookahead=0, delta_lookahead=0, **kw)
+        self.unit, self.exponent = unit, float(exponent)
+        self.names = ["pitch", "loudness"]
+        self._intensity = _Store(1)
+
+    def _advance(self) -> np.ndarray:
+        t1 = self._static_ready()
+        if t1 > self._n_static:
+            self._static_frames(self._n_static, t1)
+            self._n_static = t1
+        t0, t1 = self._n_out, self._n_static
+        if t1 <= t0:
+            return np.zeros((0, 2))
+        t = np.arange(t0, t1)
+        lf = self._static.take(t)[:, 0]
+        pitch = 12.0 * (lf - math.log(27.5)) / math.log(2.0) if self.unit == "semitone" else np.exp(lf)
+        loud = (self._intensity.take(t)[:, 0] / 1e-6) ** self.exponent
+        self._n_out = t1
+        self._forget()
+        return np.stack([pitch, loud], axis=1)
+
+
+def prosody_live(audio: Audio, *, fps: float, n_frames: int, **params):
+    """The ``prosody-live`` feature set: :class:`StreamingProsody` over the whole file (the
+    streaming code path).  Returns ``(values (T, 2), ["pitch", "loudness"])``."""
+    from .frames import fit_length
+
+    ex = StreamingProsody(sample_rate=audio.sample_rate, fps=fps, **params)
+    values = np.vstack([ex.push(audio.samples), ex.flush()])
+    return fit_length(values, n_frames), list(ex.names)
+
+
+__all__ = ["StreamingF0e", "StreamingProsody", "f0e_live", "prosody_live", "yin_frame", "yin_frames",
+           "regression_weights", "NAMES"]
