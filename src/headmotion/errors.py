@@ -79,6 +79,18 @@ class MissingDependencyError(HeadMotionError):
     exit_code = 8
 
 
+class AudioDeviceError(HeadMotionError):
+    """No audio input device, no PortAudio library, or a device that cannot be opened."""
+
+    exit_code = 9
+
+
+class NetworkError(HeadMotionError):
+    """A live output cannot listen or send: port in use, bad HOST:PORT, unreachable host."""
+
+    exit_code = 10
+
+
 __all__ = [
     "HeadMotionError",
     "ParameterError",
@@ -90,4 +102,6 @@ __all__ = [
     "NotFittedError",
     "ModelFileError",
     "MissingDependencyError",
+    "AudioDeviceError",
+    "NetworkError",
 ]

@@ -1,7 +1,8 @@
 """``headmotion render``, ``headmotion view`` and ``headmotion plot`` (issue 7; thesis §4.2.3).
 
 * ``render MOTION... [--audio A] -o OUT.mp4`` — preview video (one motion, or a labelled grid).
-* ``view MOTION... [--audio A]`` — serves the browser viewer (three.js) on a local port.
+* ``view MOTION... [--audio A]`` — serves the browser viewer (three.js) on a local port;
+  ``view --live [-m MODEL]`` the live page (microphone or audio file → WebSocket → head, issue 16).
 * ``plot MOTION... -o FIG.png [--audio A]`` — pitch/yaw/roll over time in degrees.
 
 Thin wrappers over :mod:`headmotion.render` and :mod:`headmotion.web`; moderngl, matplotlib and
@@ -74,15 +75,35 @@ def render(
 
 @app.command("view")
 def view(
-    motions: List[Path] = typer.Argument(..., help="motion file(s) to show side by side"),
+    motions: Optional[List[Path]] = typer.Argument(None, help="motion file(s) to show side by side (not with --live)"),
     audio: Optional[Path] = typer.Option(None, "--audio", "-a", help="speech played in sync"),
     labels: Optional[str] = typer.Option(None, "--labels", help="comma-separated labels, one per motion"),
     port: int = typer.Option(8765, "--port", help="port (0 = any free port)"),
     host: str = typer.Option("127.0.0.1", "--host", help="interface to listen on"),
     no_mask: bool = typer.Option(False, "--no-mask", help="no black boxes over the eyes and mouth"),
     open_browser: bool = typer.Option(True, "--open/--no-open", help="open the page in a web browser"),
+    live: bool = typer.Option(False, "--live", help="live page: the microphone or an audio file in the browser "
+                              "drives the model through a WebSocket, the head moves as you speak"),
+    model: Optional[Path] = typer.Option(None, "-m", "--model", help="--live: model file of a causal system "
+                                         "(default: the shipped model)"),
+    seed: int = typer.Option(0, "--seed", help="--live: random seed of the stream"),
 ):
-    """Serve a local page that plays the speech and animates the head(s) in sync."""
+    """Serve a local page that plays the speech and animates the head(s) in sync (or, with --live,
+    moves the head from the microphone or an audio file as it plays)."""
+    if live:
+        if motions:
+            raise ParameterError("view --live takes no motion files (it makes the motion from the audio); "
+                                 f"got {', '.join(map(str, motions))}")
+        from ..systems.base import load_model
+        from ..web.live import serve_live
+
+        path = model if model is not None else Path(__file__).resolve().parents[1] / "data" / "default_model.hmz"
+        m = load_model(path)
+        serve_live(m, host=host, port=port, seed=seed, model_path=path, open_browser=open_browser,
+                   announce=lambda url: err_console.print(f"live page at {url}  (Ctrl-C to stop)"))
+        return
+    if not motions:
+        raise ParameterError("view needs motion file(s), or --live for the live page")
     from ..web.server import serve
 
     ms = _load(motions)

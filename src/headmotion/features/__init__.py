@@ -19,6 +19,11 @@ name         dims  what                                                     modu
 ``prosody``  2     openSMILE-like pitch (semitones) + loudness (Le et al.)  :mod:`.prosody`
 ===========  ====  =======================================================  ================
 
+Streaming variants (issue 16, :mod:`.streaming`): ``f0e-live`` (6 dims, the ``f0e`` columns from
+a per-frame YIN with short-lookahead smoothing and deltas; final 64 ms after a frame's start) and
+``prosody-live`` (2 dims, ``prosody``'s pitch and intensity loudness; 24 ms).  Computed offline
+by the same code that streams them, so streamed and offline values are identical.
+
 Audio at any rate is first resampled to ``analysis_rate`` (16 kHz, thesis §3.4) with soxr, so
 features do not depend on the recording's rate (``wav`` resamples straight to 4 kHz).
 
@@ -60,6 +65,8 @@ _BUILTIN: dict[str, tuple[str, int | None]] = {
     "lsp": ("lpc:lsp", ANALYSIS_RATE),
     "lar": ("lpc:lar", ANALYSIS_RATE),
     "prosody": ("prosody:prosody", ANALYSIS_RATE),
+    "f0e-live": ("streaming:f0e_live", ANALYSIS_RATE),
+    "prosody-live": ("streaming:prosody_live", ANALYSIS_RATE),
 }
 _REGISTRY: dict[str, Callable[..., Any]] = {}
 

@@ -1,0 +1,27 @@
+"""Live head motion: audio inputs, a streaming session and real-time outputs (issue 16).
+
+* :mod:`.inputs`    — PCM on stdin, audio files (optionally paced), microphone (sounddevice);
+* :mod:`.session`   — input → motion stream → outputs, bounded queues, end-to-end latency;
+* :mod:`.frames`    — the frame record (the JSON line of ``headmotion stream``) and JSON lines;
+* :mod:`.vmc`       — VMC protocol over OSC/UDP (VSeeFace, Warudo, VMagicMirror, EVMC4U);
+* :mod:`.websocket` — frames to any number of WebSocket clients.
+
+The streaming features these rely on for low latency are in :mod:`headmotion.features.streaming`.
+python-osc, websockets and sounddevice are the ``live`` extra; each is imported only when used.
+
+Integration with ``headmotion stream`` (the command itself lives with the system contract):
+the command parses its options and makes one call, ::
+
+    from headmotion.live.session import stream_live
+    stream_live(model, input=input_spec,            # "-" (PCM s16le on stdin), "mic", or a file
+                sample_rate=sample_rate,            # rate of stdin PCM / capture rate of the mic
+                realtime=realtime, device=device, chunk_ms=chunk_ms,
+                json_stream=sys.stdout,             # JSON lines (None for none)
+                vmc=vmc, websocket=websocket,       # "HOST:PORT" strings or None
+                neck_share=neck_share, seed=seed,
+                stream_kwargs={"gain": gain, "offset": offset})   # what model.stream() accepts
+
+which resamples on the stream to ``model.sample_rate_``, runs ``model.stream(seed=..., **kw)``
+and closes every output at the end; the errors it raises are :class:`~headmotion.errors.HeadMotionError` subclasses
+(``AudioDeviceError``, ``NetworkError``, ``ParameterError``) that the CLI prints as one line.
+"""

@@ -1,0 +1,154 @@
+"""``headmotion view --live``: the bundled viewer driven by the microphone or an audio file through
+a WebSocket (issue 16 item 4; the seeds are silent on live use).
+
+The page (``static/live.html``) captures audio in the browser — ``getUserMedia`` for the
+microphone, or a chosen file decoded and played — and sends it as binary messages of float32
+mono PCM to ``/ws`` (after one text message ``{"sample_rate": sr}``).  The server resamples it on
+the stream (:class:`headmotion.live.inputs.Resampler`) to the model's rate, pushes it into a fresh
+``model.stream(seed=...)`` per connection, and sends back each batch of final frames as one text
+message ``{"frames": [record, ...]}`` (the JSON-line records of ``headmotion stream``).  The page
+moves the head to the newest frame and shows the latency: for a frame at audio time τ, the
+browser's wall time on receipt minus the wall time at which the sample at τ was captured (known
+from the send time and position of the chunk holding it), median and 95th percentile of the
+last 200 frames.
+
+Libraries: the viewer's FastAPI app and uvicorn (the ``websockets`` package provides uvicorn's
+WebSocket protocol); the page uses an AudioWorklet (no ScriptProcessorNode, which is deprecated).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import socket
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ParameterError
+from .server import STATIC
+
+
+def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
+    """FastAPI app serving the live page and its WebSocket for a loaded causal model."""
+    from fastapi import FastAPI, WebSocketDisconnect
+    from fastapi.responses import FileResponse
+    from fastapi.staticfiles import StaticFiles
+
+    from ..live.frames import frame_records
+    from ..live.inputs import Resampler
+
+    if not getattr(model, "causal", False):
+        raise ParameterError(f"view --live needs a causal model (tws-basic, tws-hier, le2012); "
+                             f"{model_path or 'the model'} is {getattr(model, 'name', '?')!r}")
+    model_sr = int(getattr(model, "sample_rate_", 16000))
+    app = FastAPI(title="headmotion live", docs_url=None, redoc_url=None, openapi_url=None)
+
+    @app.get("/")
+    def index():
+        return FileResponse(STATIC / "live.html", media_type="text/html")
+
+    @app.get("/api/live")
+    def info():
+        st = model.stream(seed=seed)
+        return {"system": model.name, "sample_rate": model_sr, "latency_ms": float(getattr(st, "latency_ms", 0.0)),
+                "model": model_path}
+
+    async def ws(websocket):  # a plain Starlette route (no annotation for FastAPI to resolve)
+        await websocket.accept()
+        try:
+            hello = json.loads(await websocket.receive_text())
+            sr = int(hello.get("sample_rate", 0))
+            if not 8000 <= sr <= 192000:
+                await websocket.send_text(json.dumps({"error": f"sample_rate must be 8000-192000 Hz; got {sr}"}))
+                await websocket.close()
+                return
+            resample = Resampler(sr, model_sr)
+            stream = model.stream(seed=seed)
+            frame = 0
+            await websocket.send_text(json.dumps({"ready": True, "latency_ms": float(getattr(stream, "latency_ms", 0.0))}))
+            while True:
+                msg = await websocket.receive()
+                if msg.get("type") == "websocket.disconnect":
+                    break
+                data = msg.get("bytes")
+                if data is None:
+                    if not (msg.get("text") and json.loads(msg["text"]).get("end")):
+                        continue
+                    # end of the audio: what the resampler still holds, then the stream's rest
+                    tail = stream.push(resample(np.zeros(0, np.float32), last=True))
+                    rest = stream.flush()
+                    rv = np.vstack([tail.rotvec, rest.rotvec])
+                    fps = float(rest.fps)
+                else:
+                    x = np.frombuffer(data[: len(data) // 4 * 4], dtype="<f4")
+                    motion = stream.push(resample(x))
+                    rv, fps = motion.rotvec, float(motion.fps)
+                if len(rv):
+                    recs = frame_records(rv, fps, frame)
+                    frame += len(recs)
+                    await websocket.send_text(json.dumps({"frames": recs, "server_time": time.time()}))
+                if data is None:
+                    break
+        except WebSocketDisconnect:
+            pass
+
+    from starlette.routing import WebSocketRoute
+
+    app.router.routes.append(WebSocketRoute("/ws", ws))
+    app.mount("/viewer", StaticFiles(directory=STATIC), name="viewer")
+    return app
+
+
+@contextlib.contextmanager
+def running_live_server(model, *, host: str = "127.0.0.1", port: int = 0, seed: int = 0,
+                        model_path: str | None = None):
+    """Run the live server in a background thread; yields its base URL."""
+    import uvicorn
+
+    app = create_live_app(model, seed=seed, model_path=model_path)
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, int(port)))
+    except OSError as exc:
+        sock.close()
+        raise ParameterError(f"cannot listen on {host}:{port}: {exc.strerror or exc} "
+                             "(is another program using the port? use --port)") from None
+    actual = sock.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="off", ws="websockets-sansio"))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        for _ in range(200):
+            if server.started:
+                break
+            time.sleep(0.025)
+        yield f"http://{host}:{actual}/"
+    finally:
+        server.should_exit = True
+        thread.join(timeout=5)
+        sock.close()
+
+
+def serve_live(model, *, host: str = "127.0.0.1", port: int = 8765, seed: int = 0, model_path=None,
+               open_browser: bool = True, announce=print):
+    """Serve the live page until interrupted (``headmotion view --live``)."""
+    with running_live_server(model, host=host, port=port, seed=seed,
+                             model_path=None if model_path is None else str(Path(model_path))) as url:
+        announce(url)
+        if open_browser:
+            import webbrowser
+
+            with contextlib.suppress(Exception):
+                webbrowser.open(url)
+        try:
+            while True:
+                time.sleep(0.5)
+        except KeyboardInterrupt:
+            pass
+
+
+__all__ = ["create_live_app", "running_live_server", "serve_live"]
