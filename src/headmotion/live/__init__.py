@@ -21,7 +21,7 @@ the command parses its options and makes one call, ::
                 neck_share=neck_share, seed=seed,
                 stream_kwargs={"gain": gain, "offset": offset})   # what model.stream() accepts
 
-which resamples on the stream to ``model.sample_rate_``, runs ``model.stream(seed=..., **kw)``
+which resamples on the stream to ``model.sample_rate``, runs ``model.stream(seed=..., **kw)``
 and closes every output at the end; the errors it raises are :class:`~headmotion.errors.HeadMotionError` subclasses
 (``AudioDeviceError``, ``NetworkError``, ``ParameterError``) that the CLI prints as one line.
 """

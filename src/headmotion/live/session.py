@@ -156,7 +156,7 @@ class LiveSession:
 
 
 def open_outputs(*, json_stream=None, vmc: str | None = None, websocket: str | None = None,
-                 neck_share: float = 0.3) -> list:
+                 neck_share: float | None = None) -> list:
     """The outputs of ``headmotion stream``: JSON lines on ``json_stream`` (None: none),
     ``vmc="HOST:PORT"`` (VMC over OSC), ``websocket="HOST:PORT"`` (started here).  Raises
     :class:`~headmotion.errors.NetworkError` with the address on a bad address or a port in use
@@ -185,7 +185,7 @@ def open_outputs(*, json_stream=None, vmc: str | None = None, websocket: str | N
 
 def stream_live(model, *, input: str = "-", sample_rate: int | None = None, realtime: bool = False,
                 device=None, chunk_ms: float = 10.0, json_stream=None, vmc: str | None = None,
-                websocket: str | None = None, neck_share: float = 0.3, seed: int | None = 0,
+                websocket: str | None = None, neck_share: float | None = None, seed: int | None = 0,
                 stream_kwargs: dict | None = None, stdin=None, max_seconds: float | None = None,
                 on_message=_stderr, sd=None) -> dict:
     """Everything ``headmotion stream`` does, as one call: open the input (``"-"`` PCM on
@@ -196,11 +196,11 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
     from ..errors import ParameterError
     from .inputs import open_input
 
-    if not getattr(model, "causal", False):
+    if not model.causal:
         raise ParameterError(f"system {getattr(model, 'name', '?')!r} is not causal and cannot stream "
                              "without lookahead; use a tws-basic, tws-hier or le2012 model")
-    rate = int(getattr(model, "sample_rate_", 16000))
-    fps = float(getattr(model, "fps_", 100.0))
+    rate = int(model.sample_rate)
+    fps = float(model.frame_rate)
     stream = model.stream(seed=seed, **(stream_kwargs or {}))
     source = open_input(input, out_rate=rate, sample_rate=sample_rate, realtime=realtime, device=device,
                         chunk_ms=chunk_ms, stdin=stdin, on_message=on_message, sd=sd)

@@ -25,9 +25,10 @@ speaker's right shoulder, i.e. towards +X) is a negative rotation about +Z.
 
 Neck share: the head's rotation relative to the torso is split between the Neck bone and the Head
 bone (its child).  Both take the same axis: Neck gets ``share · θ`` and Head ``(1 − share) · θ``,
-so Neck ∘ Head is exactly the frame's rotation.  Default ``neck_share = 0.3`` — a choice (the
-seeds measure the head against the torso only): it lets rigs whose neck is skinned to the collar
-bend naturally, and 0 sends everything on Head.  Bone positions are the local offsets of a
+so Neck ∘ Head is exactly the frame's rotation.  Default: the share the BVH and glTF writers use,
+:data:`headmotion.io.bvh.DEFAULT_NECK_SHARE` (0.93, what the neck chain carries in real mocap,
+measured by :mod:`headmotion.motion.neck_share` on a ZEGGS take), so every output of the package
+splits the head the same way; 0 sends everything on Head.  Bone positions are the local offsets of a
 typical VRM humanoid (Neck 0.10 m above the upper chest, Head 0.08 m above the neck); receivers
 that do not synchronise bone positions ignore them.
 
@@ -80,11 +81,15 @@ def unity_quat_to_package(quat_xyzw: np.ndarray) -> np.ndarray:
     return package_quat_to_unity(quat_xyzw)
 
 
-def vmc_bone_quats(rotvec: np.ndarray, neck_share: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+def vmc_bone_quats(rotvec: np.ndarray, neck_share: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Unity-convention local quaternions ``(n, 4)`` (x, y, z, w) of Neck and Head for package
     rotation vectors ``(n, 3)``."""
     from scipy.spatial.transform import Rotation
 
+    if neck_share is None:
+        from ..io.bvh import DEFAULT_NECK_SHARE
+
+        neck_share = DEFAULT_NECK_SHARE
     if not 0.0 <= float(neck_share) <= 1.0:
         raise ParameterError(f"neck_share must be between 0 and 1; got {neck_share}")
     rv = np.asarray(rotvec, dtype=np.float64).reshape(-1, 3)
@@ -106,9 +111,13 @@ class VmcSender:
 
     name = "VMC"
 
-    def __init__(self, host: str, port: int, *, neck_share: float = 0.3, local_port: int | None = None):
+    def __init__(self, host: str, port: int, *, neck_share: float | None = None, local_port: int | None = None):
         from pythonosc.udp_client import UDPClient
 
+        if neck_share is None:
+            from ..io.bvh import DEFAULT_NECK_SHARE
+
+            neck_share = DEFAULT_NECK_SHARE
         self.neck_share = float(neck_share)
         if not 0.0 <= self.neck_share <= 1.0:
             raise ParameterError(f"neck_share must be between 0 and 1; got {neck_share}")
