@@ -121,7 +121,7 @@ def confusion(
         console.print(t)
 
     if m.name == "tws-basic":
-        from ..systems.tws_basic import CLASS_NAMES
+        from ..systems.tws.basic import CLASS_NAMES
 
         show("Table 5.2: speed-class confusion (GMM)", m.speed_class_confusion(c), list(CLASS_NAMES))
     elif m.name == "tws-hier":
