@@ -243,6 +243,52 @@ def bench_memory(res: Results, quick: bool):
     rss, _ = peak_rss_of(code)
     res.add(Row("6 memory", f"peak RSS, tws-hier training on {minutes} min", rss, "MB", "<= 2048 MB", rss <= 2048,
                 "fresh process incl. corpus in memory"))
+    bench_long_synth(res, quick)
+
+
+def long_speech_file(path: Path, minutes: float, sample_rate: int = 16000) -> Path:
+    """A ``minutes``-long 16-bit wav of the example speech tiled, written block by block."""
+    import numpy as np
+    import soundfile as sf
+
+    from headmotion.io import load_audio
+
+    x = load_audio(ROOT / "examples" / "speech" / "speech_male.wav", sample_rate=sample_rate).samples
+    x = np.concatenate([x, np.zeros(sample_rate // 2, np.float32)])  # half a second of pause between
+    total = int(minutes * 60 * sample_rate)
+    with sf.SoundFile(path, "w", samplerate=sample_rate, channels=1, subtype="PCM_16") as f:
+        done = 0
+        while done < total:
+            n = min(len(x), total - done)
+            f.write(x[:n])
+            done += n
+    return path
+
+
+def bench_long_synth(res: Results, quick: bool):
+    """``headmotion synth`` on long recordings: peak RSS and time per minute of speech (issue 18 item 5)."""
+    import tempfile
+
+    sizes = (10.0,) if quick else (10.0, 60.0, 180.0)
+    with tempfile.TemporaryDirectory(prefix="hm-long-") as tmp:
+        per_min = []
+        for minutes in sizes:
+            wav = long_speech_file(Path(tmp) / f"long_{int(minutes)}.wav", minutes)
+            out = Path(tmp) / "out.npz"
+            code = ("import time; t0 = time.perf_counter()\n"
+                    "from headmotion.cli import main\n"
+                    f"assert main(['synth', {str(wav)!r}, '-o', {str(out)!r}]) == 0\n"
+                    "print('__T__', time.perf_counter() - t0)\n")
+            rss, stdout = peak_rss_of(code, timeout=7200)
+            t = float(next(l for l in stdout.splitlines() if l.startswith("__T__")).split()[1])
+            per_min.append(t / minutes)
+            res.add(Row("6 memory", f"peak RSS, synth (default model) on {minutes:g} min of speech", rss, "MB",
+                        "<= 2048 MB", rss <= 2048, f"{t:.0f} s wall, {t / minutes:.2f} s per minute"))
+            wav.unlink()
+        if len(per_min) > 1:
+            ratio = per_min[-1] / per_min[0]
+            res.add(Row("6 memory", f"synth time per minute, {sizes[-1]:g} min vs {sizes[0]:g} min", ratio, "x",
+                        "<= 1.3 (linear)", ratio <= 1.3, "1 = exactly linear in the length"))
 
 
 def bench_render(res: Results, quick: bool):

@@ -160,7 +160,18 @@ def synth(
     g, o = control_from_options(gain, offset, (gain_pitch, gain_yaw, gain_roll),
                                 (offset_pitch, offset_yaw, offset_roll))
     m = load_cli_model(model)
-    audio = load_audio(speech)
+    from ..io.audio_blocks import audio_duration
+    from ..systems.long_input import LONG_INPUT_SECONDS, predict_file_in_blocks
+
+    # hours of speech: a causal model's stream, block by block, in bounded memory (same frames)
+    long_input = m.causal and audio_duration(speech) > LONG_INPUT_SECONDS
+    audio = None if long_input else load_audio(speech)
+
+    def predict(seed_k, gain=1.0, offset=0.0):
+        if long_input:
+            return predict_file_in_blocks(m, speech, seed=seed_k, gain=gain, offset=offset)
+        return m.predict(audio, seed=seed_k, gain=gain, offset=offset)
+
     reference = None
     if style_from is not None:
         from ..motion.style import load_style_reference, style_profile
@@ -177,17 +188,17 @@ def synth(
     t0 = time.perf_counter()
     for k in range(samples):
         if still:
-            motion = still_motion(m.predict(audio, seed=seed + k), o)
+            motion = still_motion(predict(seed + k), o)
         elif reference is not None:
             from ..motion.style import apply_style
 
-            motion = apply_style(m.predict(audio, seed=seed + k), reference, strength=style_strength,
+            motion = apply_style(predict(seed + k), reference, strength=style_strength,
                                  match_mean=not style_keep_pose)
             # gain about the styled mean pose (the reference's), or the model's when it is kept
             mean = m.mean_pose_ if style_keep_pose else mean_pose_of([motion.rotvec])
             motion = apply_gain(motion, mean, g, o)
         else:
-            motion = m.predict(audio, seed=seed + k, gain=g, offset=o)
+            motion = predict(seed + k, g, o)
         if fps is not None:
             motion = motion.resample(fps)
         path = output if samples == 1 else output.with_name(f"{output.stem}_{k + 1}{output.suffix}")
@@ -196,13 +207,16 @@ def synth(
     dt = time.perf_counter() - t0
     for path, motion in outs:
         console.print(f"{path}: {motion}")
-    console.print(f"synthesised {audio.duration:.1f} s of speech with {m.name} in {dt:.2f} s")
+    console.print(f"synthesised {outs[0][1].duration:.1f} s of speech with {m.name} in {dt:.2f} s"
+                  + (" (block by block)" if long_input else ""))
     if video is not None:
         try:
             from ..render.samples import render_samples
         except ImportError as exc:
             raise ParameterError(f"--video needs headmotion.render, which is not available here ({exc})") from exc
         motions = [mo for _, mo in outs]
+        if audio is None:
+            audio = load_audio(speech)
         render_samples(motions, video, audio=audio,
                        seeds=[seed + k for k in range(samples)] if samples > 1 else None,
                        labels=None if samples > 1 else [m.name])

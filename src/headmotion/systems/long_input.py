@@ -1,0 +1,47 @@
+"""Synthesis of long recordings in bounded memory (issue 18 item 5).
+
+The seeds are silent on hour-long inputs.  A causal system's stream gives the same frames as its
+offline ``predict`` (the contract in :mod:`headmotion.systems.base`; tested per system), so a
+long file is read block by block (:func:`headmotion.io.audio_blocks.iter_audio_blocks`) and
+pushed through ``model.stream``: features and synthesis then hold a few blocks of audio at a time
+and time grows linearly with the length.  Only the motion itself (3 floats per frame: 26 MB for
+3 h at 100 fps) is kept whole, for the writers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..types import Motion
+
+#: Inputs longer than this (seconds) are synthesised block by block by ``headmotion synth``.
+LONG_INPUT_SECONDS = 600.0
+
+
+def predict_file_in_blocks(model, path, *, seed=None, gain=1.0, offset=0.0, block_seconds: float = 30.0,
+                           progress=None) -> Motion:
+    """``model.predict(load_audio(path))`` for a causal ``model`` without loading the whole file.
+
+    ``progress(done_seconds)`` is called after each block."""
+    from ..io.audio_blocks import iter_audio_blocks
+
+    if not model.causal:
+        raise ParameterError(f"system {model.name!r} is not causal: it cannot synthesise a file block by block")
+    st = model.stream(seed=seed, gain=gain, offset=offset)
+    parts, seconds = [], 0.0
+    for block in iter_audio_blocks(path, sample_rate=model.sample_rate, block_seconds=block_seconds):
+        out = st.push(block)
+        if len(out):
+            parts.append(np.asarray(out.rotvec))
+        seconds += len(block) / model.sample_rate
+        if progress is not None:
+            progress(seconds)
+    tail = st.flush()
+    if len(tail):
+        parts.append(np.asarray(tail.rotvec))
+    rv = np.vstack(parts) if parts else np.zeros((0, 3))
+    return Motion(rv, model.frame_rate, meta={"system": model.name, "seed": seed})
+
+
+__all__ = ["predict_file_in_blocks", "LONG_INPUT_SECONDS"]
