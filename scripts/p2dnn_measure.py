@@ -45,13 +45,20 @@ VARIANTS = {
     "le2012": {
         "paper": {"pull_tau_s": None, "start_sd": 0.0, "idle": None},
         "pull2s": {"pull_tau_s": 2.0, "start_sd": 0.0, "idle": None},
+        "pull2s+s0.2+p0.7": {"pull_tau_s": 2.0, "start_sd": 0.2, "idle": 0.7},
         "pull2s+s0.5+p0.7": {"pull_tau_s": 2.0, "start_sd": 0.5, "idle": 0.7},
-        "pull2s+s1+p0.7": {"pull_tau_s": 2.0, "start_sd": 1.0, "idle": 0.7},
     },
+    # the drift share sweep (4 seeds)
+    "mfcc-dnn-share": {f"gv+d{d}+p0.4": {"variance_restore": True, "drift_share": d, "idle": 0.4}
+                       for d in (0.1, 0.15, 0.2, 0.25, 0.3)},
 }
 VARIANTS["cccae"] = {k: VARIANTS["mfcc-dnn"][k] for k in ("paper", "gv+d0.3+p0.4")}
 for s in ("f0e-dnn", "fbank-dnn", "ae-dnn", "wav-dnn"):
     VARIANTS[s] = VARIANTS["cccae"]
+
+
+def system_of(name):
+    return name.split("-share")[0]
 
 
 def train_kwargs(system):
@@ -70,7 +77,7 @@ def run(system, tag, recs, folds, variants, seeds, cache, n_div):
         for k, test in enumerate(folds):
             train = [recs[i] for i in range(len(recs)) if i not in test]
             t1 = time.time()
-            model = create(system, **train_kwargs(system)).fit(Corpus(train))
+            model = create(system_of(system), **train_kwargs(system)).fit(Corpus(train))
             tfit = time.time() - t1
             for vname, params in variants.items():
                 model.set_params(**params)
