@@ -43,6 +43,32 @@ computed on the right sets.
 Output rate — ``predict`` gives motion at the model rate (``model_fps``, 100 fps), the contract's
 ``frame_rate``; the caller resamples (the CLI's ``--fps``, the evaluation to the reference rate).
 
+Additions to the paper (issue 14; :mod:`headmotion.systems.dnn_post` documents and implements
+them), applied at synthesis in this order, each a parameter:
+
+* ``variance_restore`` (default True): global-variance scaling about the utterance mean with the
+  training-set ratio ``gv_`` (per axis, after the post-filter; stored in the model);
+* ``drift_share`` (default :data:`DEFAULT_DRIFT_SHARE` = 0.3) and ``drift_tau_s`` (2 s): a seeded
+  Ornstein–Uhlenbeck posture component carrying that share of the training variance;
+  ``seed`` (default 0) is the synthesis seed, ``predict(seed=…)`` overrides it;
+* ``idle`` (default 0.4): :func:`headmotion.motion.pauses.settle_in_pauses` (offline mode) with
+  the speech mask of :func:`headmotion.features.vad.speaking_mask`; None switches it off.
+
+:data:`PAPER_PARAMS` (``variance_restore=False, drift_share=0, idle=None``) gives the paper's
+output bit for bit and makes the synthesis deterministic; the paper's protocols must set it.
+Model files written before these options load with :data:`PAPER_PARAMS` (they have no ``gv_``).
+Defaults chosen on held-out speakers of the talking-video corpus (without ``mead_lrs3``, 2
+speaker-disjoint folds, ``scripts/p2dnn_measure.py``, mfcc-dnn): variance restoration brings the
+SD ratio from 0.34–0.44 to 0.78–0.91 and keeps the pooled FCCA excess (0.085, p < 0.001);
+pauses bring the pause/speech speed ratio from 0.78 to 0.52–0.58 (recordings 0.57); the drift
+moves the spectrum towards the recordings' (share of power below 0.5 Hz 0.38 → 0.54–0.58 at 0.3,
+recordings 0.73) and gives diversity 0.83 (4 seeds) but dilutes the coupling — see the module
+``DEFAULT_DRIFT_SHARE`` and docs for the sweep.
+
+Streaming: not implemented.  The variance restoration's centre is the utterance mean and the
+speech mask's thresholds come from the whole clip's energy distribution, so a stream equal to
+``predict`` needs causal versions of both (a running mean, a causal VAD) — open.
+
 Beyond the common interface: ``predict_features(track)`` runs the model on an already extracted 100-fps feature track and
 raises :class:`~headmotion.errors.ParameterError` when its dimension or rate is not the one the
 model was trained on; ``embed(audio, fps=..., n_frames=...)`` (CCCAE / AE systems) returns the
