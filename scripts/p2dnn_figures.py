@@ -23,7 +23,7 @@ from headmotion.evaluation import realism as R  # noqa: E402
 from headmotion.rotations import rotvec_to_pitch_yaw_roll  # noqa: E402
 
 ROWS = [("mfcc-dnn", "paper", "mfcc-dnn, paper (before)"), ("mfcc-dnn", "gv+d0.3+p0.4", "mfcc-dnn, GV + drift 0.3 + pauses"),
-        ("le2012", "paper", "le2012, literal (before)"), ("le2012", "pull2s+s0.2+p0.7", "le2012, pull 2 s + seeded start + pauses")]
+        ("le2012", "paper", "le2012, literal (before)"), ("le2012", "pull2s+s0.5+p0.4", "le2012, pull 2 s + seeded start 0.5 + pauses 0.4")]
 
 
 def figure(tag, rec, out, seconds=20.0):

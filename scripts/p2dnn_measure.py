@@ -45,12 +45,16 @@ VARIANTS = {
     "le2012": {
         "paper": {"pull_tau_s": None, "start_sd": 0.0, "idle": None},
         "pull2s": {"pull_tau_s": 2.0, "start_sd": 0.0, "idle": None},
-        "pull2s+s0.2+p0.7": {"pull_tau_s": 2.0, "start_sd": 0.2, "idle": 0.7},
+        "pull2s+s0.5+p0.4": {"pull_tau_s": 2.0, "start_sd": 0.5, "idle": 0.4},
         "pull2s+s0.5+p0.7": {"pull_tau_s": 2.0, "start_sd": 0.5, "idle": 0.7},
     },
     # the drift share sweep (4 seeds)
     "mfcc-dnn-share": {f"gv+d{d}+p0.4": {"variance_restore": True, "drift_share": d, "idle": 0.4}
                        for d in (0.1, 0.15, 0.2, 0.25, 0.3)},
+    # slower posture drift (time constant 4 / 8 s)
+    "mfcc-dnn-tau-share": {f"gv+d{d}+tau{t}+p0.4": {"variance_restore": True, "drift_share": d, "drift_tau_s": t,
+                                                     "idle": 0.4}
+                           for t in (4.0, 8.0) for d in (0.15, 0.3)},
 }
 VARIANTS["cccae"] = {k: VARIANTS["mfcc-dnn"][k] for k in ("paper", "gv+d0.3+p0.4")}
 for s in ("f0e-dnn", "fbank-dnn", "ae-dnn", "wav-dnn"):
@@ -58,7 +62,7 @@ for s in ("f0e-dnn", "fbank-dnn", "ae-dnn", "wav-dnn"):
 
 
 def system_of(name):
-    return name.split("-share")[0]
+    return name.split("-tau")[0].split("-share")[0]
 
 
 def train_kwargs(system):

@@ -26,12 +26,20 @@ parameter whose "off" value gives the literal system (``pull_tau_s=None, start_s
   of ``start_sd`` × the training motion's mean per-frame speed per angle, drawn from
   ``numpy.random.default_rng(seed)``, so the ascent ends in different local maxima for different
   seeds; the same seed gives the same motion.
-* ``idle`` (default 0.7): pauses — :func:`headmotion.motion.pauses.settle_in_pauses` in its
+* ``idle`` (default 0.4): pauses — :func:`headmotion.motion.pauses.settle_in_pauses` in its
   *causal* mode (the synthesis is causal, so a pause is recognised once it has lasted 0.5 s),
-  speech mask from :func:`headmotion.features.vad.speaking_mask`.  0.7 rather than the other
-  systems' 0.4 because le2012 already slows down in pauses on the mocap (pause/speech speed 0.44,
-  the recording 0.37).  The VAD's thresholds use the whole clip's energy distribution, so a
-  stream would need a causal VAD as well; le2012 has no stream today.
+  speech mask from :func:`headmotion.features.vad.speaking_mask`.  The VAD's thresholds use the
+  whole clip's energy distribution, so a stream would need a causal VAD as well; le2012 has no
+  stream today.
+
+Defaults chosen on held-out data (``scripts/p2dnn_measure.py le2012``; ZEGGS 4 folds / video
+corpus 2 speaker-disjoint folds, 2 seeds): the pull alone stops the wandering (ZEGGS saturation
+11 % → 0, SD ratio 1.6–1.8 → 0.5–0.6) but makes pull + momentum a damped oscillator (limit-cycle
+index 0.31, 1.5–4 Hz share 0.14 on video); the seeded start (0.5) breaks it (ZEGGS: spectral L1
+0.12–0.16, SD ratio 0.73–1.27, LC 0.18, diversity 1.3; video: L1 0.34–0.45, SD ratio 0.4–0.6,
+diversity 0.64); idle 0.4 brings the pause/speech speed ratio to 0.42 (ZEGGS, recording 0.37) and
+0.61 (video, 0.57) where 0.7 left 0.55 / 0.69.  Coupling: none of this ties le2012 to speech
+(pooled FCCA p 0.36–0.94); it should not be the default.
 
 The "fair" variant (``joint=True``, eq 5.15) replaces the five GMMs by one 10-component GMM over
 ``(pitch, yaw, roll, v, a, p, l)``, so the angles are optimised jointly and their positions
@@ -110,7 +118,7 @@ class Le2012(Synthesizer):
                  joint: bool = False, n_steps: int = 12, step: float = 0.05,
                  max_train_frames: int = 10000, random_state: int = 0, seed: int | None = 0,
                  compiled: bool = True, pull_tau_s: float | None = 2.0, start_sd: float = 0.5,
-                 idle: float | None = 0.7):
+                 idle: float | None = 0.4):
         self.features = features
         self.pull_tau_s = pull_tau_s
         self.start_sd = start_sd
