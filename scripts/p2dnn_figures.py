@@ -22,7 +22,8 @@ from realism_report import HOME, video_corpus, zeggs_folds  # noqa: E402
 from headmotion.evaluation import realism as R  # noqa: E402
 from headmotion.rotations import rotvec_to_pitch_yaw_roll  # noqa: E402
 
-ROWS = [("mfcc-dnn", "paper", "mfcc-dnn, paper (before)"), ("mfcc-dnn", "gv+d0.3+p0.4", "mfcc-dnn, GV + drift 0.3 + pauses"),
+ROWS = [("mfcc-dnn-final", "paper", "mfcc-dnn, paper (before)"),
+        ("mfcc-dnn-final", "gv+d0.15+tau4.0+p0.4", "mfcc-dnn, default: GV + drift 0.15 (4 s) + pauses 0.4"),
         ("le2012", "paper", "le2012, literal (before)"), ("le2012", "pull2s+s0.5+p0.4", "le2012, pull 2 s + seeded start 0.5 + pauses 0.4")]
 
 

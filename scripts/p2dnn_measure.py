@@ -55,6 +55,10 @@ VARIANTS = {
     "mfcc-dnn-tau-share": {f"gv+d{d}+tau{t}+p0.4": {"variance_restore": True, "drift_share": d, "drift_tau_s": t,
                                                      "idle": 0.4}
                            for t in (4.0, 8.0) for d in (0.15, 0.3)},
+    # the chosen product default next to the paper
+    "mfcc-dnn-final": {"paper": PAPER, "gv+p0.4": {"variance_restore": True, "drift_share": 0.0, "idle": 0.4},
+                       "gv+d0.15+tau4.0+p0.4": {"variance_restore": True, "drift_share": 0.15, "drift_tau_s": 4.0,
+                                                "idle": 0.4}},
 }
 VARIANTS["cccae"] = {k: VARIANTS["mfcc-dnn"][k] for k in ("paper", "gv+d0.3+p0.4")}
 for s in ("f0e-dnn", "fbank-dnn", "ae-dnn", "wav-dnn"):
@@ -62,7 +66,7 @@ for s in ("f0e-dnn", "fbank-dnn", "ae-dnn", "wav-dnn"):
 
 
 def system_of(name):
-    return name.split("-tau")[0].split("-share")[0]
+    return name.split("-final")[0].split("-tau")[0].split("-share")[0]
 
 
 def train_kwargs(system):
