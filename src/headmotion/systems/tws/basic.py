@@ -45,7 +45,11 @@ class TwsBasic(TwsBase):
     n_components : int, GMM components per speed class (fewer when a class has little data)
     method : "ml", "mmse" or "sample" — how (d, a) is taken from the conditional distribution
     stochastic : "none", "choice" (= "class", the speed class), "params" or "both" — what is
-        sampled (§5.5 modifications; the vocabulary of :mod:`headmotion.systems.base`)
+        sampled (default "params"; §5.5 modifications; the vocabulary of :mod:`headmotion.systems.base`)
+    min_swing_deg : smallest swing (degrees) between extrema when segmenting training motion
+        (0.5; 0 = the thesis's segmentation; see :mod:`headmotion.systems.tws.base`)
+    soft_limit : pull back towards the mean pose before the hard clip (True; False = literal)
+    idle : speed in pauses as a fraction of speech, decided causally (0.4; 1 = no settling)
     feature_block, feature_context : frames per feature block and audio context (streaming)
     seed : default synthesis seed (``predict(seed=None)``)
     random_state : EM initialisation seed (training)
@@ -56,7 +60,8 @@ class TwsBasic(TwsBase):
     name = "tws-basic"
 
     def __init__(self, features="f0e", *, fps: float | None = None, n_components: int = 4,
-                 method: str = "mmse", stochastic: str = "none",
+                 method: str = "mmse", stochastic: str = "params", min_swing_deg: float = 0.5,
+                 soft_limit: bool = True, idle: float = 0.4,
                  feature_block: int = 50, feature_context: int = 20, seed: int | None = 0,
                  random_state: int = 0, n_init: int = 2, blocked: bool = False):
         self.features = features
@@ -64,6 +69,9 @@ class TwsBasic(TwsBase):
         self.n_components = n_components
         self.method = method
         self.stochastic = stochastic
+        self.min_swing_deg = min_swing_deg
+        self.soft_limit = soft_limit
+        self.idle = idle
         self.feature_block = feature_block
         self.feature_context = feature_context
         self.seed = seed
@@ -122,7 +130,7 @@ class TwsBasic(TwsBase):
             m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
             motions.append(np.asarray(m.rotvec))
             feats.append(self._features_full(r.audio, len(m)))
-        data = collect(motions, feats, self.fps_)
+        data = collect(motions, feats, self.fps_, min_swing=float(np.radians(self.min_swing_deg)))
         conf = np.zeros((3, 3), dtype=np.int64)
         for j in range(3):
             a = data[j].arrays()

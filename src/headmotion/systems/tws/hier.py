@@ -119,7 +119,11 @@ class TwsHier(TwsBase):
     hmm_iter : int, Baum–Welch iterations (capped for training speed)
     lm_weight : float, weight of the language-model log probability
     method : "ml", "mmse" or "sample"
-    stochastic : "none", "choice" (= "cluster"), "params" or "both"
+    stochastic : "none", "choice" (= "cluster"), "params" or "both" (default "params": sampled, seeded)
+    min_swing_deg : smallest swing (degrees) between extrema when segmenting training motion
+        (0.5; 0 = the thesis's segmentation; see :mod:`headmotion.systems.tws.base`)
+    soft_limit : pull back towards the mean pose before the hard clip (True; False = literal)
+    idle : speed in pauses as a fraction of speech, decided causally (0.4; 1 = no settling)
     feature_block, feature_context, seed, blocked : see :class:`~headmotion.systems.tws.basic.TwsBasic`
     n_init : int, k-means random restarts
     random_state : int, training seed (k-means, HMM initialisation)
@@ -130,7 +134,8 @@ class TwsHier(TwsBase):
 
     def __init__(self, features="f0e", *, fps: float | None = None, n_clusters: int | None = 4,
                  n_states: int = 5, hmm_iter: int = 10, lm_weight: float = 1.0, method: str = "ml",
-                 stochastic: str = "none", feature_block: int = 50,
+                 stochastic: str = "params", min_swing_deg: float = 0.5,
+                 soft_limit: bool = True, idle: float = 0.4, feature_block: int = 50,
                  feature_context: int = 20, seed: int | None = 0, n_init: int = 10, random_state: int = 0,
                  blocked: bool = False):
         self.features = features
@@ -141,6 +146,9 @@ class TwsHier(TwsBase):
         self.lm_weight = lm_weight
         self.method = method
         self.stochastic = stochastic
+        self.min_swing_deg = min_swing_deg
+        self.soft_limit = soft_limit
+        self.idle = idle
         self.feature_block = feature_block
         self.feature_context = feature_context
         self.seed = seed
@@ -356,7 +364,8 @@ class TwsHier(TwsBase):
             mo = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
             motions.append(np.asarray(mo.rotvec))
             feats.append(self._features_full(r.audio, len(mo)))
-        data = collect(motions, feats, self.fps_, with_frames=True)
+        data = collect(motions, feats, self.fps_, with_frames=True,
+                       min_swing=float(np.radians(self.min_swing_deg)))
         kmax = max(self.templates_[j][t].k for j in range(3) for t in (0, 1))
         conf = {"hmm": np.zeros((kmax, kmax), dtype=np.int64), "gmm": np.zeros((kmax, kmax), dtype=np.int64)}
         D = self.n_features_
