@@ -16,6 +16,8 @@ Product defaults and the thesis's literal behaviour (issue 14; measured in
   become hundreds of 0.1–0.2 s segments; 0 is the thesis's segmentation.  Stored in the model (a
   file without it was trained with 0);
 * ``soft_limit=True`` — the pull back towards the mean pose of :mod:`.limits`; False = hard clip only;
+* ``log_params`` — model (and sample) the duration and amplitude in log space (heavy-tailed like the
+  recordings' segments) instead of linearly as the thesis does;
 * ``idle=0.4`` — in pauses the head's speed is scaled by ``idle``
   (:mod:`headmotion.motion.pauses`, causal mode; the ZEGGS mocap's pause/speech speed ratio is
   0.39); 1 = no settling (the thesis).  Model files written before these parameters load with
@@ -69,11 +71,29 @@ class TwsBase(Synthesizer):
         if isinstance(idle, bool) or not isinstance(idle, (int, float, np.integer, np.floating)) or not 0 <= idle <= 1:
             raise ParameterError(f"the 'idle' parameter of {self.name} must be in [0, 1] (speed in pauses as a "
                                  f"fraction of speech; 1 = no settling); got {idle!r}")
+        if not isinstance(self.log_params, (bool, np.bool_)):
+            raise ParameterError(f"the 'log_params' parameter of {self.name} must be True or False; "
+                                 f"got {self.log_params!r}")
         if not isinstance(self.soft_limit, (bool, np.bool_)):
             raise ParameterError(f"the 'soft_limit' parameter of {self.name} must be True or False; "
                                  f"got {self.soft_limit!r}")
         if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
             raise ParameterError(f"the 'fps' parameter of {self.name} must be a positive number or None; got {self.fps!r}")
+
+    #: smallest amplitude (radians) taken to log space with ``log_params`` (0.006°)
+    _LOG_FLOOR = 1e-4
+
+    def _y_in(self, y: np.ndarray) -> np.ndarray:
+        """Training targets ``(d, a)`` in the space the regression models them (log with ``log_params``)."""
+        y = np.asarray(y, dtype=np.float64)
+        return np.log(np.maximum(y, self._LOG_FLOOR)) if getattr(self, "log_params", False) else y
+
+    def _y_out(self, y) -> tuple[float, float]:
+        """``(d, a)`` back from the regression's space."""
+        y = np.asarray(y, dtype=np.float64)
+        if getattr(self, "log_params", False):
+            y = np.exp(y)
+        return float(y[0]), float(y[1])
 
     @property
     def _stochastic(self) -> str:
@@ -135,7 +155,9 @@ class TwsBase(Synthesizer):
         self.feature_names_ = names
         data = collect(motions, feats, self.fps_, with_frames=self._with_frames,
                        min_swing=float(np.radians(self.min_swing_deg)))
-        self.speech_detector_ = SpeechDetector.fit(feats, masks, random_state=self.random_state)
+        self.speech_detector_ = SpeechDetector.for_features(names, self.normalizer_, self.fps_)
+        if self.speech_detector_ is not None:
+            self.speech_detector_.score(feats, masks)
         n_seg = [len(d.y) for d in data]
         if min(n_seg) < 4:
             raise ParameterError(
@@ -202,6 +224,7 @@ class TwsBase(Synthesizer):
         params.setdefault("min_swing_deg", 0.0)
         params.setdefault("soft_limit", False)
         params.setdefault("idle", 1.0)
+        params.setdefault("log_params", False)
         self.__init__(**params)
         self.fps_ = float(config["fps"])
         self.sample_rate_ = int(config["sample_rate"])

@@ -44,7 +44,7 @@ class Generator:
         idle = float(getattr(system, "idle", 1.0))
         self.settled = 0
         if det is not None and idle < 1.0:
-            self.detector = det
+            self.detector = det.start()
             self.weigher = CausalPauseWeight(fps=fps)
             self.settler = PauseSettler(fps=fps, idle=idle)
         else:
@@ -114,7 +114,7 @@ class Generator:
         if a != self.settled:
             raise RuntimeError(f"render_settled: frames must come in order (expected {self.settled}, got {a})")
         self.settled = b
-        w = self.weigher.push(self.detector.flags(self.F[a:b]))
+        w = self.weigher.push(self.detector.push(self.F[a:b]))
         return self.settler.push(x, w)
 
 
