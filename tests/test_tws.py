@@ -52,8 +52,14 @@ def test_fcca_planted(hier, basic, train, test_rec, feats):
     gt = fcca(test_rec.motion.rotvec, feats, test_rec.motion.rotvec)
     noise = create_anchor("shaped-noise").fit(train)
     nz = np.mean([fcca(test_rec.motion.rotvec, feats, noise.motion_for(test_rec, seed=s).rotvec) for s in range(5)])
-    h = fcca(test_rec.motion.rotvec, feats, hier.predict(test_rec.audio).rotvec)
-    b = fcca(test_rec.motion.rotvec, feats, basic.predict(test_rec.audio).rotvec)
+    # the planted motion does not slow down in the planted audio's pauses, so pause settling
+    # (idle < 1, a product default for real heads) is off for this coupling check
+    hier.set_params(idle=1.0), basic.set_params(idle=1.0)
+    try:
+        h = fcca(test_rec.motion.rotvec, feats, hier.predict(test_rec.audio).rotvec)
+        b = fcca(test_rec.motion.rotvec, feats, basic.predict(test_rec.audio).rotvec)
+    finally:
+        hier.set_params(idle=0.4), basic.set_params(idle=0.4)
     assert gt > 0.1
     assert h >= 0.8 * gt, (h, gt)
     assert h > nz + 0.5 * (gt - nz), (h, nz)
@@ -297,13 +303,13 @@ def test_pauses_settle_causally_and_stream_equals_offline(name, request, test_re
         off = model.set_params(idle=1.0).predict(audio, seed=4).rotvec
         model.set_params(idle=0.4)
         # causal: the same as without the silence until the feature block before it (frame 450)
-        np.testing.assert_array_equal(on[:450], model.predict(speech, seed=4).rotvec[:450])
+        np.testing.assert_allclose(on[:450], model.predict(speech, seed=4).rotvec[:450], rtol=0, atol=1e-12)
         sp = lambda x: np.abs(np.diff(x[560:800], axis=0)).sum(axis=1).mean()  # noqa: E731
         assert sp(on) == pytest.approx(0.4 * sp(off), rel=0.05)   # settled from 0.6 s into the pause
         assert sp(on) < 0.5 * sp(off)
         st = model.stream(seed=4)
         parts = [st.push(audio.samples[i:i + 777]) for i in range(0, len(audio.samples), 777)]
         parts.append(st.flush())
-        np.testing.assert_array_equal(np.vstack([p.rotvec for p in parts]), on)
+        np.testing.assert_allclose(np.vstack([p.rotvec for p in parts]), on, rtol=0, atol=1e-12)
     finally:
         model.set_params(blocked=False, idle=0.4)

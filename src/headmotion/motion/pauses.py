@@ -104,26 +104,39 @@ class CausalPauseWeight:
         self.full = full_s * self.fps
         self.min_speech = max(1, int(round(min_speech_s * self.fps)))
         self.step_down = 1.0 / max(release_s * self.fps, 1.0)
-        self.silence = 0   # frames since the last confirmed speech (counts from the utterance start)
-        self.speech = 0    # consecutive speech frames
-        self.w = 0.0
+        self.t = 0              # frames seen
+        self.last_speech = -1   # last frame with confirmed speech (-1: none yet)
+        self.run = 0            # consecutive speech frames at the end of the last chunk
+        self.peak = -np.inf     # running max of target[k] + step_down * k
 
     def push(self, flags) -> np.ndarray:
-        """Weights of the next frames given their speech flags (True = speech)."""
+        """Weights of the next frames given their speech flags (True = speech).
+
+        ``w[t] = max(target[t], w[t-1] - step)`` with ``target`` the raised-cosine ramp of the
+        frames since the last confirmed speech, computed in closed form as
+        ``max_{k<=t}(target[k] + step k) - step t`` (vectorised, and identical whether the
+        utterance comes in one chunk or many)."""
         f = np.asarray(flags, dtype=bool).ravel()
-        out = np.empty(len(f))
-        span = self.full - self.delay
-        for i, v in enumerate(f.tolist()):
-            self.speech = self.speech + 1 if v else 0
-            if self.speech >= self.min_speech:
-                self.silence = 0
-            else:
-                self.silence += 1
-            u = min(max((self.silence - self.delay) / span, 0.0), 1.0)
-            target = 0.5 * (1.0 - np.cos(np.pi * u))
-            self.w = target if target >= self.w else max(target, self.w - self.step_down)
-            out[i] = self.w
-        return out
+        n = len(f)
+        if n == 0:
+            return np.zeros(0)
+        idx = np.arange(self.t, self.t + n)
+        # speech-run length at every frame (continuing the previous chunk's run)
+        breaks = np.where(~f, idx, self.t - 1 - self.run)
+        last_break = np.maximum.accumulate(breaks)
+        run = np.where(f, idx - last_break, 0)
+        confirmed = np.where(run >= self.min_speech, idx, self.last_speech)
+        last = np.maximum.accumulate(confirmed)
+        silence = idx - last
+        u = np.clip((silence - self.delay) / (self.full - self.delay), 0.0, 1.0)
+        target = 0.5 * (1.0 - np.cos(np.pi * u))
+        m = np.maximum.accumulate(np.maximum(target + self.step_down * idx, self.peak))
+        w = np.maximum(m - self.step_down * idx, target)
+        self.peak = float(m[-1])
+        self.last_speech = int(last[-1])
+        self.run = int(run[-1])
+        self.t += n
+        return w
 
 
 class PauseSettler:
@@ -158,22 +171,37 @@ class PauseSettler:
         rate = 1.0 - (1.0 - self.idle) * w
         decay = np.exp(-(1.0 - w) / (self.relax_s * self.fps))  # the offset decays only outside pauses
         k_pull = 1.0 - np.exp(-self.pull * w / self.fps)
-        start = 0
         if self.prev_x is None:
-            y[0] = x[0]
             self.off = np.zeros(x.shape[1])
-            self.prev_x, self.prev_y = x[0], y[0]
-            start = 1
-        off, px, py = self.off, self.prev_x, self.prev_y
-        for t in range(start, len(x)):
-            dx = x[t] - px
-            off = off * decay[t] + (rate[t] - 1.0) * dx
-            yt = x[t] + off
-            if k_pull[t] > 0:
-                yt = yt - k_pull[t] * (py + rate[t] * dx - self.mu)
-                off = yt - x[t]
-            y[t] = yt
-            px, py = x[t], yt
+            self.prev_x, self.prev_y = x[0], x[0]
+            first = x[:1]
+            k_pull[0] = 0.0  # the utterance's first frame is the motion's
+        else:
+            first = self.prev_x[None]
+        dx = np.diff(np.vstack([first, x]), axis=0)   # dx[0] = 0 for the utterance's first frame
+        u = (rate - 1.0)[:, None] * dx
+        off, py = self.off, self.prev_y
+        if self.pull == 0.0:
+            # off[t] = decay[t] off[t-1] + u[t], in closed form over blocks short enough that the
+            # running product of decays stays far from underflow (>= e^-5)
+            B = max(1, int(5.0 * self.relax_s * self.fps))
+            offs = np.empty_like(x)
+            for b0 in range(0, len(x), B):
+                P = np.cumprod(decay[b0:b0 + B])
+                offs[b0:b0 + B] = P[:, None] * (off + np.cumsum(u[b0:b0 + B] / P[:, None], axis=0))
+                off = offs[min(b0 + B, len(x)) - 1]
+            y = x + offs
+            px, py = x[-1], y[-1]
+        else:
+            for t in range(len(x)):
+                off = off * decay[t] + u[t]
+                yt = x[t] + off
+                if k_pull[t] > 0:
+                    yt = yt - k_pull[t] * (py + rate[t] * dx[t] - self.mu)
+                    off = yt - x[t]
+                y[t] = yt
+                py = yt
+            px = x[-1]
         self.off, self.prev_x, self.prev_y = off, px, py
         return y
 

@@ -3,7 +3,9 @@
 §3, issue 16).  The seeds are silent on pauses.
 
 The detector is the causal counterpart of :func:`headmotion.features.vad.speaking_mask`'s energy
-rule: the feature set's frame energy (column ``energy``; dB for ``f0e``, natural log for
+rule (cheaper: the percentiles are updated every ``update_frames`` (10) frames from every
+``stride`` (5)-th frame of the window, at absolute frame indices so chunking does not matter): the
+feature set's frame energy (column ``energy``; dB for ``f0e``, natural log for
 ``mfcc`` / ``fbank``, converted to dB) is compared with an adaptive threshold
 ``floor + max(min_snr_db, 0.25 (level - floor))`` where ``floor`` and ``level`` are the 10th and
 95th percentiles of the energy over the past ``window_s`` (3 s) of the utterance; where that window
@@ -89,33 +91,56 @@ class SpeechDetector:
 class SpeechTracker:
     """The detector's state over one utterance: push feature frames in order, get their flags."""
 
+    update_frames = 10
+    stride = 5
+
     def __init__(self, det: SpeechDetector):
         self.det = det
         self.W = max(2, int(round(det.window_s * det.fps)))
-        self.hist = np.zeros(0)
+        self.e = np.zeros(0)       # the utterance's energies so far (dB)
+        self.stats = (np.nan, np.nan)  # (floor, level) of the latest update
+
+    def _window(self, u: int) -> np.ndarray:
+        return self.e[max(0, u - self.W + 1): u + 1][::-1][:: self.stride]
 
     def push(self, F: np.ndarray) -> np.ndarray:
         if len(F) == 0:
             return np.zeros(0, dtype=bool)
         e = self.det.energy_db(F)
-        allv = np.concatenate([self.hist, e])
-        h = len(self.hist)
-        floor = np.empty(len(e))
-        level = np.empty(len(e))
-        # frames whose window is still shorter than W (the utterance's first W frames)
-        n_short = max(0, min(len(e), self.W - 1 - h + 1))
-        for i in range(n_short):
-            w = allv[: h + i + 1]
-            floor[i], level[i] = np.percentile(w, (10, 95))
-        if n_short < len(e):
-            win = sliding_window_view(allv, self.W)[h + n_short - self.W + 1:]
-            p = np.percentile(win, (10, 95), axis=1)
-            floor[n_short:], level[n_short:] = p[0], p[1]
+        t0 = len(self.e)
+        self.e = np.concatenate([self.e, e])
+        n = len(e)
+        K = self.update_frames
+        floor = np.empty(n)
+        level = np.empty(n)
+        # the first K-1 frames of the utterance: their own (short) windows
+        for i in range(0, max(0, min(n, K - 1 - t0))):
+            floor[i], level[i] = np.percentile(self._window(t0 + i), (10, 95))
+        # update points u ((u+1) % K == 0) inside the chunk; frames use the latest update <= t
+        lo = max(t0, K - 1)
+        ups = np.arange(lo + (-(lo + 1)) % K, t0 + n, K)
+        if len(ups):
+            full = ups[ups >= self.W - 1]
+            part = ups[ups < self.W - 1]
+            st = np.empty((len(ups), 2))
+            for k, u in enumerate(part):
+                st[k] = np.percentile(self._window(int(u)), (10, 95))
+            if len(full):
+                idx = full[:, None] - np.arange(0, self.W, self.stride)[None, :]
+                st[len(part):] = np.percentile(self.e[idx], (10, 95), axis=1).T
+        i0 = max(0, K - 1 - t0)
+        if i0 < n:
+            tt = np.arange(t0 + i0, t0 + n)
+            j = np.searchsorted(ups, tt, side="right") - 1
+            prev = np.asarray(self.stats)
+            got = st[np.maximum(j, 0)] if len(ups) else np.tile(prev, (len(tt), 1))
+            got = np.where((j >= 0)[:, None], got, prev[None, :])
+            floor[i0:], level[i0:] = got[:, 0], got[:, 1]
+        if len(ups):
+            self.stats = (float(st[-1, 0]), float(st[-1, 1]))
         rng = level - floor
         thr = floor + np.maximum(self.det.min_snr_db, 0.25 * rng)
-        out = np.where(rng < self.det.min_snr_db, e > self.det.silence_db, e > thr)
-        self.hist = allv[-(self.W - 1):]
-        return out
+        return np.where(rng < self.det.min_snr_db, e > self.det.silence_db, e > thr)
 
 
 __all__ = ["SpeechDetector", "SpeechTracker"]
