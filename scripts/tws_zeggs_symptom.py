@@ -80,14 +80,12 @@ def main():
             for tag, seed, col in (("before", 0, "tab:red"), ("after", 0, "tab:blue"), ("after", 1, "tab:green")):
                 pyr, mask, fps = out[(name, tag, seed)]
                 t = np.arange(len(pyr)) / fps
-                for j, ls in ((1, "-"), (0, ":")):
-                    axes[2 * k + (0 if j == 1 else 1)].plot(t, pyr[:, j], color=col, ls="-", lw=1,
+                for j in (1, 0):  # yaw, then pitch
+                    axes[2 * k + (0 if j == 1 else 1)].plot(t, pyr[:, j], color=col, lw=1,
                                                             label=f"{tag} seed {seed}")
             for ax, ax_name in zip(axes[2 * k:2 * k + 2], ("yaw", "pitch")):
                 for s0, s1 in _runs(~mask):
                     ax.axvspan(s0 / fps, s1 / fps, color="0.9", lw=0)
-                lim = models[(name, "after")].limits_
-                j = 1 if ax_name == "yaw" else 0
                 ax.set_ylabel(f"{name}\n{ax_name} (°)")
         axes[0].legend(fontsize=8, ncol=3, loc="upper right")
         axes[-1].set_xlabel(f"s — {f.name}, trained on the whole ZEGGS take (grey: no speech)")
