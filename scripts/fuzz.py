@@ -522,7 +522,7 @@ def replay(directory: Path, worker: Worker) -> list[tuple[Path, dict]]:
 
 
 def fuzz(minutes: float, formats, *, worker: Worker, save_crashes: Path | None = None,
-         seed: int = 0, log=print) -> dict:
+         seed: int = 0, log=print, inputs: int | None = None) -> dict:
     rng = random.Random(seed)
     table: dict = {}
     crashes: dict = {}
@@ -535,7 +535,7 @@ def fuzz(minutes: float, formats, *, worker: Worker, save_crashes: Path | None =
                 raise RuntimeError(f"seed {f} does not read: {r}")
         end = time.monotonic() + minutes * 60
         n = 0
-        while time.monotonic() < end:
+        while (time.monotonic() < end) if inputs is None else (n < inputs):
             fmt = formats[n % len(formats)]
             cls = rng.choice(classes_for(fmt))
             data = mutate(fmt, seeds[fmt], cls, random.Random(rng.getrandbits(64)))
@@ -568,6 +568,7 @@ def format_table(table: dict) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--minutes", type=float, default=1.0)
+    ap.add_argument("--inputs", type=int, help="stop after this many inputs (instead of --minutes)")
     ap.add_argument("--formats", default=",".join(FORMATS))
     ap.add_argument("--mem-mb", type=int, default=2048)
     ap.add_argument("--timeout", type=float, default=20.0)
@@ -591,7 +592,8 @@ def main(argv=None) -> int:
             return 1 if bad else 0
         formats = [f.strip() for f in a.formats.split(",") if f.strip()]
         t0 = time.monotonic()
-        res = fuzz(a.minutes, formats, worker=w, save_crashes=a.save_crashes, seed=a.seed)
+        res = fuzz(a.minutes, formats, worker=w, save_crashes=a.save_crashes, seed=a.seed,
+                    inputs=a.inputs)
     finally:
         w.close()
     n_crash = sum(c["crash"] for c in res["table"].values())

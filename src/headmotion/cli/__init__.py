@@ -97,8 +97,12 @@ def main(argv: list[str] | None = None) -> int:
 
             traceback.print_exc()
         return _handle(exc, debug)
-    # click (standalone_mode=False) returns the exit code of ctx.exit() / typer.Exit
-    return ret if isinstance(ret, int) and not isinstance(ret, bool) else 0
+    # click (standalone_mode=False) returns the exit code of ctx.exit() / typer.Exit; typer turns
+    # Ctrl-C into Exit(130)
+    code = ret if isinstance(ret, int) and not isinstance(ret, bool) else 0
+    if code == EXIT_INTERRUPTED:
+        err_console.print("[bold red]interrupted[/]", highlight=False)
+    return code
 
 
 def _handle(exc: Exception, debug: bool) -> int:
@@ -112,7 +116,10 @@ def _handle(exc: Exception, debug: bool) -> int:
         code = getattr(exc, "exit_code", EXIT_USAGE)
         return code if isinstance(code, int) and code else EXIT_USAGE
     if _is_click(exc, "Exit"):
-        return int(getattr(exc, "exit_code", 0) or 0)
+        code = int(getattr(exc, "exit_code", 0) or 0)
+        if code == EXIT_INTERRUPTED:
+            err_console.print("[bold red]interrupted[/]", highlight=False)
+        return code
     if _is_click(exc, "Abort"):  # Ctrl-C / Ctrl-D at a prompt
         err_console.print("[bold red]aborted[/]", highlight=False)
         return EXIT_INTERRUPTED

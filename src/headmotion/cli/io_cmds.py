@@ -17,7 +17,7 @@ from typing import List, Optional
 import typer
 from rich.markup import escape
 
-from ..errors import ParameterError
+from ..errors import FormatError, ParameterError
 from .app import app, console, print_warning
 
 AUDIO_EXT = {".wav", ".flac", ".ogg", ".mp3", ".mp4", ".mkv", ".mpg", ".m4a", ".aac", ".opus", ".webm", ".aiff", ".aif"}
@@ -97,6 +97,9 @@ def info(
         from ..io.motion import motion_info
 
         d = {"kind": "motion", **motion_info(file)}
+        if d.get("n_frames") is None and str(d.get("head_motion", "")).startswith("unavailable: "):
+            # nothing but the reader's complaint is known about this file: that is the error
+            raise FormatError(str(d["head_motion"])[len("unavailable: "):])
     if as_json:
         console.print_json(json.dumps(d, default=str))
         return
