@@ -231,6 +231,11 @@ def _mutate_text(data: bytes, cls: str, rng: random.Random, fmt: str) -> bytes:
                    "csv": text.find("\n") + 1}.get(fmt, len(lines[0]) + 1 + (len(lines[1]) if len(lines) > 1 else 0))
             limit = max(cut, 1)
         spans = _num_spans(text, limit)
+        if cls == "header" and fmt == "bvh":  # the declared counts and rate, not the offsets
+            import re
+
+            decl = [m.span(1) for m in re.finditer(r"(?m)^\s*(?:Frames:|Frame Time:|CHANNELS)\s*(\S+)", text)]
+            spans = decl or spans
         if not spans:
             return _mutate_bytes(data, "flip", rng)
         a, b = rng.choice(spans)
@@ -515,9 +520,21 @@ class Worker:
 def replay(directory: Path, worker: Worker) -> list[tuple[Path, dict]]:
     """Read every file under ``directory`` (``<fmt>/<name>``) and return the outcomes."""
     out = []
-    for p in sorted(directory.rglob("*")):
-        if p.is_file() and p.parent.name in FORMATS:
-            out.append((p, worker.run(p.parent.name, str(p))))
+    with tempfile.TemporaryDirectory() as tmp:
+        for p in sorted(directory.rglob("*")):
+            if p.is_file() and p.parent.name in FORMATS:
+                out.append((p, worker.run(p.parent.name, str(corpus_file(p, Path(tmp))))))
+    return out
+
+
+def corpus_file(p: Path, tmp: Path) -> Path:
+    """A corpus entry as a readable file: large inputs are stored gzipped (``NAME.EXT.gz``)."""
+    if p.suffix != ".gz":
+        return p
+    import gzip
+
+    out = tmp / p.name[:-3]
+    out.write_bytes(gzip.decompress(p.read_bytes()))
     return out
 
 
@@ -553,7 +570,13 @@ def fuzz(minutes: float, formats, *, worker: Worker, save_crashes: Path | None =
                         d = save_crashes / fmt
                         d.mkdir(parents=True, exist_ok=True)
                         digest = hashlib.sha1(data).hexdigest()[:12]
-                        (d / f"{cls}-{digest}{FORMATS[fmt]}").write_bytes(data)
+                        name = f"{cls}-{digest}{FORMATS[fmt]}"
+                        if len(data) > 16384:  # stored gzipped: corpus_file() unpacks it
+                            import gzip
+
+                            (d / f"{name}.gz").write_bytes(gzip.compress(data, 9, mtime=0))
+                        else:
+                            (d / name).write_bytes(data)
             n += 1
     return {"inputs": n, "table": table, "crashes": crashes}
 

@@ -119,7 +119,7 @@ class MotiveCSV:
         # NaN/inf cells are gaps like empty cells; absurd magnitudes are damage
         vals = self.data[:, 2:]
         with np.errstate(invalid="ignore"):
-            huge = np.abs(vals) > _MAX_COORD
+            huge = np.isfinite(vals) & (np.abs(vals) > _MAX_COORD)
         if huge.any():
             r, c = np.argwhere(huge)[0]
             raise FormatError(f"the value {vals[r, c]:g} in column {c + 3} is not a plausible coordinate "
