@@ -116,6 +116,53 @@ def check_header(path: Path) -> None:
     if need > size:
         raise FormatError(f"the header declares {n_frames} frames of {n_points} points and {n_analog} analog "
                           f"values ({need} bytes) but the file holds {size} bytes (truncated?)", path=path)
+    with open(path, "rb") as fh:
+        fh.seek((param_block - 1) * 512)
+        params = fh.read((data_block - param_block) * 512 if data_block > param_block else 512 * 255)
+    _check_parameter_chain(params, endian, path)
+
+
+def _check_parameter_chain(buf: bytes, endian: str, path: Path) -> None:
+    """Walk the parameter section's records (each names the offset of the next) and check that
+    every record and its data lie inside the section and that the chain moves forward, so that a
+    damaged section is an error here instead of a hang in the C++ reader."""
+    if len(buf) < 4:
+        raise FormatError("the parameter section is cut short", path=path)
+    n_blocks = buf[2]
+    end = min(len(buf), max(n_blocks, 1) * 512)
+    pos = 4
+    while pos + 2 <= end:
+        n = int.from_bytes(buf[pos:pos + 1], "little", signed=True)
+        if n == 0:
+            return
+        gid = int.from_bytes(buf[pos + 1:pos + 2], "little", signed=True)
+        off_at = pos + 2 + abs(n)
+        if off_at + 2 > end:
+            raise FormatError(f"a parameter record at byte {pos} runs past the parameter section", path=path)
+        off = int.from_bytes(buf[off_at:off_at + 2], "big" if endian == ">" else "little", signed=True)
+        nxt = off_at + off if off != 0 else end
+        if off != 0 and not (off_at < nxt <= end):
+            raise FormatError(f"a parameter record at byte {pos} points to byte {nxt}, outside the parameter "
+                              f"section ({end} bytes)", path=path)
+        if gid > 0:  # a parameter: type, dimensions and data must fit before the next record
+            q = off_at + 2
+            if q + 2 > nxt:
+                raise FormatError(f"parameter record at byte {pos} is cut short", path=path)
+            kind = int.from_bytes(buf[q:q + 1], "little", signed=True)
+            ndim = buf[q + 1]
+            if kind not in (-1, 1, 2, 4) or q + 2 + ndim > nxt:
+                raise FormatError(f"parameter record at byte {pos} has type {kind} and {ndim} dimensions; "
+                                  f"expected type -1, 1, 2 or 4", path=path)
+            count = 1
+            for d in buf[q + 2:q + 2 + ndim]:
+                count *= d
+            if q + 2 + ndim + abs(kind) * count > nxt:
+                raise FormatError(f"parameter record at byte {pos} declares {abs(kind) * count} bytes of data "
+                                  f"that do not fit before the next record", path=path)
+        if off == 0:
+            return
+        pos = nxt
+    raise FormatError("the parameter section has no end record", path=path)
 
 
 def _get(labels, pts, names, what, path):
