@@ -170,19 +170,26 @@ class Guard:
                 return await _plain(send, 413, f"request body larger than {self.max_body} bytes")
         api = scope.get("path", "").startswith("/api/")
         seen = 0
-        started = False
+        started = refused = False
 
         async def limited_receive():
-            nonlocal seen
+            nonlocal seen, refused
+            if refused:
+                return {"type": "http.disconnect"}
             msg = await receive()
             if msg["type"] == "http.request":
                 seen += len(msg.get("body", b""))
-                if seen > self.max_body:
-                    raise _BodyTooLarge()
+                if seen > self.max_body:  # a streamed body over the limit: answer 413 ourselves
+                    refused = True
+                    if not started:
+                        await _plain(send, 413, f"request body larger than {self.max_body} bytes")
+                    return {"type": "http.disconnect"}
             return msg
 
         async def send_with_headers(msg):
             nonlocal started
+            if refused:  # the 413 has been sent; whatever the app answers is dropped
+                return
             if msg["type"] == "http.response.start":
                 started = True
                 hs = [h for h in msg.get("headers", []) if h[0].lower() not in dict(SECURITY_HEADERS)]
@@ -194,13 +201,9 @@ class Guard:
 
         try:
             await self.app(scope, limited_receive, send_with_headers)
-        except _BodyTooLarge:
-            if not started:
-                await _plain(send, 413, f"request body larger than {self.max_body} bytes")
-
-
-class _BodyTooLarge(Exception):
-    pass
+        except Exception:
+            if not refused:
+                raise
 
 
 async def _plain(send, status: int, text: str) -> None:
@@ -209,6 +212,11 @@ async def _plain(send, status: int, text: str) -> None:
                 "headers": [(b"content-type", b"application/json"),
                             (b"content-length", str(len(body)).encode()), *SECURITY_HEADERS]})
     await send({"type": "http.response.body", "body": body})
+
+
+class SessionBody(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    token: str = Field(max_length=512)
 
 
 def _bad(msg: str, code: int = 422):
@@ -433,10 +441,6 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
         header = request.headers.get("x-csrf-token", "")
         if not cookie or not header or not secrets.compare_digest(cookie.encode(), header.encode()):
             raise HTTPException(status_code=403, detail="missing or wrong CSRF token")
-
-    class SessionBody(BaseModel):
-        model_config = ConfigDict(extra="forbid")
-        token: str = Field(max_length=512)
 
     @app.post("/api/admin/session")
     def admin_login(body: SessionBody, request: Request):
