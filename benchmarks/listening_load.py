@@ -59,8 +59,9 @@ class ServerProc:
     """``headmotion listen serve`` in its own process group."""
 
     def __init__(self, config: Path, database: str, *, workers: int = 1, port: int | None = None,
-                 extra: tuple[str, ...] = ()):
+                 extra: tuple[str, ...] = (), sync: str = "full"):
         self.config, self.database, self.workers, self.extra = config, database, workers, extra
+        self.sync = sync
         self.port = port or free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.start()
@@ -72,7 +73,7 @@ class ServerProc:
         env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "headmotion", "listen", "serve", str(self.config), "--port", str(self.port),
-             "--database", self.database, "--admin-token", ADMIN, "--workers", str(self.workers), *self.extra],
+             "--database", self.database, "--admin-token", ADMIN, "--workers", str(self.workers), "--sync", self.sync, *self.extra],
             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True, env=env)
         deadline = time.time() + 120
         ok = 0

@@ -30,6 +30,9 @@ def serve(
              "allowed."),
     workers: int = typer.Option(1, min=1, max=64, help="Server processes (SQLite: WAL + busy "
                                                         "timeout; PostgreSQL: row locks)."),
+    sync: str = typer.Option("full", help="SQLite commits: 'full' (fsync per answer; survives a power "
+                                          "cut) or 'normal' (survives a killed server, not a power cut; "
+                                          "faster on slow disks)."),
 ) -> None:
     """Run a listening test (MOS with reference, MUSHRA or A/B) in the browser."""
     import secrets
@@ -40,12 +43,16 @@ def serve(
     from ..listening.app import create_app
     from ..listening.config import load_config
 
+    from ..errors import ParameterError
+
+    if sync not in ("full", "normal"):
+        raise ParameterError(f"--sync must be 'full' or 'normal'; got {sync!r}")
     cfg = load_config(config)
     token = admin_token or cfg.admin_token or os.environ.get("HEADMOTION_ADMIN_TOKEN") or secrets.token_urlsafe(16)
     # one app in this process: checks the configuration, creates the database and its secret
     # before any worker starts (so that workers never race to create them)
     app = create_app(cfg, database_url=database, admin_token=token, allowed_hosts=allowed_host,
-                     served_host=host)
+                     served_host=host, durable=sync == "full")
     shown = "localhost" if host in ("0.0.0.0", "::") else host
     console.print(f"[bold]{escape(cfg.title)}[/] ({cfg.type}, {cfg.n_trials} trials per participant)")
     console.print(f"participants: http://{escape(shown)}:{port}/", highlight=False)
@@ -66,6 +73,7 @@ def serve(
         "HEADMOTION_ADMIN_TOKEN": token,
         "HEADMOTION_LISTEN_ALLOWED_HOSTS": ",".join(allowed_host or ()),
         "HEADMOTION_LISTEN_HOST": host,
+        "HEADMOTION_LISTEN_SYNC": sync,
     })
     uvicorn.run("headmotion.listening.app:app_from_env", factory=True, workers=workers, **common)
 

@@ -34,8 +34,9 @@ Hardening (issue 18 item 4), one ASGI middleware (:class:`Guard`) in front of ev
   while a chunked body streams in.
 * **Cross-site writes** — a POST whose ``Origin`` is not this server gets 403.
 * **Registration** — at most ``registrations_per_address`` new participants per client address
-  per ``registration_window_s`` (429) and at most ``max_participants`` in all (403 "full"), both
-  from the configuration and both counted in the database, so they hold over several workers.
+  per ``registration_window_s`` (429; loopback addresses — participants at the experimenter's own
+  machine — are not limited) and at most ``max_participants`` in all (403 "full"), both from the
+  configuration and both counted in the database, so they hold over several workers.
 
 Libraries considered: webMUSHRA and HEMVIP (PHP/JS test frameworks for audio and gesture; not
 embeddable in a Python package, no head viewer), Flask (no request validation built in).
@@ -116,6 +117,15 @@ def split_host(value: str) -> str:
     if v.count(":") == 1:
         v = v.split(":", 1)[0]
     return v.rstrip(".")
+
+
+def _is_loopback(addr: str) -> bool:
+    import ipaddress
+
+    try:
+        return ipaddress.ip_address(addr).is_loopback
+    except ValueError:
+        return False
 
 
 def default_allowed_hosts(served: str | None = None) -> set[str]:
@@ -225,7 +235,7 @@ def _bad(msg: str, code: int = 422):
 
 def create_app(cfg: TestConfig, *, database_url: str | None = None,
                admin_token: str | None = None, allowed_hosts=None, served_host: str | None = None,
-               max_body: int = MAX_BODY):
+               max_body: int = MAX_BODY, durable: bool = True):
     """Build the app for one test.
 
     Parameters
@@ -242,13 +252,16 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
         ``served_host`` (the address the server listens on).
     max_body : int
         Largest request body accepted (bytes).
+    durable : bool
+        SQLite: ``synchronous=FULL`` (default; an acknowledged answer survives a power cut) or
+        ``NORMAL`` (survives a killed server, not a power cut; no fsync per answer).
 
     Returns the ASGI app (the FastAPI app wrapped in :class:`Guard`); the FastAPI app's state
     (``cfg``, ``db``, ``admin_token``, ``database_url``, ``allowed_hosts``) is on ``.state`` of
     both.
     """
     url = database_url or cfg.database or cfg.default_database_url()
-    db = Database(url)
+    db = Database(url, durable=durable)
     previous = db.get_meta("config")
     if previous and previous.get("digest") != cfg.digest and db.progress():
         import warnings
@@ -323,7 +336,9 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
             _bad("consent is required to take part", 400)
         first = "demographics" if cfg.demographics else "instructions"
         client = request.client.host if request.client else ""
-        addr = hmac.new(secret, b"addr:" + client.encode(), hashlib.sha256).hexdigest()[:32]
+        # the lab machine itself (participants at the experimenter's computer) is not limited
+        addr = "" if _is_loopback(client) else \
+            hmac.new(secret, b"addr:" + client.encode(), hashlib.sha256).hexdigest()[:32]
         try:
             p = db.create_participant(lambda n: make_plan(cfg, n),
                                       user_agent=request.headers.get("user-agent", ""), stage=first,
@@ -347,7 +362,10 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
 
     @app.get("/api/p/{token}/state")
     def state(token: str):
-        p = _participant(token)
+        try:
+            p = db.progress_of(token)
+        except NotFound:
+            raise HTTPException(status_code=404, detail="unknown participant") from None
         out: dict[str, Any] = {"stage": p["stage"],
                                "progress": {"done": p["next_trial"], "total": p["n_trials"]}}
         if p["stage"] == "trials" and p["next_trial"] < p["n_trials"]:
@@ -488,15 +506,16 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
 def app_from_env():
     """Factory for ``uvicorn --factory`` worker processes (``listen serve --workers N``): the
     settings come from ``HEADMOTION_LISTEN_CONFIG``, ``HEADMOTION_LISTEN_DATABASE``,
-    ``HEADMOTION_ADMIN_TOKEN``, ``HEADMOTION_LISTEN_ALLOWED_HOSTS`` (comma-separated) and
-    ``HEADMOTION_LISTEN_HOST``, set by the parent process."""
+    ``HEADMOTION_ADMIN_TOKEN``, ``HEADMOTION_LISTEN_ALLOWED_HOSTS`` (comma-separated),
+    ``HEADMOTION_LISTEN_HOST`` and ``HEADMOTION_LISTEN_SYNC``, set by the parent process."""
     from .config import load_config
 
     cfg = load_config(os.environ["HEADMOTION_LISTEN_CONFIG"])
     hosts = [h for h in os.environ.get("HEADMOTION_LISTEN_ALLOWED_HOSTS", "").split(",") if h]
     return create_app(cfg, database_url=os.environ.get("HEADMOTION_LISTEN_DATABASE") or None,
                       admin_token=os.environ.get("HEADMOTION_ADMIN_TOKEN") or None,
-                      allowed_hosts=hosts, served_host=os.environ.get("HEADMOTION_LISTEN_HOST"))
+                      allowed_hosts=hosts, served_host=os.environ.get("HEADMOTION_LISTEN_HOST"),
+                      durable=os.environ.get("HEADMOTION_LISTEN_SYNC", "full") != "normal")
 
 
 def _viewer_module() -> str | None:

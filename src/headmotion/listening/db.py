@@ -257,6 +257,20 @@ class Database:
         d["demographics"] = json.loads(d["demographics"])
         return d
 
+    def progress_of(self, token: str) -> dict[str, Any]:
+        """``{"id", "stage", "next_trial", "n_trials", "plan"}`` — the per-request state, with the
+        (immutable) plan from the in-memory cache: one small indexed SELECT."""
+        if not isinstance(token, str) or not token or len(token) > 64:
+            raise NotFound(token)
+        with self.engine.connect() as c:
+            row = c.execute(sa.select(participants.c.id, participants.c.stage, participants.c.next_trial,
+                                      participants.c.n_trials).where(participants.c.token == token)).first()
+        if row is None:
+            raise NotFound(token)
+        d = dict(row._mapping)
+        d["plan"] = self.plan(token)[1]
+        return d
+
     def set_stage(self, token: str, *, expect: str, stage: str,
                   demographics: dict | None = None) -> None:
         with self._lock, self.engine.begin() as c:
