@@ -160,7 +160,7 @@ class _Bounded(io.RawIOBase):
     def readinto(self, b) -> int:
         if self.left <= 0:
             if self.raw.read(1):
-                raise FormatError(f"member {self.name!r} holds more data than its declared size")
+                raise zipfile.BadZipFile(f"member {self.name!r} holds more data than its declared size")
             return 0
         n = min(len(b), self.left)
         chunk = self.raw.read(n)

@@ -143,7 +143,7 @@ def load_model_file(path, *, expect_system: str | None = None) -> tuple[dict[str
                 raise ModelFileError(str(exc)) from None
             check_config(config, path)
             with zf.open(infos["arrays.npz"]) as fh:
-                arrays = load_npz_arrays(_Spool(fh, infos["arrays.npz"].file_size), path=path,
+                arrays = load_npz_arrays(_Spool(fh, infos["arrays.npz"].file_size, path), path=path,
                                          max_bytes=MAX_ARRAYS_BYTES, error=ModelFileError)
     except ModelFileError:
         raise
@@ -167,7 +167,7 @@ def load_model_file(path, *, expect_system: str | None = None) -> tuple[dict[str
     return config, arrays
 
 
-def _Spool(fh, size: int):
+def _Spool(fh, size: int, path=None):
     """The inner ``arrays.npz`` as a seekable file (zipfile needs to seek), read at most ``size``
     bytes (its declared size, already bounded) into a spooled temporary file."""
     import tempfile
@@ -180,7 +180,7 @@ def _Spool(fh, size: int):
             break
         left -= len(chunk)
         if left < 0:
-            raise ModelFileError("arrays.npz holds more data than its declared size")
+            raise ModelFileError(f"{path}: arrays.npz holds more data than its declared size")
         tmp.write(chunk)
     tmp.seek(0)
     return tmp
