@@ -91,6 +91,24 @@ class ServerProc:
             time.sleep(0.2)
         raise RuntimeError("server did not start")
 
+    def cpu_seconds(self) -> float:
+        """CPU time (user + system) used so far by the server's processes (master and workers)."""
+        import psutil
+
+        try:
+            root = psutil.Process(self.proc.pid)
+            procs = [root] + root.children(recursive=True)
+        except psutil.Error:
+            return float("nan")
+        total = 0.0
+        for p in procs:
+            try:
+                t = p.cpu_times()
+                total += t.user + t.system
+            except psutil.Error:
+                pass
+        return total
+
     def kill(self):
         """SIGKILL the whole server (the master and every worker)."""
         os.killpg(self.proc.pid, signal.SIGKILL)
@@ -187,15 +205,20 @@ async def run_panel(url: str, n: int, *, think_s: float = 0.05, sent=None, laten
     return sent, latencies, errors, registered
 
 
-def load(url: str, n: int, *, think_s: float = 0.05) -> dict:
-    """Run ``n`` participants to the end; figures and what was acknowledged."""
+def load(url: str, n: int, *, think_s: float = 0.05, server: ServerProc | None = None) -> dict:
+    """Run ``n`` participants to the end; figures and what was acknowledged.  With ``server``,
+    also the server's CPU seconds per answer (state GET + answer POST, registration included):
+    a figure that does not depend on what else the machine is doing."""
     import numpy as np
 
+    cpu0 = server.cpu_seconds() if server is not None else float("nan")
     t0 = time.perf_counter()
     sent, lat, errors, registered = asyncio.run(run_panel(url, n, think_s=think_s))
     elapsed = time.perf_counter() - t0
+    cpu = (server.cpu_seconds() - cpu0) if server is not None else float("nan")
     lat_ms = np.array(lat) * 1000
     return {"participants": n, "answers": len(sent), "seconds": elapsed, "answers_per_s": len(sent) / elapsed,
+            "server_cpu_ms_per_answer": 1000 * cpu / max(len(sent), 1),
             "p50_ms": float(np.percentile(lat_ms, 50)) if len(lat_ms) else float("nan"),
             "p95_ms": float(np.percentile(lat_ms, 95)) if len(lat_ms) else float("nan"),
             "errors": errors, "sent": sent, "registered": registered}

@@ -275,13 +275,15 @@ def bench_server(res: Results, quick: bool):
             db = f"sqlite:///{Path(tmp) / 'bench.sqlite'}"
             srv = L.ServerProc(cfg, db, workers=workers)
             try:
-                r = L.load(srv.url, n, think_s=0.05)
+                r = L.load(srv.url, n, think_s=0.05, server=srv)
                 L.check_stored(srv.answers(), r["sent"], L.pid_by_token(db))
             finally:
                 srv.stop()
         what = f"SQLite, {workers} worker{'s' if workers > 1 else ''}, {n} participants x {items} trials"
         res.add(Row("9 server", f"{what}: answers/s", r["answers_per_s"], "answers/s", "-", None,
-                    f"{r['answers']} answers in {r['seconds']:.0f} s, {len(r['errors'])} errors, all stored once"))
+                    f"{r['answers']} answers in {r['seconds']:.0f} s, {len(r['errors'])} errors, all stored once; "
+                    f"server CPU {r['server_cpu_ms_per_answer']:.1f} ms per answer; load average "
+                    f"{os.getloadavg()[0]:.1f}"))
         res.add(Row("9 server", f"{what}: answer p95", r["p95_ms"], "ms", "<= 250 ms", r["p95_ms"] <= 250,
                     f"p50 {r['p50_ms']:.0f} ms; 50 ms between answers; client on the same cores"))
 
