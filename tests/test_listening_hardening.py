@@ -240,3 +240,29 @@ def test_sigkill_of_the_whole_server_mid_load_loses_nothing_acknowledged(tmp_pat
         L.check_stored(answers, sent, L.pid_by_token(db))  # every acknowledged answer is there, once
     finally:
         srv.stop()
+
+
+@pytest.mark.slow
+def test_4_workers_on_postgresql(tmp_path, request):
+    """The same load through ``--database postgresql://...`` with 4 workers (a throwaway cluster,
+    as in test_listening_server.py; skipped when PostgreSQL is not installed)."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_listening_server as tls
+
+    gen = tls.postgres_url.__wrapped__() if hasattr(tls.postgres_url, "__wrapped__") else None
+    url = next(gen)
+    try:
+        cfg = L.make_test_dir(tmp_path / "t", n_items=4)
+        srv = L.ServerProc(cfg, url, workers=4)
+        try:
+            res = L.load(srv.url, 100, think_s=0.05)
+            assert res["errors"] == []
+            answers = srv.answers()
+            L.check_stored(answers, res["sent"], L.pid_by_token(url.replace("postgresql://", "postgresql+psycopg://")))
+            assert len(answers) == 100 * 4 * 4
+        finally:
+            srv.stop()
+    finally:
+        gen.close()

@@ -142,7 +142,9 @@ class Database:
             if u.drivername == "postgresql":
                 u = u.set(drivername="postgresql+psycopg")
             try:
-                self.engine = sa.create_engine(u, pool_size=10, max_overflow=20,
+                # at most 15 connections per server process, so that --workers 4 stays well
+                # inside PostgreSQL's default max_connections (100)
+                self.engine = sa.create_engine(u, pool_size=5, max_overflow=10, pool_timeout=60,
                                                pool_pre_ping=True)
             except ModuleNotFoundError as exc:
                 raise MissingDependencyError(
