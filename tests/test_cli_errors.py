@@ -294,13 +294,11 @@ def test_ctrl_c_leaves_nothing_half_written(long_bvh, tmp_path, delay):
     _, err = proc.communicate(timeout=120)
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names == ["out.csv"], names  # no .part file left
+    assert proc.returncode in (0, 130, -signal.SIGINT), (proc.returncode, err)
     if proc.returncode == 130:
         assert "interrupted" in err and "Traceback" not in err
-        assert out.read_text() == "precious"
-    elif proc.returncode == -signal.SIGINT:
-        assert out.read_text() == "precious"
-    else:  # finished before the signal: a complete file
-        assert proc.returncode == 0, err
+    # the old output, or (signal after the rename) the complete new one — never a part of it
+    if out.read_text() != "precious":
         from headmotion.io.native import load_csv
 
         assert len(load_csv(out)) == 60_000
