@@ -12,7 +12,8 @@ with head motion made by a known template-warping process driven by that speech.
 which speech was used.  Video → pose needs a real talking-face video (../shared/data); the row is
 skipped with a reason when it is absent.
 
-Groups: features, synth, stream, train, memory, render, video, evaluate.
+Groups: features, synth, stream, train, memory, render, video, evaluate, server (the listening-test
+server under simulated participants; skipped by a bare ``--quick``).
 ``--quick`` runs a reduced set (short corpora, fewer repeats) in under 3 minutes.
 """
 
@@ -366,7 +367,36 @@ def bench_evaluate(res: Results, quick: bool):
     del local
 
 
-GROUPS = ("features", "synth", "stream", "train", "memory", "render", "video", "evaluate")
+def bench_server(res: Results, quick: bool):
+    """Listening-test server (issue 18 item 4): simulated participants answering every 50 ms over
+    HTTP (``benchmarks/listening_load.py``), SQLite, 1 and 4 worker processes; the load client
+    runs on the same machine."""
+    import tempfile
+
+    import listening_load as L
+
+    n = 100 if quick else 300
+    items = 4 if quick else 8
+    for workers in (1, 4):
+        with tempfile.TemporaryDirectory() as tmp:
+            cfg = L.make_test_dir(Path(tmp) / "t", n_items=items)
+            db = f"sqlite:///{Path(tmp) / 'bench.sqlite'}"
+            srv = L.ServerProc(cfg, db, workers=workers)
+            try:
+                r = L.load(srv.url, n, think_s=0.05, server=srv)
+                L.check_stored(srv.answers(), r["sent"], L.pid_by_token(db))
+            finally:
+                srv.stop()
+        what = f"SQLite, {workers} worker{'s' if workers > 1 else ''}, {n} participants x {items} trials"
+        res.add(Row("9 server", f"{what}: answers/s", r["answers_per_s"], "answers/s", "-", None,
+                    f"{r['answers']} answers in {r['seconds']:.0f} s, {len(r['errors'])} errors, all stored once; "
+                    f"server CPU {r['server_cpu_ms_per_answer']:.1f} ms per answer; load average "
+                    f"{os.getloadavg()[0]:.1f}"))
+        res.add(Row("9 server", f"{what}: answer p95", r["p95_ms"], "ms", "<= 250 ms", r["p95_ms"] <= 250,
+                    f"p50 {r['p50_ms']:.0f} ms; 50 ms between answers; client on the same cores"))
+
+
+GROUPS = ("features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server")
 
 
 def main(argv=None) -> int:
@@ -389,6 +419,8 @@ def main(argv=None) -> int:
         if g not in only:
             continue
         if args.quick and g == "video":
+            continue
+        if args.quick and g == "server" and not args.only:  # about two minutes: only when asked
             continue
         fn = globals()[f"bench_{g}"]
         kwargs = {"cache": cache} if g in ("synth", "stream") else {}

@@ -27,7 +27,7 @@ def make_client(tmp_path, examples_dir):
     def make(name="config.yaml"):
         cfg = load_config(d / name)
         app = create_app(cfg, database_url=f"sqlite:///{tmp_path / (name + '.sqlite')}",
-                         admin_token="tok")
+                         admin_token="tok", allowed_hosts=["testserver"])
         return TestClient(app), app
 
     return make
@@ -163,7 +163,8 @@ def test_admin_requires_token_and_exports(make_client):
         assert c.get(url).status_code == 401
         assert c.get(url, headers={"Authorization": "Bearer wrong"}).status_code == 401
         assert c.get(url, headers=ADMIN).status_code == 200
-    assert c.get("/api/admin/progress?token=tok").json()["n_answers"] == 1
+    assert c.get("/api/admin/progress?token=tok").status_code == 401  # never in the URL
+    assert c.get("/api/admin/progress", headers={"X-Admin-Token": "tok"}).json()["n_answers"] == 1
     doc = c.get("/api/admin/results.json", headers=ADMIN).json()
     assert doc["test"]["type"] == "ab" and len(doc["answers"]) == 1
     assert doc["answers"][0]["slot"] == "left"

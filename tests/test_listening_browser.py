@@ -86,8 +86,23 @@ def _consent_and_demographics(page, demo: dict | None):
     page.click("#start")
 
 
+def _wait_js(page, expr: str, timeout: float = 30000) -> None:
+    """Wait until ``expr`` is true.  Polls with ``page.evaluate`` (run through the DevTools
+    protocol): ``page.wait_for_function`` evals a string inside the page, which the server's
+    Content-Security-Policy (no 'unsafe-eval', issue 18) rightly refuses."""
+    import time as _time
+
+    end = _time.monotonic() + timeout / 1000
+    while True:
+        if page.evaluate(f"Boolean({expr})"):
+            return
+        if _time.monotonic() > end:
+            raise TimeoutError(f"timed out waiting for {expr}")
+        page.wait_for_timeout(50)
+
+
 def _wait_trial(page, index: int):
-    page.wait_for_function(
+    _wait_js(page, 
         f"document.querySelector('#main').dataset.trial === '{index}' || "
         "document.body.dataset.stage === 'done'")
 
@@ -147,11 +162,11 @@ def test_mos_ref_participant_in_browser(browser, tmp_path, examples_dir):
                 if i == 0:
                     assert page.inner_text("#phase") == "Training"
                     # motion + audio stimuli are drawn by the project's viewer component
-                    page.wait_for_function(
+                    _wait_js(page, 
                         "document.querySelectorAll('.player[data-viewer=ready]').length === 2",
                         timeout=20000)
                     page.click("[data-play='Video']")
-                    page.wait_for_function(
+                    _wait_js(page, 
                         "document.querySelector('[data-slot=Video] .player')"
                         ".headmotionViewer.getState().time > 0.2", timeout=20000)
                     page.click("[data-play='Video']")  # replay restarts from the beginning

@@ -1,11 +1,27 @@
-"""Command-line interface: ``headmotion COMMAND ...`` (docs/design.md "CLI")."""
+"""Command-line interface: ``headmotion COMMAND ...`` (docs/design.md "CLI"; issue 18 item 2).
+
+:func:`main` is the one place where errors become exit codes (``headmotion --help`` lists them):
+
+* :class:`~headmotion.errors.HeadMotionError` → one line ``error: ...`` on stderr and the error's
+  ``exit_code`` (1 bad input, 2 usage / bad parameter value, 3 missing optional dependency);
+* click's usage errors → click's usage message and exit code 2, whichever click is installed: the
+  ``click`` package or the copy typer ≥ 0.2x carries as ``typer._click`` (matched by class name,
+  not by identity, so both work);
+* ``OSError`` (a folder that cannot be written, a full disk) → one line, exit 1;
+* a missing optional module → the extra to install, exit 3;
+* anything else is a bug → one line naming it, a hint to run with ``--debug``, exit 4;
+* Ctrl-C → ``interrupted``, exit 130 (writers are atomic, so no output is left half-written).
+
+``--debug`` (anywhere on the command line, or ``HEADMOTION_DEBUG=1``) shows the traceback.
+"""
 
 from __future__ import annotations
 
+import os
 import sys
 
 from ..errors import HeadMotionError
-from .app import app, err_console
+from .app import app, err_console, print_error
 
 # each module attaches its commands to the app (imported once, for that side effect, in the order
 # the commands are listed by --help)
@@ -20,33 +36,125 @@ from . import eval_cmds  # noqa: E402,F401  evaluate, stats
 from . import render_cmds  # noqa: E402,F401  render, view, plot
 from . import listen_cmds  # noqa: E402,F401  listen serve / analyze
 
+#: exit codes (also in ``headmotion --help`` and :mod:`headmotion.errors`)
+EXIT_BAD_INPUT, EXIT_USAGE, EXIT_MISSING_DEPENDENCY, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 2, 3, 4, 130
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``headmotion`` console script."""
+#: optional modules and the extra that installs them
+_EXTRAS = {"mediapipe": "video", "dask": "dask", "distributed": "dask", "psycopg": "postgres",
+           "psycopg_binary": "postgres", "pythonosc": "live", "websockets": "live", "sounddevice": "live"}
+
+
+def _class_names(exc: BaseException) -> set[str]:
+    return {c.__name__ for c in type(exc).__mro__}
+
+
+def _is_click(exc: BaseException, name: str) -> bool:
+    """``exc`` is click's ``name`` exception, from ``click`` or from typer's own copy."""
+    return name in _class_names(exc) and any(
+        c.__module__.split(".")[0] in ("click", "typer") for c in type(exc).__mro__)
+
+
+def _show_usage_error(exc) -> None:
     try:
-        app(args=argv, prog_name="headmotion", standalone_mode=False)
-    except HeadMotionError as exc:
-        err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
-        return exc.exit_code
-    except KeyboardInterrupt:
-        err_console.print("[bold red]interrupted[/]")
-        return 130
-    except SystemExit as exc:  # typer/click exits (e.g. --help)
-        return int(exc.code or 0)
-    except Exception as exc:  # click usage errors
-        import click
+        exc.show()  # click's own "Usage: ... / Try '... --help' / Error: ..." on stderr
+    except Exception:  # pragma: no cover - a click without show()
+        print_error(getattr(exc, "format_message", lambda: str(exc))())
 
-        if isinstance(exc, click.exceptions.ClickException):
-            exc.show()
-            return exc.exit_code
-        if isinstance(exc, click.exceptions.Abort):
-            return 1
-        raise
+
+def _show_help(exc) -> int:
+    """``headmotion corpus`` alone: print that group's help (stdout) and exit 0, as click < 8.2
+    did (click ≥ 8.2 raises NoArgsIsHelpError instead)."""
+    ctx = getattr(exc, "ctx", None)
+    if ctx is None:  # pragma: no cover
+        _show_usage_error(exc)
+        return EXIT_USAGE
+    from .app import console
+
+    console.print(ctx.get_help(), markup=False, highlight=False, soft_wrap=True)
     return 0
 
 
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``headmotion`` console script; returns the exit code."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    head = args[:args.index("--")] if "--" in args else args
+    debug = "--debug" in head or os.environ.get("HEADMOTION_DEBUG", "") not in ("", "0")
+    if "--debug" in head:
+        args.remove("--debug")
+    try:
+        ret = app(args=args, prog_name="headmotion", standalone_mode=False)
+    except KeyboardInterrupt:
+        err_console.print("[bold red]interrupted[/]", highlight=False)
+        return EXIT_INTERRUPTED
+    except SystemExit as exc:  # sys.exit() in a command
+        code = exc.code
+        return code if isinstance(code, int) else (0 if code is None else 1)
+    except BrokenPipeError:  # `headmotion info x | head`
+        _silence_stdout()
+        return 0
+    except Exception as exc:
+        if debug:
+            import traceback
+
+            traceback.print_exc()
+        return _handle(exc, debug)
+    # click (standalone_mode=False) returns the exit code of ctx.exit() / typer.Exit; typer turns
+    # Ctrl-C into Exit(130)
+    code = ret if isinstance(ret, int) and not isinstance(ret, bool) else 0
+    if code == EXIT_INTERRUPTED:
+        err_console.print("[bold red]interrupted[/]", highlight=False)
+    return code
+
+
+def _handle(exc: Exception, debug: bool) -> int:
+    if isinstance(exc, HeadMotionError):
+        print_error(exc)
+        return int(getattr(exc, "exit_code", EXIT_BAD_INPUT))
+    if _is_click(exc, "NoArgsIsHelpError"):
+        return _show_help(exc)
+    if _is_click(exc, "ClickException"):  # UsageError, BadParameter, NoSuchOption, FileError, ...
+        _show_usage_error(exc)
+        code = getattr(exc, "exit_code", EXIT_USAGE)
+        return code if isinstance(code, int) and code else EXIT_USAGE
+    if _is_click(exc, "Exit"):
+        code = int(getattr(exc, "exit_code", 0) or 0)
+        if code == EXIT_INTERRUPTED:
+            err_console.print("[bold red]interrupted[/]", highlight=False)
+        return code
+    if _is_click(exc, "Abort"):  # Ctrl-C / Ctrl-D at a prompt
+        err_console.print("[bold red]aborted[/]", highlight=False)
+        return EXIT_INTERRUPTED
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in _EXTRAS:
+        extra = _EXTRAS[exc.name.split(".")[0]]
+        print_error(f"this needs the optional dependency {exc.name!r}: pip install 'headmotion[{extra}]'")
+        return EXIT_MISSING_DEPENDENCY
+    if isinstance(exc, OSError) and not isinstance(exc, (BlockingIOError, ConnectionError)):
+        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        print_error(f"cannot access{where}: {exc.strerror or exc}")
+        return EXIT_BAD_INPUT
+    if isinstance(exc, MemoryError):
+        print_error("out of memory; the input is larger than this machine can hold "
+                    "(internal error: please report it with the command and --debug output)")
+        return EXIT_INTERNAL
+    msg = str(exc).splitlines()[0][:300] if str(exc) else ""
+    hint = "" if debug else "; run again with --debug to see the traceback"
+    print_error(f"internal error {type(exc).__name__}{': ' + msg if msg else ''} "
+                f"(this is a bug in headmotion, please report it{hint})")
+    return EXIT_INTERNAL
+
+
+def _silence_stdout() -> None:
+    try:  # Python's advice for SIGPIPE: point stdout at devnull so that exit does not fail again
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
 def run() -> None:
+    """The console script ``headmotion`` (``[project.scripts]`` in pyproject.toml)."""
     sys.exit(main())
 
 
-__all__ = ["app", "main", "run"]
+__all__ = ["app", "main", "run", "EXIT_BAD_INPUT", "EXIT_USAGE", "EXIT_MISSING_DEPENDENCY",
+           "EXIT_INTERNAL", "EXIT_INTERRUPTED"]

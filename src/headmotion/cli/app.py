@@ -12,11 +12,19 @@ import sys
 
 import typer
 from rich.console import Console
+from rich.markup import RE_TAGS, escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.style import Style
+
+HELP = """Natural head motion from speech: synthesis, training, evaluation, rendering.
+
+Exit codes: 0 success, 1 bad input (a missing or damaged file), 2 usage error, 3 missing optional
+dependency, 4 internal error, 130 interrupted.  Add --debug to any command to see the full
+traceback of an error."""
 
 app = typer.Typer(
     name="headmotion",
-    help="Natural head motion from speech: synthesis, training, evaluation, rendering.",
+    help=HELP,
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
@@ -28,8 +36,55 @@ app.add_typer(corpus_app, name="corpus")
 app.add_typer(templates_app, name="templates")
 app.add_typer(listen_app, name="listen")
 
-console = Console()
-err_console = Console(stderr=True)
+
+def _is_style_tag(tag: str) -> bool:
+    """Whether a markup tag body (``bold red``, ``/``, ``/bold``, ``link=...``) is a rich style."""
+    body = tag[1:] if tag.startswith("/") else tag
+    if not body or body.startswith(("link=", "@")):
+        return True
+    try:
+        Style.parse(body)
+    except Exception:
+        return False
+    return True
+
+
+def _escape_non_styles(text: str) -> str:
+    """Escape every ``[...]`` that is not a rich style, so that ``pip install headmotion[video]``,
+    ``[0, 1]`` or ``take[3].bvh`` print with their brackets while ``[bold]...[/]`` still works."""
+    def fix(m):
+        backslashes, tag = m.group(2), m.group(3)
+        if backslashes or _is_style_tag(tag):
+            return m.group(0)
+        return "\\" + m.group(0)
+
+    return RE_TAGS.sub(fix, text)
+
+
+class SafeConsole(Console):
+    """A rich console whose markup never swallows text: square brackets that do not name a style
+    are printed as they are (issue 15 item 6 / issue 18 item 2).  Messages that interpolate user
+    text should still pass it through :func:`escape` (a file named ``take[red].bvh``)."""
+
+    def render_str(self, text: str, *args, **kwargs):
+        markup = kwargs.get("markup")
+        if (self._markup if markup is None else markup) and "[" in text:
+            text = _escape_non_styles(text)
+        return super().render_str(text, *args, **kwargs)
+
+
+console = SafeConsole()
+err_console = SafeConsole(stderr=True)
+
+
+def print_error(message: str) -> None:
+    """``error: MESSAGE`` on stderr, the message printed literally (no markup)."""
+    err_console.print(f"[bold red]error:[/] {escape(str(message))}", highlight=False, soft_wrap=True)
+
+
+def print_warning(message: str) -> None:
+    """``warning: MESSAGE`` on stderr, the message printed literally (no markup)."""
+    err_console.print(f"[yellow]warning:[/] {escape(str(message))}", highlight=False, soft_wrap=True)
 
 
 @contextlib.contextmanager

@@ -15,9 +15,10 @@ from pathlib import Path
 from typing import List, Optional
 
 import typer
+from rich.markup import escape
 
-from ..errors import ParameterError
-from .app import app, console, err_console
+from ..errors import FormatError, ParameterError
+from .app import app, console, print_warning
 
 AUDIO_EXT = {".wav", ".flac", ".ogg", ".mp3", ".mp4", ".mkv", ".mpg", ".m4a", ".aac", ".opus", ".webm", ".aiff", ".aif"}
 
@@ -34,6 +35,16 @@ def _audio_info(path: Path) -> dict:
         return {"path": str(path), "decoder": "soundfile", "sample_rate": i.samplerate,
                 "channels": i.channels, "duration": i.duration, "format": f"{i.format} {i.subtype}"}
     return audio_info(path)
+
+
+def _num(v, fmt: str, unit: str = "") -> str:
+    """``v`` formatted, or ``unknown`` when a file leaves it out (never a TypeError)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return "unknown" if v is None else escape(str(v))
+    try:
+        return format(v, fmt) + unit
+    except (TypeError, ValueError):
+        return escape(str(v))
 
 
 def _fmt_list(xs, limit=12) -> str:
@@ -57,16 +68,17 @@ def _model_info(file: Path, as_json: bool) -> None:
     if as_json:
         console.print_json(json.dumps(d, default=str))
         return
-    console.print(f"[bold]{file}[/]  (model, {d['system']})", highlight=False)
-    console.print(f"  saved by   headmotion {d['headmotion_version']}", highlight=False)
+    e = lambda v: escape(str(v))  # noqa: E731 - file content is printed literally
+    console.print(f"[bold]{e(file)}[/]  (model, {e(d['system'])})", highlight=False)
+    console.print(f"  saved by   headmotion {e(d['headmotion_version'] or 'unknown')}", highlight=False)
     if "features" in d:
-        console.print(f"  features   {d['features']}", highlight=False)
+        console.print(f"  features   {e(d['features'])}", highlight=False)
     console.print(f"  arrays     {d['arrays']} ({d['parameters']:,} numbers)", highlight=False)
-    c = d.get("corpus") or {}
+    c = d.get("corpus") if isinstance(d.get("corpus"), dict) else {}
     if c:
-        spk = c.get("speakers") or []
-        console.print(f"  trained on {c.get('recordings')} recordings, {c.get('minutes')} min, "
-                      f"{len(spk)} speaker(s), fps {c.get('fps')}", highlight=False)
+        spk = c.get("speakers") if isinstance(c.get("speakers"), list) else []
+        console.print(f"  trained on {e(c.get('recordings', '?'))} recordings, {e(c.get('minutes', '?'))} min, "
+                      f"{len(spk)} speaker(s), fps {e(c.get('fps', '?'))}", highlight=False)
 
 
 @app.command("info")
@@ -85,33 +97,40 @@ def info(
         from ..io.motion import motion_info
 
         d = {"kind": "motion", **motion_info(file)}
+        if d.get("n_frames") is None and str(d.get("head_motion", "")).startswith("unavailable: "):
+            # nothing but the reader's complaint is known about this file: that is the error
+            raise FormatError(str(d["head_motion"])[len("unavailable: "):])
     if as_json:
         console.print_json(json.dumps(d, default=str))
         return
-    console.print(f"[bold]{file}[/]  ({d['kind']}, {d.get('format', '?')})", highlight=False)
+    e = lambda v: escape(str(v))  # noqa: E731 - file content is printed literally
+    console.print(f"[bold]{e(file)}[/]  ({d['kind']}, {e(d.get('format') or '?')})", highlight=False)
     if d["kind"] == "audio":
-        dur = d.get("duration")
-        console.print(f"  duration   {dur:.3f} s" if dur is not None else "  duration   unknown")
-        console.print(f"  rate       {d.get('sample_rate')} Hz, {d.get('channels')} channel(s), decoder {d.get('decoder')}")
+        console.print(f"  duration   {_num(d.get('duration'), '.3f', ' s')}", highlight=False)
+        console.print(f"  rate       {_num(d.get('sample_rate'), 'g', ' Hz')}, {_num(d.get('channels'), 'd')} "
+                      f"channel(s), decoder {e(d.get('decoder'))}", highlight=False)
         return
-    console.print(f"  frames     {d.get('n_frames')}")
-    console.print(f"  rate       {d.get('fps'):g} frames/s")
-    console.print(f"  duration   {d.get('duration'):.3f} s")
+    console.print(f"  frames     {_num(d.get('n_frames'), 'd')}", highlight=False)
+    console.print(f"  rate       {_num(d.get('fps'), 'g', ' frames/s')}", highlight=False)
+    console.print(f"  duration   {_num(d.get('duration'), '.3f', ' s')}", highlight=False)
     if d.get("joints"):
-        console.print(f"  joints     {len(d['joints'])}: {_fmt_list(d['joints'])}", highlight=False)
+        console.print(f"  joints     {len(d['joints'])}: {e(_fmt_list(d['joints']))}", highlight=False)
     if d.get("rigid_bodies"):
-        console.print(f"  rigid bodies {_fmt_list(d['rigid_bodies'])}", highlight=False)
+        console.print(f"  rigid bodies {e(_fmt_list(d['rigid_bodies']))}", highlight=False)
     if d.get("markers"):
-        console.print(f"  markers    {len(d['markers'])}: {_fmt_list(d['markers'])}", highlight=False)
+        console.print(f"  markers    {len(d['markers'])}: {e(_fmt_list(d['markers']))}", highlight=False)
     for key, label in (("head_joint", "head joint"), ("head", "head body"), ("relative_to", "relative to"),
                        ("fallback", "note"), ("layout", "layout"), ("head_motion", "head motion")):
         if d.get(key):
-            console.print(f"  {label:<10} {d[key]}", highlight=False)
-    if d.get("sd_deg"):
-        s = d["sd_deg"]
-        console.print(f"  SD (deg)   pitch {s['pitch']:.2f}  yaw {s['yaw']:.2f}  roll {s['roll']:.2f}")
-    if d.get("gaps"):
-        console.print(f"  gaps       {d['gaps']['filled_frames']} frames filled, {d['gaps']['long_gaps']} long gap(s)")
+            console.print(f"  {label:<10} {e(d[key])}", highlight=False, soft_wrap=True)
+    s = d.get("sd_deg")
+    if isinstance(s, dict):
+        console.print(f"  SD (deg)   pitch {_num(s.get('pitch'), '.2f')}  yaw {_num(s.get('yaw'), '.2f')}  "
+                      f"roll {_num(s.get('roll'), '.2f')}", highlight=False)
+    g = d.get("gaps")
+    if isinstance(g, dict):
+        console.print(f"  gaps       {_num(g.get('filled_frames'), 'd')} frames filled, "
+                      f"{_num(g.get('long_gaps'), 'd')} long gap(s)", highlight=False)
 
 
 def _parse_options(opts: list[str] | None) -> dict:
@@ -155,7 +174,7 @@ def convert(
         warnings.simplefilter("always")
         motion = load_motion(src, format=in_format, **_parse_options(option))
     for w in caught:
-        err_console.print(f"[yellow]warning:[/] {w.message}", highlight=False, soft_wrap=True)
+        print_warning(w.message)
     if fps is not None:
         motion = motion.resample(fps)
     out_fmt = (fmt or dst.suffix.lstrip(".")).lower()
@@ -170,5 +189,5 @@ def convert(
     elif degrees or euler_order:
         raise ParameterError(f"--degrees/--euler-order do not apply to the {out_fmt} format")
     save_motion(motion, dst, format=fmt, **opts)
-    console.print(f"wrote {dst}: {len(motion)} frames at {motion.fps:g} fps ({motion.duration:.2f} s)",
+    console.print(f"wrote {escape(str(dst))}: {len(motion)} frames at {motion.fps:g} fps ({motion.duration:.2f} s)",
                   highlight=False)

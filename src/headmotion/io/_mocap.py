@@ -133,7 +133,10 @@ def rigid_body_track(points: np.ndarray, *, min_markers: int = 3):
     complete = present.all(axis=1)
     if complete.sum() == 0:
         return None, None, None, 0
-    ref = mean_shape(p[complete])
+    try:
+        ref = mean_shape(p[complete])
+    except np.linalg.LinAlgError:
+        return None, None, None, 0
     ref = ref - ref.mean(0)
     T = len(p)
     rot = np.full((T, 3, 3), np.nan)
@@ -142,11 +145,17 @@ def rigid_body_track(points: np.ndarray, *, min_markers: int = 3):
         m = present[t]
         if m.sum() < min_markers:
             continue
-        r, tr = kabsch(ref[m], p[t, m])
-        rot[t] = r
-        pos[t] = tr
+        try:
+            r, tr = kabsch(ref[m], p[t, m])
+        except np.linalg.LinAlgError:  # degenerate marker positions: this frame is a gap
+            continue
+        if np.all(np.isfinite(r)) and np.all(np.isfinite(tr)):
+            rot[t] = r
+            pos[t] = tr
     # express the reference in the mean orientation, so the rotation is zero at the mean posture
     ok = np.all(np.isfinite(rot.reshape(T, 9)), axis=1)
+    if not ok.any():
+        return None, None, None, 0
     mean = Rotation.from_matrix(rot[ok]).mean().as_matrix()
     rot[ok] = rot[ok] @ mean.T
     ref = ref @ mean.T

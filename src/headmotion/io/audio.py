@@ -29,6 +29,7 @@ import numpy as np
 
 from ..errors import AudioLoadingError, ParameterError
 from ..types import Audio
+from ._limits import SAMPLE_RATE_RANGE
 from .atomic import atomic_path
 
 log = logging.getLogger(__name__)
@@ -69,6 +70,18 @@ def _check_riff_wav(path: Path) -> None:
             if len(chunk) < 8:
                 break
             cid, csize = chunk[:4], struct.unpack("<I", chunk[4:])[0]
+            if cid == b"fmt ":
+                fmt = fh.read(min(csize, 16))
+                if len(fmt) < 16:
+                    raise AudioLoadingError(f"{path}: damaged wav header: the fmt chunk holds {len(fmt)} "
+                                            f"bytes; expected at least 16")
+                _tag, channels, rate, _brate, _align, bits = struct.unpack("<HHIIHH", fmt)
+                if not 1 <= channels <= 256:
+                    raise AudioLoadingError(f"{path}: damaged wav header: {channels} channels; expected 1–256")
+                _check_rate(path, rate, "the wav header's sample rate")
+                if bits == 0 or bits > 64:
+                    raise AudioLoadingError(f"{path}: damaged wav header: {bits} bits per sample; "
+                                            f"expected 8–64")
             if cid == b"data":
                 if csize != 0xFFFFFFFF and pos + 8 + csize > size:
                     have = size - pos - 8
@@ -98,12 +111,22 @@ def _finish(path: Path, data: np.ndarray, sr: int, channels: int, sample_rate: i
         )
     if channels > 1:
         log.debug("%s: downmixed %d channels to mono (%s)", path, channels, decoder)
-    if sr <= 0:
-        raise AudioLoadingError(f"{path}: sample rate {sr} Hz; expected a positive rate")
+    _check_rate(path, sr, "sample rate")
     if sample_rate is not None and int(sample_rate) != sr:
         mono = resample(mono, sr, int(sample_rate))
         sr = int(sample_rate)
     return Audio(mono, sr)
+
+
+def _check_rate(path, sr, what: str) -> int:
+    lo, hi = SAMPLE_RATE_RANGE
+    try:
+        ok = lo <= int(sr) <= hi
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
+        raise AudioLoadingError(f"{path}: {what} {sr!r} Hz; expected {lo}–{hi} Hz (damaged header?)")
+    return int(sr)
 
 
 def resample(samples: np.ndarray, in_rate: int, out_rate: int) -> np.ndarray:
@@ -160,9 +183,17 @@ def _read_pyav(path: Path):
                 f"{path}: the file has no audio track (it holds {kinds}); expected a file with sound"
             )
         stream = streams[0]
-        sr = int(stream.codec_context.sample_rate or stream.rate or 0)
-        channels = int(stream.codec_context.channels or 1)
-        resampler = av.AudioResampler(format="fltp", layout=stream.codec_context.layout, rate=sr)
+        try:
+            ctx = stream.codec_context
+            sr = int(getattr(ctx, "sample_rate", 0) or stream.rate or 0)
+            channels = int(getattr(ctx, "channels", 0) or 1)
+            _check_rate(path, sr, "the audio track's sample rate")
+            resampler = av.AudioResampler(format="fltp", layout=ctx.layout, rate=sr)
+        except AudioLoadingError:
+            raise
+        except Exception as exc:  # a damaged header leaves PyAV without a codec context
+            raise AudioLoadingError(f"{path}: the audio track's header is damaged ({type(exc).__name__}: "
+                                    f"{exc}); expected a valid stream") from None
         chunks: list[np.ndarray] = []
         try:
             for frame in container.decode(stream):
@@ -179,6 +210,8 @@ def _read_pyav(path: Path):
                         len(chunks))
     if not chunks:
         return np.zeros((0, channels), np.float32), sr, channels
+    if len({c.shape[0] for c in chunks}) != 1:
+        raise AudioLoadingError(f"{path}: the channel count changes inside the audio track; expected one layout")
     data = np.concatenate(chunks, axis=1).T  # (n, ch)
     return np.ascontiguousarray(data, dtype=np.float32), sr, data.shape[1]
 
@@ -242,15 +275,21 @@ def audio_info(path) -> dict:
     path = Path(path)
     _check_file(path)
     if path.suffix.lower() not in PYAV_EXTENSIONS:
+        _check_riff_wav(path)
         try:
             import soundfile as sf
 
             info = sf.info(str(path))
-            return {"path": str(path), "decoder": "soundfile", "sample_rate": int(info.samplerate),
-                    "channels": int(info.channels), "duration": float(info.duration),
-                    "format": f"{info.format} {info.subtype}"}
+            sf_ok = True
         except Exception:
-            pass
+            sf_ok = False
+        if sf_ok:
+            sr = _check_rate(path, info.samplerate, "sample rate")
+            if not 1 <= info.channels <= 256 or info.frames < 0:
+                raise AudioLoadingError(f"{path}: {info.channels} channels, {info.frames} frames; damaged header?")
+            return {"path": str(path), "decoder": "soundfile", "sample_rate": sr,
+                    "channels": int(info.channels), "duration": info.frames / sr,
+                    "format": f"{info.format} {info.subtype}"}
     import av
 
     try:
@@ -261,14 +300,24 @@ def audio_info(path) -> dict:
         if not container.streams.audio:
             raise AudioLoadingError(f"{path}: the file has no audio track; expected a file with sound")
         st = container.streams.audio[0]
-        dur = None
-        if st.duration is not None and st.time_base is not None:
-            dur = float(st.duration * st.time_base)
-        elif container.duration is not None:
-            dur = container.duration / 1_000_000
-        return {"path": str(path), "decoder": "PyAV", "sample_rate": int(st.codec_context.sample_rate),
-                "channels": int(st.codec_context.channels), "duration": dur,
-                "format": f"{container.format.name} {st.codec_context.name}"}
+        try:
+            ctx = st.codec_context
+            sr = _check_rate(path, getattr(ctx, "sample_rate", None) or st.rate, "the audio track's sample rate")
+            dur = None
+            if st.duration is not None and st.time_base is not None:
+                dur = float(st.duration * st.time_base)
+            elif container.duration is not None:
+                dur = container.duration / 1_000_000
+            if dur is not None and not (np.isfinite(dur) and dur >= 0):
+                dur = None
+            return {"path": str(path), "decoder": "PyAV", "sample_rate": sr,
+                    "channels": int(getattr(ctx, "channels", 0) or 0), "duration": dur,
+                    "format": f"{container.format.name} {getattr(ctx, 'name', '?')}"}
+        except AudioLoadingError:
+            raise
+        except Exception as exc:
+            raise AudioLoadingError(f"{path}: the audio track's header is damaged ({type(exc).__name__}: "
+                                    f"{exc})") from None
 
 
 def save_audio(audio: Audio, path, *, subtype: str | None = None) -> None:

@@ -52,6 +52,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import FormatError, NoHeadError, ParameterError
 from ..types import Motion
+from ._limits import FPS_RANGE, parse_count, read_text
 from ._mocap import axis_matrix
 from .atomic import atomic_open
 
@@ -134,10 +135,7 @@ def _num(tok: str, path, line: int) -> float:
 def read_bvh_file(path) -> BVHFile:
     """Parse a BVH file into joints and the raw channel matrix (no rotation maths)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        raise FormatError(f"cannot read BVH file: {exc.strerror}", path=path) from None
+    text = read_text(path, what="BVH file", errors="replace")
     lines = text.splitlines()
     if not text.strip():
         raise FormatError("file is empty (expected a BVH file starting with HIERARCHY)", path=path)
@@ -194,17 +192,20 @@ def read_bvh_file(path) -> BVHFile:
         elif key == "CHANNELS":
             if not stack or stack[-1] is None:
                 raise FormatError("CHANNELS outside a joint", path=path, line=ln)
-            try:
-                n = int(tok[1])
-            except (IndexError, ValueError):
-                raise FormatError("CHANNELS needs a count", path=path, line=ln) from None
+            if len(tok) < 2:
+                raise FormatError("CHANNELS needs a count", path=path, line=ln)
+            n = parse_count(tok[1], path=path, line=ln, what="the CHANNELS count", maximum=6)
             chans = tok[2:]
             if len(chans) != n:
                 raise FormatError(f"CHANNELS says {n} but lists {len(chans)}", path=path, line=ln)
             valid = {f"{a}{k}" for a in "XYZ" for k in ("position", "rotation")}
             for c in chans:
                 if c[:1].upper() + c[1:].lower() not in valid:
-                    raise FormatError(f"unknown channel {c!r}", path=path, line=ln)
+                    raise FormatError(f"unknown channel {c!r}; expected Xposition … Zrotation",
+                                      path=path, line=ln)
+            norm = [c[:1].upper() + c[1:].lower() for c in chans]
+            if len(set(norm)) != len(norm):
+                raise FormatError(f"CHANNELS lists a channel twice: {' '.join(chans)}", path=path, line=ln)
             j = joints[stack[-1]]
             j.channels = chans
             j.start = n_channels
@@ -233,43 +234,43 @@ def read_bvh_file(path) -> BVHFile:
         k = " ".join(k.lower().split())
         if k not in ("frames", "frame time"):
             raise FormatError(f"expected 'Frames:' or 'Frame Time:', found {raw[:40]!r}", path=path, line=ln)
+        if k in header:
+            raise FormatError(f"'{k.capitalize()}:' given twice", path=path, line=ln)
         header[k] = (v.strip(), ln)
     if len(header) < 2:
         raise FormatError("MOTION section lacks 'Frames:' / 'Frame Time:'", path=path)
-    try:
-        n_frames = int(header["frames"][0])
-    except ValueError:
-        raise FormatError(f"Frames must be an integer, found {header['frames'][0]!r}", path=path,
-                          line=header["frames"][1]) from None
+    n_frames = parse_count(header["frames"][0], path=path, line=header["frames"][1], what="Frames")
     frame_time = _num(header["frame time"][0], path, header["frame time"][1])
-    if not frame_time > 0:
-        raise FormatError(f"Frame Time must be positive, found {frame_time}", path=path,
+    lo, hi = FPS_RANGE
+    if not (np.isfinite(frame_time) and 1.0 / hi * (1 - 1e-6) <= frame_time <= 1.0 / lo * (1 + 1e-6)):
+        raise FormatError(f"Frame Time {header['frame time'][0][:40]!r} is not a sane frame duration: "
+                          f"expected {1 / hi:g} to {1 / lo:g} s ({lo:g}–{hi:g} frames/s)", path=path,
                           line=header["frame time"][1])
+    if n_channels == 0:
+        raise FormatError("no joint has CHANNELS, so the frames hold nothing", path=path)
+    # the frame lines present, checked against the declared count before anything is allocated
+    body = [(k + 1, ln) for k, ln in enumerate(lines[i:], start=i) if ln.strip()]
+    if len(body) != n_frames:
+        raise FormatError(
+            f"'Frames: {n_frames}' but the file holds {len(body)} frame lines"
+            + (" (truncated?)" if len(body) < n_frames else ""),
+            path=path, line=header["frames"][1])
     data = np.empty((n_frames, n_channels))
-    t = 0
-    while i < len(lines):
-        raw = lines[i]
-        ln = i + 1
-        i += 1
-        if not raw.strip():
-            continue
+    for t, (ln, raw) in enumerate(body):
         vals = raw.split()
         if len(vals) != n_channels:
             raise FormatError(
                 f"frame line has {len(vals)} values, expected {n_channels} (the sum of CHANNELS)",
                 path=path, line=ln)
-        if t >= n_frames:
-            raise FormatError(f"more frame lines than 'Frames: {n_frames}'", path=path, line=ln)
         try:
             data[t] = np.array(vals, dtype=np.float64)
         except ValueError:
             raise FormatError("frame line holds a value that is not a number", path=path, line=ln) from None
-        t += 1
-    if t != n_frames:
-        raise FormatError(f"'Frames: {n_frames}' but the file holds {t} frame lines (truncated?)",
-                          path=path, line=len(lines))
-    if not np.all(np.isfinite(data)):
-        raise FormatError("frame data contains NaN or inf", path=path)
+        if not np.all(np.isfinite(data[t])):
+            raise FormatError("frame line holds NaN or inf (or a number too large for a float)",
+                              path=path, line=ln)
+    if n_frames == 0:
+        raise FormatError("'Frames: 0': the file holds no motion", path=path, line=header["frames"][1])
     return BVHFile(joints=joints, frames=data, frame_time=frame_time, path=path)
 
 

@@ -30,6 +30,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import FormatError, MissingDependencyError, NoHeadError
 from ..types import Motion
+from ._limits import check_fps
 from ._mocap import fill_gaps
 
 HEAD_MARKERS = ("LFHD", "RFHD", "LBHD", "RBHD")
@@ -47,19 +48,121 @@ def _read(path):
         raise FormatError("file not found", path=path)
     if path.stat().st_size == 0:
         raise FormatError("file is empty (expected a C3D file)", path=path)
+    check_header(path)  # declared sizes against the file's length before ezc3d allocates
     try:
         c = ezc3d.c3d(str(path))
     except Exception as exc:  # ezc3d raises RuntimeError/IOError on bad files
         raise FormatError(f"not a readable C3D file ({exc})", path=path) from None
-    p = c["parameters"]["POINT"]
-    labels = [str(s).strip() for s in p["LABELS"]["value"]]
-    pts = np.array(c["data"]["points"][:3], dtype=np.float64)  # (3, N, T)
-    if "residuals" in c["data"]["meta_points"]:
-        res = np.asarray(c["data"]["meta_points"]["residuals"])  # (1, N, T)
-        pts[:, res[0] < 0] = np.nan
-    rate = float(np.ravel(p["RATE"]["value"])[0]) if "RATE" in p else float(c["header"]["points"]["frame_rate"])
-    units = str(p["UNITS"]["value"][0]).strip().lower() if "UNITS" in p else "mm"
+    try:
+        p = c["parameters"]["POINT"]
+        labels = [str(s).strip() for s in p["LABELS"]["value"]] if "LABELS" in p else []
+        pts = np.array(c["data"]["points"][:3], dtype=np.float64)  # (3, N, T)
+        if "residuals" in c["data"]["meta_points"]:
+            res = np.asarray(c["data"]["meta_points"]["residuals"])  # (1, N, T)
+            if res.shape[1:] == pts.shape[1:]:
+                pts[:, res[0] < 0] = np.nan
+        rate_v = np.ravel(p["RATE"]["value"]) if "RATE" in p else []
+        rate = rate_v[0] if len(rate_v) else c["header"]["points"]["frame_rate"]
+        unit_v = list(p["UNITS"]["value"]) if "UNITS" in p else []
+    except (KeyError, IndexError, TypeError, ValueError) as exc:
+        raise FormatError(f"the C3D POINT parameters are damaged ({type(exc).__name__}: {exc})", path=path) from None
+    rate = check_fps(rate, path=path, what="POINT:RATE")
+    if pts.ndim != 3 or pts.shape[1] == 0 or pts.shape[2] == 0:
+        raise FormatError(f"the C3D file holds no 3-D points (points array {pts.shape})", path=path)
+    if len(labels) < pts.shape[1]:
+        labels = labels + [f"*{k}" for k in range(len(labels), pts.shape[1])]
+    labels = labels[:pts.shape[1]]
+    pts[~np.isfinite(pts)] = np.nan
+    with np.errstate(invalid="ignore"):
+        pts[np.abs(pts) > 1e9] = np.nan  # damaged values are gaps
+    units = str(unit_v[0]).strip().lower() if unit_v else "mm"
     return c, labels, pts.transpose(2, 1, 0), rate, _UNITS.get(units, 1e-3)
+
+
+def check_header(path: Path) -> None:
+    """Check the 512-byte C3D header (Motion Lab Systems' C3D manual, "The header section"):
+    the parameter-block pointer and key byte, the point and analog counts and the frame range,
+    and that the data they declare fits in the file.  ezc3d trusts these numbers."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(512)
+        if len(head) < 512:
+            raise FormatError(f"file is {len(head)} bytes; a C3D file starts with a 512-byte header", path=path)
+        if head[1] != 0x50:
+            raise FormatError(f"byte 2 is {head[1]:#x}, not 0x50: not a C3D file", path=path)
+        param_block = head[0]
+        if param_block < 2 or (param_block - 1) * 512 + 4 > size:
+            raise FormatError(f"the header points to a parameter section at block {param_block}, "
+                              f"outside the file ({size} bytes)", path=path)
+        fh.seek((param_block - 1) * 512)
+        phead = fh.read(4)
+    proc = phead[3] - 83 if len(phead) == 4 else 1  # 1 Intel, 2 DEC, 3 MIPS (big-endian)
+    if proc not in (1, 2, 3):
+        raise FormatError(f"unknown processor type {phead[3] if len(phead) == 4 else '?'} in the parameter "
+                          f"section (expected 84, 85 or 86)", path=path)
+    endian = ">" if proc == 3 else "<"
+    words = np.frombuffer(head[:24], dtype=endian + "u2")
+    n_points, n_analog, first, last = (int(w) for w in words[1:5])
+    data_block = int(words[8])
+    scale_bytes = head[12:16]
+    negative = (scale_bytes[0] if proc == 3 else scale_bytes[1] if proc == 2 else scale_bytes[3]) & 0x80
+    value_bytes = 4 if negative else 2
+    if last < first:
+        raise FormatError(f"the header's frame range {first}–{last} is empty", path=path)
+    n_frames = last - first + 1
+    if data_block < 2:
+        raise FormatError(f"the header's data-block pointer {data_block} is invalid", path=path)
+    need = (data_block - 1) * 512 + n_frames * (n_points * 4 + n_analog) * value_bytes
+    if need > size:
+        raise FormatError(f"the header declares {n_frames} frames of {n_points} points and {n_analog} analog "
+                          f"values ({need} bytes) but the file holds {size} bytes (truncated?)", path=path)
+    with open(path, "rb") as fh:
+        fh.seek((param_block - 1) * 512)
+        params = fh.read((data_block - param_block) * 512 if data_block > param_block else 512 * 255)
+    _check_parameter_chain(params, endian, path)
+
+
+def _check_parameter_chain(buf: bytes, endian: str, path: Path) -> None:
+    """Walk the parameter section's records (each names the offset of the next) and check that
+    every record and its data lie inside the section and that the chain moves forward, so that a
+    damaged section is an error here instead of a hang in the C++ reader."""
+    if len(buf) < 4:
+        raise FormatError("the parameter section is cut short", path=path)
+    n_blocks = buf[2]
+    end = min(len(buf), max(n_blocks, 1) * 512)
+    pos = 4
+    while pos + 2 <= end:
+        n = int.from_bytes(buf[pos:pos + 1], "little", signed=True)
+        if n == 0:
+            return
+        gid = int.from_bytes(buf[pos + 1:pos + 2], "little", signed=True)
+        off_at = pos + 2 + abs(n)
+        if off_at + 2 > end:
+            raise FormatError(f"a parameter record at byte {pos} runs past the parameter section", path=path)
+        off = int.from_bytes(buf[off_at:off_at + 2], "big" if endian == ">" else "little", signed=True)
+        nxt = off_at + off if off != 0 else end
+        if off != 0 and not (off_at < nxt <= end):
+            raise FormatError(f"a parameter record at byte {pos} points to byte {nxt}, outside the parameter "
+                              f"section ({end} bytes)", path=path)
+        if gid > 0:  # a parameter: type, dimensions and data must fit before the next record
+            q = off_at + 2
+            if q + 2 > nxt:
+                raise FormatError(f"parameter record at byte {pos} is cut short", path=path)
+            kind = int.from_bytes(buf[q:q + 1], "little", signed=True)
+            ndim = buf[q + 1]
+            if kind not in (-1, 1, 2, 4) or q + 2 + ndim > nxt:
+                raise FormatError(f"parameter record at byte {pos} has type {kind} and {ndim} dimensions; "
+                                  f"expected type -1, 1, 2 or 4", path=path)
+            count = 1
+            for d in buf[q + 2:q + 2 + ndim]:
+                count *= d
+            if q + 2 + ndim + abs(kind) * count > nxt:
+                raise FormatError(f"parameter record at byte {pos} declares {abs(kind) * count} bytes of data "
+                                  f"that do not fit before the next record", path=path)
+        if off == 0:
+            return
+        pos = nxt
+    raise FormatError("the parameter section has no end record", path=path)
 
 
 def _get(labels, pts, names, what, path):

@@ -30,6 +30,7 @@ import numpy as np
 from ..errors import FormatError, ParameterError
 from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
 from ..types import Motion
+from ._limits import check_fps, check_size, csv_rows
 from .atomic import atomic_open
 
 BLENDSHAPES = (
@@ -52,6 +53,9 @@ def _parse_tc(tc: str, path, ln) -> tuple[int, int, int, int, float]:
     try:
         hh, mm, ss, ff = tc.strip().split(":")
         f, _, sub = ff.partition(".")
+        parts = (hh, mm, ss, f)
+        if not all(p.isdigit() and len(p) <= 4 for p in parts) or (sub and not (sub.isdigit() and len(sub) <= 9)):
+            raise ValueError(tc)
         return int(hh), int(mm), int(ss), int(f), float("0." + sub) if sub else 0.0
     except ValueError:
         raise FormatError(f"Timecode {tc!r} is not HH:MM:SS:FF.fff", path=path, line=ln) from None
@@ -60,9 +64,12 @@ def _parse_tc(tc: str, path, ln) -> tuple[int, int, int, int, float]:
 def load_livelink(path, *, fps: float | None = None) -> Motion:
     """Head rotation from a Live Link Face CSV (see the module docstring for axes and units)."""
     path = Path(path)
+    check_size(path, what="Live Link Face CSV")
+    if fps is not None:
+        fps = check_fps(fps, what="fps=", error=ParameterError)
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = list(csv.reader(fh))
+            rows = [r for _, r in csv_rows(fh, path=path)]
     except (OSError, UnicodeDecodeError) as exc:
         raise FormatError(f"cannot read Live Link Face CSV ({exc})", path=path) from None
     if not rows:
@@ -80,9 +87,14 @@ def load_livelink(path, *, fps: float | None = None) -> Motion:
         if len(row) != len(cols):
             raise FormatError(f"row has {len(row)} values, expected {len(cols)}", path=path, line=ln)
         try:
-            vals.append([float(row[i]) for i in ix])
+            v = [float(row[i]) for i in ix]
         except ValueError:
-            raise FormatError("a head value is not a number", path=path, line=ln) from None
+            raise FormatError(f"a head value ({', '.join(row[i][:20] for i in ix)}) is not a number",
+                              path=path, line=ln) from None
+        if not all(np.isfinite(v)) or max(abs(x) for x in v) > 100.0:
+            raise FormatError(f"head angles {', '.join(row[i][:20] for i in ix)} are not finite angles "
+                              f"in radians (expected |angle| <= 100)", path=path, line=ln)
+        vals.append(v)
         tcs.append(_parse_tc(row[0], path, ln))
     if not vals:
         raise FormatError("Live Link Face CSV has a header but no frames", path=path)

@@ -24,10 +24,8 @@ Libraries considered: pandas (not a dependency; the stdlib ``csv`` module suffic
 
 from __future__ import annotations
 
-import csv
 import io
 import json
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +33,7 @@ import numpy as np
 from ..errors import FormatError, ParameterError
 from ..rotations import _check_order, euler_to_rotvec, rotvec_to_euler
 from ..types import Motion
+from ._limits import check_fps, check_size, csv_rows, load_json as _load_json_bounded, load_npz_arrays, read_text
 from .atomic import atomic_open, atomic_path
 
 MAGIC = "headmotion-motion"
@@ -107,27 +106,59 @@ def save_npz(motion: Motion, path) -> None:
 
 def load_npz(path) -> Motion:
     path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            if "rotvec" not in z.files:
-                raise FormatError(f"no 'rotvec' array (arrays: {', '.join(z.files)}); expected a "
-                                  f"headmotion motion .npz", path=path)
-            rotvec = np.array(z["rotvec"], dtype=np.float64)
-            if "fps" not in z.files:
-                raise FormatError("no 'fps' array", path=path)
-            fps = float(z["fps"])
-            tr = np.array(z["translation"], dtype=np.float64) if "translation" in z.files else None
-            meta = json.loads(str(z["meta_json"])) if "meta_json" in z.files else {}
-    except (zipfile.BadZipFile, OSError, EOFError) as exc:
-        raise FormatError(f"not a readable .npz file ({exc})", path=path) from None
-    except ValueError as exc:
-        raise FormatError(f"damaged or pickled .npz content ({exc})", path=path) from None
+    check_size(path, what=".npz file")
+    z = load_npz_arrays(path, path=path)  # sizes checked before anything is decompressed
+    if "rotvec" not in z:
+        raise FormatError(f"no 'rotvec' array (arrays: {', '.join(z) or 'none'}); expected a "
+                          f"headmotion motion .npz", path=path)
+    if "fps" not in z:
+        raise FormatError("no 'fps' array", path=path)
+    fps_arr = z["fps"]
+    if fps_arr.size != 1 or fps_arr.dtype.kind not in "iuf":
+        raise FormatError(f"'fps' must be one number; found shape {fps_arr.shape}, dtype {fps_arr.dtype}", path=path)
+    fps = check_fps(fps_arr.reshape(()).item(), path=path, what="'fps'")
+    rotvec = _numeric(z["rotvec"], "rotvec", path)
+    tr = _numeric(z["translation"], "translation", path) if "translation" in z else None
+    meta = {}
+    if "meta_json" in z:
+        mj = z["meta_json"]
+        if mj.dtype.kind != "U" or mj.size != 1:
+            raise FormatError("'meta_json' must be one string", path=path)
+        meta = _load_json_bounded(str(mj.reshape(()).item()), path=path, what="'meta_json'")
+        if not isinstance(meta, dict):
+            raise FormatError(f"'meta_json' must hold a JSON object; found {type(meta).__name__}", path=path)
     if rotvec.ndim != 2 or rotvec.shape[1] != 3:
         raise FormatError(f"'rotvec' must have shape (T, 3); found {rotvec.shape}", path=path)
+    return _motion(rotvec, fps, tr, meta, path)
+
+
+def _numeric(a: np.ndarray, name: str, path) -> np.ndarray:
+    if a.dtype.kind not in "iuf":
+        raise FormatError(f"'{name}' must hold numbers; found dtype {a.dtype}", path=path)
+    return np.asarray(a, dtype=np.float64)
+
+
+def _motion(rotvec, fps, translation, meta, path, *, line=None) -> Motion:
+    """The Motion, with every complaint of its constructor turned into a FormatError naming the file."""
+    if len(rotvec) == 0:
+        raise FormatError("the motion has no frames", path=path, line=line)
+    bad = ~np.all(np.isfinite(rotvec), axis=1)
+    if bad.any():
+        raise FormatError(f"{int(bad.sum())} of {len(rotvec)} frames hold NaN or inf (first: frame "
+                          f"{int(np.argmax(bad))}); expected finite rotations", path=path, line=line)
+    if np.abs(rotvec).max() > 1e6:
+        raise FormatError(f"a rotation of {np.abs(rotvec).max():g} is not a plausible angle", path=path, line=line)
+    if translation is not None:
+        translation = np.asarray(translation, dtype=np.float64)
+        if translation.shape != rotvec.shape:
+            raise FormatError(f"'translation' has shape {translation.shape}; expected {rotvec.shape} like the "
+                              f"rotations", path=path, line=line)
+        if not np.all(np.isfinite(translation)):
+            raise FormatError("'translation' holds NaN or inf", path=path, line=line)
     try:
-        return Motion(rotvec, fps, translation=tr, meta=meta)
+        return Motion(rotvec, fps, translation=translation, meta=meta)
     except ParameterError as exc:
-        raise FormatError(str(exc), path=path) from None
+        raise FormatError(str(exc), path=path, line=line) from None
 
 
 # -------------------------------------------------------------------------------------- JSON
@@ -150,26 +181,32 @@ def save_json(motion: Motion, path, *, degrees: bool = False, euler_order: str |
 
 def load_json(path) -> Motion:
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise FormatError(f"not valid JSON: {exc.msg}", path=path, line=exc.lineno) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FormatError(f"cannot read JSON file ({exc})", path=path) from None
+    doc = _load_json_bounded(read_text(path, what="JSON motion file"), path=path, what="the file")
     if not isinstance(doc, dict) or ("frames" not in doc and "rotvec" not in doc) or "fps" not in doc:
         raise FormatError("expected a headmotion motion JSON object with 'fps' and 'frames'", path=path)
+    fps = check_fps(doc["fps"], path=path, what="'fps'") if not isinstance(doc["fps"], bool) else \
+        check_fps(None, path=path, what="'fps'")
+    meta = doc.get("meta") or {}
+    if not isinstance(meta, dict):
+        raise FormatError(f"'meta' must be an object; found {type(meta).__name__}", path=path)
+    for key in ("rotation", "euler_order", "units"):
+        if doc.get(key) is not None and not isinstance(doc[key], str):
+            raise FormatError(f"'{key}' must be a string; found {doc[key]!r:.40}", path=path)
     try:
         values = np.asarray(doc.get("frames", doc.get("rotvec")), dtype=np.float64)
-        if values.ndim != 2 or values.shape[1] != 3:
-            raise FormatError(f"'frames' must be a list of [a, b, c] rows; found shape {values.shape}", path=path)
-        rv = _decode(values, doc.get("rotation", "rotvec"), doc.get("euler_order"), doc.get("units") == "deg")
         tr = doc.get("translation")
-        return Motion(rv, doc["fps"], translation=None if tr is None else np.asarray(tr, float),
-                      meta=doc.get("meta") or {})
-    except (ParameterError, TypeError, ValueError) as exc:
-        if isinstance(exc, FormatError):
-            raise
+        tr = None if tr is None else np.asarray(tr, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise FormatError(f"'frames' / 'translation' must be lists of [a, b, c] numbers ({exc})", path=path) from None
+    if values.ndim != 2 or values.shape[1] != 3:
+        raise FormatError(f"'frames' must be a list of [a, b, c] rows; found shape {values.shape}", path=path)
+    if not np.all(np.isfinite(values)):
+        return _motion(values, fps, tr, meta, path)  # names the NaN/inf frames
+    try:
+        rv = _decode(values, doc.get("rotation", "rotvec"), doc.get("euler_order"), doc.get("units") == "deg")
+    except (ParameterError, ValueError) as exc:
         raise FormatError(str(exc), path=path) from None
+    return _motion(rv, fps, tr, meta, path)
 
 
 # --------------------------------------------------------------------------------------- CSV
@@ -209,22 +246,25 @@ def is_native_csv(first_lines: list[str]) -> bool:
 def load_csv(path, *, fps: float | None = None, euler_order: str | None = None) -> Motion:
     """Read a headmotion CSV (or a plain CSV with rotvec / pitch-yaw-roll columns)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FormatError(f"cannot read CSV file ({exc})", path=path) from None
+    if fps is not None:
+        fps = check_fps(fps, what="fps=", error=ParameterError)
+    text = read_text(path, what="CSV file")
     lines = text.splitlines()
     head: dict = {}
     start = 0
     if lines and lines[0].startswith("#"):
         parts = lines[0][1:].strip().split(" ", 2)
         if len(parts) == 3 and parts[0] == MAGIC:
-            try:
-                head = json.loads(parts[2])
-            except json.JSONDecodeError as exc:
-                raise FormatError(f"bad header JSON: {exc.msg}", path=path, line=1) from None
+            head = _load_json_bounded(parts[2], path=path, what="the header line's JSON")
+            if not isinstance(head, dict):
+                raise FormatError("the header line's JSON must be an object", path=path, line=1)
+            for key in ("rotation", "euler_order", "units"):
+                if head.get(key) is not None and not isinstance(head[key], str):
+                    raise FormatError(f"header '{key}' must be a string", path=path, line=1)
+            if head.get("meta") is not None and not isinstance(head["meta"], dict):
+                raise FormatError("header 'meta' must be an object", path=path, line=1)
         start = 1
-    rows = list(csv.reader(lines[start:]))
+    rows = [r for _, r in csv_rows(lines[start:], path=path, first_line=start + 1)]
     if not rows:
         raise FormatError("CSV has no header row", path=path)
     cols = [c.strip().lower() for c in rows[0]]
@@ -271,22 +311,31 @@ def load_csv(path, *, fps: float | None = None, euler_order: str | None = None) 
                 times.append(float(row[t_col]))
         except ValueError:
             raise FormatError("a value is not a number", path=path, line=ln) from None
+        if not all(np.isfinite(r)):
+            raise FormatError(f"a value is NaN or inf ({', '.join(row[i][:20] for i in rot_cols)}); "
+                              f"expected finite numbers", path=path, line=ln)
         vals.append(r)
     if not vals:
         raise FormatError("CSV has a header but no frames", path=path)
     arr = np.array(vals)
-    rate = fps or head.get("fps")
-    if rate is None:
-        if len(times) >= 2:
-            rate = 1.0 / float(np.median(np.diff(times)))
-        else:
-            raise FormatError("no frame rate: no '# headmotion-motion' line and no time column; pass fps=",
-                              path=path)
+    if fps is not None:
+        rate = fps
+    elif head.get("fps") is not None:
+        rate = check_fps(head["fps"], path=path, line=1, what="header 'fps'")
+    else:
+        t = np.asarray(times, dtype=np.float64)
+        d = np.diff(t[np.isfinite(t)])
+        if len(d) == 0 or not np.all(d > 0):
+            raise FormatError("no frame rate: no '# headmotion-motion' line and no increasing time column; "
+                              "pass fps=", path=path)
+        rate = check_fps(1.0 / float(np.median(d)), path=path, what="the time column's frame rate")
+    if order is not None and not isinstance(order, str):
+        raise FormatError("euler_order must be a string", path=path, line=1)
     try:
         rv = _decode(arr[:, :3], rotation, order, units == "deg")
-        return Motion(rv, rate, translation=arr[:, 3:6] if tr_cols else None, meta=head.get("meta") or {})
-    except ParameterError as exc:
+    except (ParameterError, ValueError) as exc:
         raise FormatError(str(exc), path=path) from None
+    return _motion(rv, rate, arr[:, 3:6] if tr_cols else None, head.get("meta") or {}, path)
 
 
 __all__ = ["save_npz", "load_npz", "save_json", "load_json", "save_csv", "load_csv", "is_native_csv"]

@@ -37,11 +37,11 @@ dependency); the stdlib ``csv`` module with ``skipinitialspace`` handles both la
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 
+from ._limits import csv_rows
 from ..errors import FormatError, ParameterError
 from ..rotations import euler_to_rotvec, unwrap_rotvec
 from ..types import Motion
@@ -66,7 +66,7 @@ def _read_rows(path):
     path = Path(path)
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = list(csv.reader(fh, skipinitialspace=True))
+            rows = [row for _, row in csv_rows(fh, path=path, skipinitialspace=True)]
     except (OSError, UnicodeDecodeError) as exc:
         raise FormatError(f"cannot read OpenFace CSV ({exc})", path=path) from None
     if not rows:

@@ -40,7 +40,6 @@ style gists only); pandas is not a dependency; the stdlib ``csv`` module is enou
 
 from __future__ import annotations
 
-import csv
 import warnings
 from pathlib import Path
 
@@ -49,7 +48,11 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import FormatError, NoHeadError, ParameterError
 from ..types import Motion
+from ._limits import FPS_RANGE, check_fps, check_size, csv_rows
 from ._mocap import axis_matrix, fill_gaps, rigid_body_track
+
+#: coordinates beyond this (in the file's length unit, mm by default: 1000 km) are damage, not data
+_MAX_COORD = 1e9
 
 _UNITS = {"millimeters": 1e-3, "millimetres": 1e-3, "centimeters": 1e-2, "centimetres": 1e-2,
           "meters": 1.0, "metres": 1.0}
@@ -61,9 +64,10 @@ class MotiveCSV:
 
     def __init__(self, path):
         self.path = Path(path)
+        check_size(self.path, what="Motive CSV")
         try:
             with open(self.path, newline="", encoding="utf-8-sig", errors="replace") as fh:
-                rows = list(csv.reader(fh))
+                rows = [r for _, r in csv_rows(fh, path=self.path)]
         except OSError as exc:
             raise FormatError(f"cannot read Motive CSV: {exc.strerror}", path=path) from None
         if not rows:
@@ -105,25 +109,41 @@ class MotiveCSV:
             try:
                 data.append([float(c) if c.strip() else np.nan for c in row] + [np.nan] * (n - len(row)))
             except ValueError:
-                raise FormatError("a cell is not a number", path=path, line=frame_row + 2 + k) from None
+                bad = next(c for c in row if c.strip() and not _is_float(c))
+                raise FormatError(f"the cell {bad.strip()[:40]!r} is not a number", path=path,
+                                  line=frame_row + 2 + k) from None
         if not data:
             raise FormatError("the Motive CSV has a header but no frames", path=path)
         self.data = np.array(data)
         self.data_line = frame_row + 2
+        # NaN/inf cells are gaps like empty cells; absurd magnitudes are damage
+        vals = self.data[:, 2:]
+        with np.errstate(invalid="ignore"):
+            huge = np.isfinite(vals) & (np.abs(vals) > _MAX_COORD)
+        if huge.any():
+            r, c = np.argwhere(huge)[0]
+            raise FormatError(f"the value {vals[r, c]:g} in column {c + 3} is not a plausible coordinate "
+                              f"or rotation (|value| > {_MAX_COORD:g})", path=path,
+                              line=self.data_line + int(r))
+        self.data[:, 2:][~np.isfinite(vals)] = np.nan
 
     @property
     def fps(self) -> float:
+        """The header's Export (else Capture) Frame Rate, checked (1–1000 fps); without either,
+        from the median step of the Time column."""
         for key in ("Export Frame Rate", "Capture Frame Rate"):
-            try:
-                v = float(self.header.get(key, ""))
-                if v > 0:
-                    return v
-            except ValueError:
-                pass
+            v = self.header.get(key, "").strip()
+            if v:
+                return check_fps(v, path=self.path, line=1, what=f"'{key}'")
         t = self.data[:, 1]
-        if len(t) > 1 and np.all(np.isfinite(t[:2])):
-            return 1.0 / float(np.nanmedian(np.diff(t)))
-        raise FormatError("no frame rate in the header and no usable Time column", path=self.path)
+        d = np.diff(t[np.isfinite(t)])
+        d = d[d > 0]
+        if len(d):
+            step = float(np.median(d))
+            return check_fps(1.0 / step, path=self.path, what=f"the Time column's step ({step:g} s) gives a frame rate")
+        raise FormatError(f"no frame rate: the header has no Export/Capture Frame Rate and the Time column "
+                          f"has no increasing steps (expected {FPS_RANGE[0]:g}–{FPS_RANGE[1]:g} frames/s)",
+                          path=self.path)
 
     @property
     def unit_scale(self) -> float:
@@ -154,6 +174,14 @@ class MotiveCSV:
         return out
 
 
+def _is_float(c: str) -> bool:
+    try:
+        float(c)
+    except ValueError:
+        return False
+    return True
+
+
 def _pick(names: list[str], given: str | None, words, what: str, path) -> str | None:
     if given is not None:
         if given not in names:
@@ -171,7 +199,8 @@ def _rigid_body_rotation(mc: MotiveCSV, name: str) -> tuple[np.ndarray, np.ndarr
         if q is None:
             raise FormatError(f"rigid body {name!r} has no Rotation X,Y,Z,W columns", path=mc.path)
         mat = np.full((len(q), 3, 3), np.nan)
-        ok = np.all(np.isfinite(q), 1) & (np.linalg.norm(np.nan_to_num(q), axis=1) > 1e-9)
+        norm = np.linalg.norm(np.nan_to_num(q), axis=1)
+        ok = np.all(np.isfinite(q), 1) & (norm > 0.5) & (norm < 2.0)  # Motive writes unit quaternions
         mat[ok] = Rotation.from_quat(q[ok]).as_matrix()  # scalar last: (x, y, z, w)
     else:
         order = rt.upper()

@@ -11,8 +11,32 @@ changed once given.
 The browser never sees system names or file paths: stimuli are addressed by opaque ids and
 conditions by slot letters (A, B, ... / left, right); the mapping stays on the server.
 
-Admin API (token in ``Authorization: Bearer``, ``X-Admin-Token`` or ``?token=``):
-``/api/admin/progress``, ``/api/admin/results.json``, ``/api/admin/results.csv``; page ``/admin``.
+Admin API: ``/api/admin/progress``, ``/api/admin/results.json``, ``/api/admin/results.csv``; page
+``/admin``.  The token is accepted in ``Authorization: Bearer`` or ``X-Admin-Token`` (scripts) or as
+the admin session cookie: the link ``/admin?token=...`` printed by ``listen serve`` is used once —
+the server sets an ``HttpOnly; SameSite=Strict`` cookie holding a keyed hash of the token and
+redirects to ``/admin``, so the token leaves the address bar and the history.  The page's login
+form posts to ``/api/admin/session``; admin POSTs need the ``X-CSRF-Token`` header to equal the
+``hm_csrf`` cookie (double submit) and a same-origin ``Origin``.
+
+Hardening (issue 18 item 4), one ASGI middleware (:class:`Guard`) in front of everything:
+
+* **Host allow-list** — a request whose ``Host`` is not an allowed name gets 400, so a page on
+  another site cannot reach the server through DNS rebinding.  Allowed: ``localhost``,
+  ``127.0.0.1``, ``::1``, the served host and every ``--allowed-host`` (Starlette's
+  ``TrustedHostMiddleware`` was considered; it splits ``[::1]:8000`` at the first colon and so
+  refuses every IPv6 literal).
+* **Headers on every response** — ``Content-Security-Policy`` (same-origin scripts, styles, media
+  and connections; ``frame-ancestors 'none'``; ``object-src 'none'``; ``base-uri 'none'``),
+  ``X-Frame-Options: DENY``, ``X-Content-Type-Options: nosniff``, ``Referrer-Policy: no-referrer``,
+  ``Cross-Origin-Opener-Policy: same-origin``; ``Cache-Control: no-store`` on the API.
+* **Request bodies** over ``max_body`` bytes (default 64 KiB) get 413 — by ``Content-Length`` or
+  while a chunked body streams in.
+* **Cross-site writes** — a POST whose ``Origin`` is not this server gets 403.
+* **Registration** — at most ``registrations_per_address`` new participants per client address
+  per ``registration_window_s`` (429; loopback addresses — participants at the experimenter's own
+  machine — are not limited) and at most ``max_participants`` in all (403 "full"), both from the
+  configuration and both counted in the database, so they hold over several workers.
 
 Libraries considered: webMUSHRA and HEMVIP (PHP/JS test frameworks for audio and gesture; not
 embeddable in a Python package, no head viewer), Flask (no request validation built in).
@@ -21,22 +45,25 @@ embeddable in a Python package, no head viewer), Flask (no request validation bu
 from __future__ import annotations
 
 import csv
+import hashlib
+import hmac
 import io
 import json
 import math
 import os
 import secrets
+import socket
 import time
 from pathlib import Path
 from typing import Any
 
 from fastapi import FastAPI, HTTPException, Request
-from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, RedirectResponse, Response
 from fastapi.staticfiles import StaticFiles
 from pydantic import BaseModel, ConfigDict, Field
 
 from .config import TestConfig
-from .db import ANSWER_COLUMNS, Conflict, Database, NotFound
+from .db import ANSWER_COLUMNS, Conflict, Database, Full, NotFound, RateLimited
 from .plan import make_plan, public_trial, unblind_id
 
 STATIC = Path(__file__).resolve().parent / "static"
@@ -65,12 +92,150 @@ class AnswerBody(BaseModel):
     response_ms: float | None = Field(default=None, ge=0, le=24 * 3600 * 1000)
 
 
+CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
+       "media-src 'self' blob:; connect-src 'self'; worker-src 'self' blob:; font-src 'self'; "
+       "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'")
+SECURITY_HEADERS = [
+    (b"content-security-policy", CSP.encode()),
+    (b"x-frame-options", b"DENY"),
+    (b"x-content-type-options", b"nosniff"),
+    (b"referrer-policy", b"no-referrer"),
+    (b"cross-origin-opener-policy", b"same-origin"),
+]
+MAX_BODY = 64 * 1024
+SESSION_COOKIE = "hm_admin"
+CSRF_COOKIE = "hm_csrf"
+
+
+def split_host(value: str) -> str:
+    """The host name of a ``Host`` header (``name``, ``name:port``, ``[v6]`` or ``[v6]:port``),
+    lower-case, without a trailing dot."""
+    v = value.strip().lower()
+    if v.startswith("["):
+        end = v.find("]")
+        return v[1:end] if end > 0 else ""
+    if v.count(":") == 1:
+        v = v.split(":", 1)[0]
+    return v.rstrip(".")
+
+
+def _is_loopback(addr: str) -> bool:
+    import ipaddress
+
+    try:
+        return ipaddress.ip_address(addr).is_loopback
+    except ValueError:
+        return False
+
+
+def default_allowed_hosts(served: str | None = None) -> set[str]:
+    """``localhost`` and the loopback addresses, plus ``served`` (the ``--host``) — and, when
+    it is a wildcard (0.0.0.0 / ::), this machine's host names and their addresses."""
+    hosts = {"localhost", "127.0.0.1", "::1"}
+    if served and served not in ("0.0.0.0", "::", ""):
+        hosts.add(split_host(served) if served.startswith("[") else served.lower())
+    elif served in ("0.0.0.0", "::"):
+        for name in {socket.gethostname(), socket.getfqdn()}:
+            if name:
+                hosts.add(name.lower())
+                try:
+                    hosts.update(socket.gethostbyname_ex(name)[2])
+                except OSError:
+                    pass
+    return hosts
+
+
+class Guard:
+    """ASGI middleware: Host allow-list, body-size limit, same-origin writes, security headers
+    (see the module docstring)."""
+
+    def __init__(self, app, *, allowed_hosts: set[str], max_body: int = MAX_BODY):
+        self.app, self.allowed, self.max_body = app, {h.lower() for h in allowed_hosts}, max_body
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        headers = dict(scope.get("headers") or [])
+        host = headers.get(b"host", b"").decode("latin-1")
+        if split_host(host) not in self.allowed:
+            return await _plain(send, 400, "host not allowed (start the server with --allowed-host NAME "
+                                           "to serve this name)")
+        method = scope.get("method", "GET")
+        if method not in ("GET", "HEAD", "OPTIONS"):
+            origin = headers.get(b"origin")
+            if origin is not None and origin != b"null":
+                o = origin.decode("latin-1")
+                o_host = o.split("://", 1)[-1]
+                if o_host.lower() != host.lower():
+                    return await _plain(send, 403, "cross-origin request refused")
+            elif origin == b"null":
+                return await _plain(send, 403, "cross-origin request refused")
+        length = headers.get(b"content-length")
+        if length is not None:
+            try:
+                too_big = int(length) > self.max_body
+            except ValueError:
+                return await _plain(send, 400, "bad Content-Length")
+            if too_big:
+                return await _plain(send, 413, f"request body larger than {self.max_body} bytes")
+        api = scope.get("path", "").startswith("/api/")
+        seen = 0
+        started = refused = False
+
+        async def limited_receive():
+            nonlocal seen, refused
+            if refused:
+                return {"type": "http.disconnect"}
+            msg = await receive()
+            if msg["type"] == "http.request":
+                seen += len(msg.get("body", b""))
+                if seen > self.max_body:  # a streamed body over the limit: answer 413 ourselves
+                    refused = True
+                    if not started:
+                        await _plain(send, 413, f"request body larger than {self.max_body} bytes")
+                    return {"type": "http.disconnect"}
+            return msg
+
+        async def send_with_headers(msg):
+            nonlocal started
+            if refused:  # the 413 has been sent; whatever the app answers is dropped
+                return
+            if msg["type"] == "http.response.start":
+                started = True
+                hs = [h for h in msg.get("headers", []) if h[0].lower() not in dict(SECURITY_HEADERS)]
+                hs += SECURITY_HEADERS
+                if api:
+                    hs = [h for h in hs if h[0].lower() != b"cache-control"] + [(b"cache-control", b"no-store")]
+                msg = {**msg, "headers": hs}
+            await send(msg)
+
+        try:
+            await self.app(scope, limited_receive, send_with_headers)
+        except Exception:
+            if not refused:
+                raise
+
+
+async def _plain(send, status: int, text: str) -> None:
+    body = json.dumps({"detail": text}).encode()
+    await send({"type": "http.response.start", "status": status,
+                "headers": [(b"content-type", b"application/json"),
+                            (b"content-length", str(len(body)).encode()), *SECURITY_HEADERS]})
+    await send({"type": "http.response.body", "body": body})
+
+
+class SessionBody(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    token: str = Field(max_length=512)
+
+
 def _bad(msg: str, code: int = 422):
     raise HTTPException(status_code=code, detail=msg)
 
 
 def create_app(cfg: TestConfig, *, database_url: str | None = None,
-               admin_token: str | None = None) -> FastAPI:
+               admin_token: str | None = None, allowed_hosts=None, served_host: str | None = None,
+               max_body: int = MAX_BODY, durable: bool = True):
     """Build the app for one test.
 
     Parameters
@@ -82,9 +247,21 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
     admin_token : str, optional
         Defaults to the config's ``admin_token``, then ``$HEADMOTION_ADMIN_TOKEN``, then a random
         token (available as ``app.state.admin_token``).
+    allowed_hosts : iterable of str, optional
+        Host names accepted in the ``Host`` header besides :func:`default_allowed_hosts` of
+        ``served_host`` (the address the server listens on).
+    max_body : int
+        Largest request body accepted (bytes).
+    durable : bool
+        SQLite: ``synchronous=FULL`` (default; an acknowledged answer survives a power cut) or
+        ``NORMAL`` (survives a killed server, not a power cut; no fsync per answer).
+
+    Returns the ASGI app (the FastAPI app wrapped in :class:`Guard`); the FastAPI app's state
+    (``cfg``, ``db``, ``admin_token``, ``database_url``, ``allowed_hosts``) is on ``.state`` of
+    both.
     """
     url = database_url or cfg.database or cfg.default_database_url()
-    db = Database(url)
+    db = Database(url, durable=durable)
     previous = db.get_meta("config")
     if previous and previous.get("digest") != cfg.digest and db.progress():
         import warnings
@@ -97,10 +274,7 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
                            "screening_fraction": cfg.screening_fraction,
                            "scale_points": cfg.scale_points,
                            "demographics": [q.name for q in cfg.demographics]})
-    secret_hex = db.get_meta("secret")
-    if secret_hex is None:
-        secret_hex = secrets.token_hex(32)
-        db.set_meta("secret", secret_hex)
+    secret_hex = db.get_or_set_meta("secret", lambda: secrets.token_hex(32))
     secret = bytes.fromhex(secret_hex)
     token = admin_token or cfg.admin_token or os.environ.get("HEADMOTION_ADMIN_TOKEN") \
         or secrets.token_urlsafe(16)
@@ -112,13 +286,9 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
     app.state.admin_token = token
     app.state.database_url = url
     motion_cache: dict[str, bytes] = {}
-
-    @app.middleware("http")
-    async def no_store(request: Request, call_next):
-        resp = await call_next(request)
-        if request.url.path.startswith("/api/"):
-            resp.headers["Cache-Control"] = "no-store"
-        return resp
+    session_value = hmac.new(secret, b"admin-session:" + token.encode(), hashlib.sha256).hexdigest()
+    hosts = default_allowed_hosts(served_host) | {split_host(h) for h in (allowed_hosts or ()) if h}
+    app.state.allowed_hosts = hosts
 
     # -- pages -----------------------------------------------------------------------------
     @app.get("/", response_class=HTMLResponse)
@@ -126,8 +296,24 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
         return FileResponse(STATIC / "index.html", media_type="text/html")
 
     @app.get("/admin", response_class=HTMLResponse)
-    def admin_page():
-        return FileResponse(STATIC / "admin.html", media_type="text/html")
+    def admin_page(request: Request):
+        secure = request.url.scheme == "https"
+        given = request.query_params.get("token")
+        if given is not None:  # the printed link: trade the token for a cookie, clean the URL
+            resp = RedirectResponse("/admin", status_code=303)
+            if secrets.compare_digest(given.encode(), token.encode()):
+                _set_session(resp, secure)
+            resp.headers["Cache-Control"] = "no-store"
+            return resp
+        resp = FileResponse(STATIC / "admin.html", media_type="text/html")
+        if not request.cookies.get(CSRF_COOKIE):
+            resp.set_cookie(CSRF_COOKIE, secrets.token_urlsafe(24), httponly=False, samesite="strict",
+                            secure=secure, path="/")
+        return resp
+
+    def _set_session(resp: Response, secure: bool) -> None:
+        resp.set_cookie(SESSION_COOKIE, session_value, httponly=True, samesite="strict", secure=secure,
+                        path="/")
 
     @app.get("/favicon.ico")
     def favicon():
@@ -149,8 +335,23 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
         if not body.consent:
             _bad("consent is required to take part", 400)
         first = "demographics" if cfg.demographics else "instructions"
-        p = db.create_participant(lambda n: make_plan(cfg, n),
-                                  user_agent=request.headers.get("user-agent", ""), stage=first)
+        client = request.client.host if request.client else ""
+        # the lab machine itself (participants at the experimenter's computer) is not limited
+        addr = "" if _is_loopback(client) else \
+            hmac.new(secret, b"addr:" + client.encode(), hashlib.sha256).hexdigest()[:32]
+        try:
+            p = db.create_participant(lambda n: make_plan(cfg, n),
+                                      user_agent=request.headers.get("user-agent", ""), stage=first,
+                                      addr=addr, max_participants=cfg.max_participants,
+                                      per_address=cfg.registrations_per_address,
+                                      window_s=cfg.registration_window_s)
+        except Full:
+            raise HTTPException(status_code=403, detail="this test is full; thank you for your "
+                                                        "interest") from None
+        except RateLimited:
+            raise HTTPException(status_code=429, detail="too many registrations from this address; "
+                                                        "try again later",
+                                headers={"Retry-After": str(int(cfg.registration_window_s))}) from None
         return {"token": p["token"], "stage": p["stage"]}
 
     def _participant(token: str) -> dict[str, Any]:
@@ -161,7 +362,10 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
 
     @app.get("/api/p/{token}/state")
     def state(token: str):
-        p = _participant(token)
+        try:
+            p = db.progress_of(token)
+        except NotFound:
+            raise HTTPException(status_code=404, detail="unknown participant") from None
         out: dict[str, Any] = {"stage": p["stage"],
                                "progress": {"done": p["next_trial"], "total": p["n_trials"]}}
         if p["stage"] == "trials" and p["next_trial"] < p["n_trials"]:
@@ -197,10 +401,13 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
 
     @app.post("/api/p/{token}/answer")
     def answer(token: str, body: AnswerBody):
-        p = _participant(token)
-        if not 0 <= body.trial_index < p["n_trials"]:
-            _bad(f"trial_index must be in [0, {p['n_trials'] - 1}]; got {body.trial_index}")
-        trial = p["plan"][body.trial_index]
+        try:
+            _pid, plan = db.plan(token)
+        except NotFound:
+            raise HTTPException(status_code=404, detail="unknown participant") from None
+        if not 0 <= body.trial_index < len(plan):
+            _bad(f"trial_index must be in [0, {len(plan) - 1}]; got {body.trial_index}")
+        trial = plan[body.trial_index]
         rows = _answer_rows(cfg, trial, body)
         try:
             res = db.submit(token, body.trial_index, rows)
@@ -231,12 +438,43 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
 
     # -- admin -----------------------------------------------------------------------------
     def _require_admin(request: Request):
-        given = request.headers.get("x-admin-token") or request.query_params.get("token") or ""
+        """The token in a header (scripts) or the session cookie (the admin page); never in
+        the URL."""
+        given = request.headers.get("x-admin-token") or ""
         auth = request.headers.get("authorization", "")
         if auth.lower().startswith("bearer "):
             given = auth[7:].strip()
-        if not given or not secrets.compare_digest(given.encode(), token.encode()):
-            raise HTTPException(status_code=401, detail="admin token required")
+        if given and secrets.compare_digest(given.encode(), token.encode()):
+            return
+        cookie = request.cookies.get(SESSION_COOKIE, "")
+        if cookie and secrets.compare_digest(cookie.encode(), session_value.encode()):
+            return
+        raise HTTPException(status_code=401, detail="admin token required")
+
+    def _require_csrf(request: Request):
+        """Admin POSTs: the ``X-CSRF-Token`` header must equal the ``hm_csrf`` cookie (a page on
+        another site can neither read the cookie nor set the header) — Guard has checked
+        ``Origin`` already."""
+        cookie = request.cookies.get(CSRF_COOKIE, "")
+        header = request.headers.get("x-csrf-token", "")
+        if not cookie or not header or not secrets.compare_digest(cookie.encode(), header.encode()):
+            raise HTTPException(status_code=403, detail="missing or wrong CSRF token")
+
+    @app.post("/api/admin/session")
+    def admin_login(body: SessionBody, request: Request):
+        _require_csrf(request)
+        if not secrets.compare_digest(body.token.encode(), token.encode()):
+            raise HTTPException(status_code=401, detail="wrong admin token")
+        resp = JSONResponse({"ok": True})
+        _set_session(resp, request.url.scheme == "https")
+        return resp
+
+    @app.post("/api/admin/logout")
+    def admin_logout(request: Request):
+        _require_csrf(request)
+        resp = JSONResponse({"ok": True})
+        resp.delete_cookie(SESSION_COOKIE, path="/", samesite="strict", httponly=True)
+        return resp
 
     @app.get("/api/admin/progress")
     def admin_progress(request: Request):
@@ -260,7 +498,24 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
                         headers={"Content-Disposition":
                                  f'attachment; filename="{cfg.name}-results.csv"'})
 
-    return app
+    guarded = Guard(app, allowed_hosts=hosts, max_body=max_body)
+    guarded.state = app.state
+    return guarded
+
+
+def app_from_env():
+    """Factory for ``uvicorn --factory`` worker processes (``listen serve --workers N``): the
+    settings come from ``HEADMOTION_LISTEN_CONFIG``, ``HEADMOTION_LISTEN_DATABASE``,
+    ``HEADMOTION_ADMIN_TOKEN``, ``HEADMOTION_LISTEN_ALLOWED_HOSTS`` (comma-separated),
+    ``HEADMOTION_LISTEN_HOST`` and ``HEADMOTION_LISTEN_SYNC``, set by the parent process."""
+    from .config import load_config
+
+    cfg = load_config(os.environ["HEADMOTION_LISTEN_CONFIG"])
+    hosts = [h for h in os.environ.get("HEADMOTION_LISTEN_ALLOWED_HOSTS", "").split(",") if h]
+    return create_app(cfg, database_url=os.environ.get("HEADMOTION_LISTEN_DATABASE") or None,
+                      admin_token=os.environ.get("HEADMOTION_ADMIN_TOKEN") or None,
+                      allowed_hosts=hosts, served_host=os.environ.get("HEADMOTION_LISTEN_HOST"),
+                      durable=os.environ.get("HEADMOTION_LISTEN_SYNC", "full") != "normal")
 
 
 def _viewer_module() -> str | None:
@@ -388,4 +643,5 @@ def results_csv(db: Database) -> str:
     return buf.getvalue()
 
 
-__all__ = ["create_app", "results_document", "results_csv"]
+__all__ = ["create_app", "app_from_env", "default_allowed_hosts", "Guard", "results_document",
+           "results_csv"]

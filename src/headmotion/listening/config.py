@@ -277,6 +277,12 @@ class TestConfig:
     admin_token: str | None = None
     database: str | None = None
     finish_text: str = "Thank you for taking part!"
+    #: server limits (issue 18 item 4): a cap on participants (None: no cap) and at most
+    #: ``registrations_per_address`` new participants per client address per
+    #: ``registration_window_s`` seconds
+    max_participants: int | None = None
+    registrations_per_address: int = 30
+    registration_window_s: float = 3600.0
     digest: str = ""
     stimuli: dict[str, Stimulus] = field(default_factory=dict)
 
@@ -318,7 +324,8 @@ def _trials_per_item(cfg: TestConfig, item: Item) -> int:
 # ---------------------------------------------------------------------------------------------
 _TOP_KEYS = {"type", "title", "name", "seed", "consent", "instructions", "question", "scale",
              "demographics", "training", "items", "attention_checks", "mushra", "ab",
-             "require_play", "admin_token", "database", "finish_text", "viewer_style"}
+             "require_play", "admin_token", "database", "finish_text", "viewer_style",
+             "max_participants", "registrations_per_address", "registration_window_s"}
 
 
 def load_config(path) -> TestConfig:
@@ -376,6 +383,14 @@ def load_config(path) -> TestConfig:
         kw["viewer_style"] = style
     if "require_play" in top:
         kw["require_play"] = ctx.boolean(top["require_play"], "'require_play'")
+    if "max_participants" in top and top["max_participants"].value is not None:
+        kw["max_participants"] = ctx.integer(top["max_participants"], "'max_participants'", 1, 10**7)
+    if "registrations_per_address" in top:
+        kw["registrations_per_address"] = ctx.integer(top["registrations_per_address"],
+                                                      "'registrations_per_address'", 1, 10**7)
+    if "registration_window_s" in top:
+        kw["registration_window_s"] = ctx.number(top["registration_window_s"], "'registration_window_s'",
+                                                 1, 366 * 24 * 3600)
 
     if "scale" in top:
         sc = ctx.mapping(top["scale"], "'scale'")

@@ -10,6 +10,13 @@ transaction that stores the answer, so a resubmitted or concurrent duplicate can
 twice and a stored rating can never be changed ("participants were not allowed to re-evaluate
 videos once they made their decision", thesis §4.2.3.1).
 
+Several server processes (``headmotion listen serve --workers N``) may share one database: SQLite
+through WAL and a 30 s busy timeout (each request is one short transaction), PostgreSQL through row
+locks (``SELECT ... FOR UPDATE``) and an advisory lock around registration.  A unique-constraint
+race between processes (a browser retry landing on another worker) is retried once and then
+reads as the duplicate it is.  Registrations are counted in their own table so that a per-address
+rate limit and a participant cap hold across processes (:meth:`Database.create_participant`).
+
 Libraries considered: the SQLAlchemy ORM (not needed for four tables), ``databases``/``encode``
 (async only, unmaintained), raw ``sqlite3`` (no PostgreSQL path).
 """
@@ -69,6 +76,13 @@ answers = sa.Table(
     sa.UniqueConstraint("participant_id", "trial_index", "slot", name="uq_answer_slot"),
 )
 
+registrations = sa.Table(
+    "registrations", metadata,
+    sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
+    sa.Column("addr", sa.String(64), nullable=False, index=True),  # keyed hash of the address
+    sa.Column("created_at", sa.Float, nullable=False),
+)
+
 ANSWER_COLUMNS = ("participant", "trial_index", "phase", "kind", "item", "speaker", "group",
                   "slot", "condition", "value", "other", "response_ms", "created_at")
 
@@ -79,6 +93,14 @@ class NotFound(LookupError):
 
 class Conflict(RuntimeError):
     """The request contradicts what is stored (answer changed, trial not reached, ...)."""
+
+
+class Full(RuntimeError):
+    """The test has as many participants as its configuration allows."""
+
+
+class RateLimited(RuntimeError):
+    """Too many registrations from one client address in the window."""
 
 
 def _sqlite_pragmas(synchronous: str):
@@ -120,7 +142,9 @@ class Database:
             if u.drivername == "postgresql":
                 u = u.set(drivername="postgresql+psycopg")
             try:
-                self.engine = sa.create_engine(u, pool_size=10, max_overflow=20,
+                # at most 15 connections per server process, so that --workers 4 stays well
+                # inside PostgreSQL's default max_connections (100)
+                self.engine = sa.create_engine(u, pool_size=5, max_overflow=10, pool_timeout=60,
                                                pool_pre_ping=True)
             except ModuleNotFoundError as exc:
                 raise MissingDependencyError(
@@ -131,16 +155,46 @@ class Database:
                                  f"got {url!r}")
         # SQLite allows one writer; serialising writers in-process avoids busy retries.
         self._lock = threading.Lock() if self.is_sqlite else contextlib.nullcontext()
-        metadata.create_all(self.engine)
+        self._plans: dict[str, tuple[int, list[dict]]] = {}
+        for attempt in range(3):  # workers starting together may race on CREATE TABLE
+            try:
+                metadata.create_all(self.engine)
+                break
+            except (sa.exc.OperationalError, sa.exc.ProgrammingError, sa.exc.IntegrityError):
+                if attempt == 2:
+                    raise
+                time.sleep(0.2)
 
     def close(self) -> None:
         self.engine.dispose()
 
     # -- meta ------------------------------------------------------------------------------
     def set_meta(self, key: str, value: Any) -> None:
-        with self._lock, self.engine.begin() as c:
-            c.execute(sa.delete(meta_table).where(meta_table.c.key == key))
-            c.execute(sa.insert(meta_table).values(key=key, value=json.dumps(value)))
+        text = json.dumps(value)
+        for attempt in range(3):  # several workers start at once: upsert, retried on a race
+            try:
+                with self._lock, self.engine.begin() as c:
+                    n = c.execute(sa.update(meta_table).where(meta_table.c.key == key)
+                                  .values(value=text)).rowcount
+                    if not n:
+                        c.execute(sa.insert(meta_table).values(key=key, value=text))
+                return
+            except sa.exc.IntegrityError:
+                if attempt == 2:
+                    raise
+
+    def get_or_set_meta(self, key: str, make: Callable[[], Any]) -> Any:
+        """The stored value of ``key``; if there is none, store ``make()`` — once, even when
+        several processes ask at the same moment (the first insert wins, the others read it)."""
+        got = self.get_meta(key)
+        if got is not None:
+            return got
+        try:
+            with self._lock, self.engine.begin() as c:
+                c.execute(sa.insert(meta_table).values(key=key, value=json.dumps(make())))
+        except sa.exc.IntegrityError:
+            pass
+        return self.get_meta(key)
 
     def get_meta(self, key: str, default: Any = None) -> Any:
         with self.engine.connect() as c:
@@ -149,18 +203,49 @@ class Database:
 
     # -- participants ----------------------------------------------------------------------
     def create_participant(self, plan_for: Callable[[int], list[dict]], *, user_agent: str = "",
-                           stage: str = "demographics") -> dict[str, Any]:
-        """Register a participant; ``plan_for(number)`` makes the trial plan from its number."""
+                           stage: str = "demographics", addr: str = "", max_participants: int | None = None,
+                           per_address: int | None = None, window_s: float = 3600.0) -> dict[str, Any]:
+        """Register a participant; ``plan_for(number)`` makes the trial plan from its number.
+
+        Raises :class:`Full` when ``max_participants`` are registered already and
+        :class:`RateLimited` when ``addr`` registered ``per_address`` participants in the last
+        ``window_s`` seconds.  The rows are written first and counted after, in one transaction
+        (SQLite: the write holds the database's write lock; PostgreSQL: an advisory lock), so the
+        limits hold across worker processes."""
         token = secrets.token_urlsafe(24)
+        now = time.time()
         with self._lock, self.engine.begin() as c:
+            if not self.is_sqlite:
+                c.execute(sa.text("SELECT pg_advisory_xact_lock(1836346224)"))
+            c.execute(sa.insert(registrations).values(addr=addr[:64], created_at=now))
             res = c.execute(sa.insert(participants).values(
-                token=token, created_at=time.time(), stage=stage, demographics="{}",
+                token=token, created_at=now, stage=stage, demographics="{}",
                 next_trial=0, n_trials=0, plan="[]", user_agent=user_agent[:500]))
             pid = int(res.inserted_primary_key[0])
+            if max_participants is not None:
+                n = c.execute(sa.select(sa.func.count()).select_from(participants)).scalar_one()
+                if n > max_participants:
+                    raise Full(f"the test is full ({max_participants} participants)")
+            if per_address is not None and addr:
+                n = c.execute(sa.select(sa.func.count()).select_from(registrations).where(
+                    registrations.c.addr == addr[:64], registrations.c.created_at > now - window_s)).scalar_one()
+                if n > per_address:
+                    raise RateLimited(f"more than {per_address} registrations from one address in "
+                                      f"{window_s:g} s")
             plan = plan_for(pid)
             c.execute(sa.update(participants).where(participants.c.id == pid).values(
                 plan=json.dumps(plan), n_trials=len(plan)))
+        self._plans[token] = (pid, plan)
         return {"id": pid, "token": token, "stage": stage}
+
+    def plan(self, token: str) -> tuple[int, list[dict]]:
+        """``(participant id, trial plan)``; the plan never changes once made, so it is kept in
+        memory after the first read."""
+        got = self._plans.get(token)
+        if got is None:
+            p = self.participant(token)
+            got = self._plans[token] = (p["id"], p["plan"])
+        return got
 
     def participant(self, token: str) -> dict[str, Any]:
         if not isinstance(token, str) or not token or len(token) > 64:
@@ -172,6 +257,20 @@ class Database:
         d = dict(row._mapping)
         d["plan"] = json.loads(d["plan"])
         d["demographics"] = json.loads(d["demographics"])
+        return d
+
+    def progress_of(self, token: str) -> dict[str, Any]:
+        """``{"id", "stage", "next_trial", "n_trials", "plan"}`` — the per-request state, with the
+        (immutable) plan from the in-memory cache: one small indexed SELECT."""
+        if not isinstance(token, str) or not token or len(token) > 64:
+            raise NotFound(token)
+        with self.engine.connect() as c:
+            row = c.execute(sa.select(participants.c.id, participants.c.stage, participants.c.next_trial,
+                                      participants.c.n_trials).where(participants.c.token == token)).first()
+        if row is None:
+            raise NotFound(token)
+        d = dict(row._mapping)
+        d["plan"] = self.plan(token)[1]
         return d
 
     def set_stage(self, token: str, *, expect: str, stage: str,
@@ -190,6 +289,12 @@ class Database:
 
     # -- answers ---------------------------------------------------------------------------
     def submit(self, token: str, trial_index: int, rows: list[dict[str, Any]]) -> dict[str, Any]:
+        try:
+            return self._submit(token, trial_index, rows)
+        except sa.exc.IntegrityError:  # the same answer committed by another process meanwhile
+            return self._submit(token, trial_index, rows)
+
+    def _submit(self, token: str, trial_index: int, rows: list[dict[str, Any]]) -> dict[str, Any]:
         """Store the answer rows of one trial, exactly once.
 
         Returns ``{"stored": n, "duplicate": bool, "next_trial": k, "done": bool}``.  Resending
@@ -259,4 +364,4 @@ class Database:
             return int(c.execute(sa.select(sa.func.count()).select_from(answers)).scalar_one())
 
 
-__all__ = ["Database", "NotFound", "Conflict", "ANSWER_COLUMNS"]
+__all__ = ["Database", "NotFound", "Conflict", "Full", "RateLimited", "ANSWER_COLUMNS"]

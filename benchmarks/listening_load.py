@@ -1,0 +1,248 @@
+"""Load driver for the listening-test server (issue 18 item 4): simulated participants over HTTP.
+
+``headmotion listen serve`` runs in its own process group (``--workers N``); each simulated
+participant registers, answers the demographics, starts, then loops *read the state → answer →
+wait ``think_s``* until done, exactly as the browser page does.  Every acknowledged answer is
+recorded so that the database can be checked afterwards (stored once, with the value sent), and
+the answer POST's response time is recorded for the p95.
+
+Used by ``benchmarks/run.py --only server`` and by ``tests/test_listening_hardening.py``.
+The test is a MUSHRA test made from the package's example stimuli (``examples/listening``),
+``n_items`` items long (three of the example items repeated under new ids).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+ADMIN = "bench-admin-token"
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def make_test_dir(dst: Path, *, n_items: int = 12, per_address: int = 100_000,
+                  max_participants: int | None = None) -> Path:
+    """A copy of ``examples/listening`` with ``load.yaml``: a MUSHRA test of ``n_items`` items."""
+    shutil.copytree(ROOT / "examples" / "listening", dst, ignore=shutil.ignore_patterns("results"))
+    lines = ["type: mushra", "name: load", "title: load test", "seed: 1",
+             f"registrations_per_address: {per_address}"]
+    if max_participants is not None:
+        lines.append(f"max_participants: {max_participants}")
+    lines += ["demographics:", "  - name: native_language", "    label: Native?", '    options: ["yes", "no"]',
+              "mushra:", "  hidden_reference: reference", "  anchor: noise", "items:"]
+    for k in range(n_items):
+        s = f"s{k % 3 + 1}"
+        lines += [f"  - id: item{k}", f"    speaker: {'AB'[k % 2]}",
+                  f"    reference: {{motion: motion/{s}_natural.npz, audio: audio/{s}.wav}}",
+                  "    conditions:"]
+        conds = {"reference": "natural", "system": "system", "desync": "desync", "noise": "noise"}
+        for c, f in conds.items():
+            lines.append(f"      {c}: {{motion: motion/{s}_{f}.npz, audio: audio/{s}.wav}}")
+    (dst / "load.yaml").write_text("\n".join(lines) + "\n")
+    return dst / "load.yaml"
+
+
+class ServerProc:
+    """``headmotion listen serve`` in its own process group."""
+
+    def __init__(self, config: Path, database: str, *, workers: int = 1, port: int | None = None,
+                 extra: tuple[str, ...] = (), sync: str = "full"):
+        self.config, self.database, self.workers, self.extra = config, database, workers, extra
+        self.sync = sync
+        self.port = port or free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.start()
+
+    def start(self):
+        import httpx
+
+        env = dict(os.environ)
+        env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "headmotion", "listen", "serve", str(self.config), "--port", str(self.port),
+             "--database", self.database, "--admin-token", ADMIN, "--workers", str(self.workers), "--sync", self.sync, *self.extra],
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True, env=env)
+        deadline = time.time() + 120
+        ok = 0
+        while time.time() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"server died: {self.proc.stderr.read().decode()[-2000:]}")
+            try:
+                if httpx.get(self.url + "/api/test", timeout=2).status_code == 200:
+                    ok += 1
+                    if ok >= 2 * self.workers:  # every worker has had a chance to start
+                        return
+                    continue
+            except httpx.HTTPError:
+                pass
+            time.sleep(0.2)
+        raise RuntimeError("server did not start")
+
+    def cpu_seconds(self) -> float:
+        """CPU time (user + system) used so far by the server's processes (master and workers)."""
+        import psutil
+
+        try:
+            root = psutil.Process(self.proc.pid)
+            procs = [root] + root.children(recursive=True)
+        except psutil.Error:
+            return float("nan")
+        total = 0.0
+        for p in procs:
+            try:
+                t = p.cpu_times()
+                total += t.user + t.system
+            except psutil.Error:
+                pass
+        return total
+
+    def kill(self):
+        """SIGKILL the whole server (the master and every worker)."""
+        os.killpg(self.proc.pid, signal.SIGKILL)
+        self.proc.wait(10)
+
+    def stop(self):
+        if self.proc.poll() is None:
+            os.killpg(self.proc.pid, signal.SIGTERM)
+            try:
+                self.proc.wait(20)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait(10)
+
+    def answers(self) -> list[dict]:
+        import httpx
+
+        r = httpx.get(self.url + "/api/admin/results.json", headers={"Authorization": f"Bearer {ADMIN}"},
+                      timeout=120)
+        r.raise_for_status()
+        return r.json()["answers"]
+
+
+def answer_for(trial: dict, pnum: int) -> dict:
+    """A deterministic answer of participant ``pnum`` to ``trial``."""
+    i = trial["index"]
+    if trial["kind"] == "attention":
+        return {"choice": trial["options"][(pnum + i) % len(trial["options"])]}
+    if trial["kind"] == "mos":
+        return {"rating": 1 + (pnum * 7 + i * 3) % 7}
+    if trial["kind"] == "mushra":
+        return {"ratings": {s["label"]: float((pnum * 13 + i * 7 + k * 29) % 101)
+                            for k, s in enumerate(trial["slots"])}}
+    return {"choice": "left" if (pnum + i) % 2 else "right"}
+
+
+async def participant(client, pnum: int, *, think_s: float, sent: dict, latencies: list, errors: list,
+                      registered: dict):
+    import httpx
+
+    try:
+        r = await client.post("/api/participants", json={"consent": True})
+        if r.status_code != 201:
+            errors.append((pnum, "register", r.status_code, r.text[:200]))
+            return
+        token = r.json()["token"]
+        registered[pnum] = token
+        r = await client.post(f"/api/p/{token}/demographics", json={"answers": {"native_language": "yes"}})
+        if r.status_code != 200:
+            errors.append((pnum, "demographics", r.status_code, r.text[:200]))
+            return
+        r = await client.post(f"/api/p/{token}/start")
+        if r.status_code != 200:
+            errors.append((pnum, "start", r.status_code, r.text[:200]))
+            return
+        while True:
+            r = await client.get(f"/api/p/{token}/state")
+            if r.status_code != 200:
+                errors.append((pnum, "state", r.status_code, r.text[:200]))
+                return
+            st = r.json()
+            if st["stage"] == "done":
+                return
+            trial = st["trial"]
+            body = {"trial_index": trial["index"], **answer_for(trial, pnum)}
+            t0 = time.perf_counter()
+            r = await client.post(f"/api/p/{token}/answer", json=body)
+            latencies.append(time.perf_counter() - t0)
+            if r.status_code != 200:
+                errors.append((pnum, "answer", r.status_code, r.text[:200]))
+                return
+            sent[(token, trial["index"])] = body
+            await asyncio.sleep(think_s)
+    except httpx.TransportError:  # the server was killed
+        return
+
+
+async def run_panel(url: str, n: int, *, think_s: float = 0.05, sent=None, latencies=None, errors=None,
+                    registered=None, ramp_s: float = 1.0):
+    import httpx
+
+    sent = {} if sent is None else sent
+    latencies = [] if latencies is None else latencies
+    errors = [] if errors is None else errors
+    registered = {} if registered is None else registered
+    limits = httpx.Limits(max_connections=n, max_keepalive_connections=n)
+    async with httpx.AsyncClient(base_url=url, timeout=120, limits=limits) as client:
+        async def one(p):
+            await asyncio.sleep(ramp_s * p / max(n, 1))  # participants arrive over ramp_s seconds
+            await participant(client, p, think_s=think_s, sent=sent, latencies=latencies, errors=errors,
+                              registered=registered)
+
+        await asyncio.gather(*(one(p) for p in range(n)))
+    return sent, latencies, errors, registered
+
+
+def load(url: str, n: int, *, think_s: float = 0.05, server: ServerProc | None = None) -> dict:
+    """Run ``n`` participants to the end; figures and what was acknowledged.  With ``server``,
+    also the server's CPU seconds per answer (state GET + answer POST, registration included):
+    a figure that does not depend on what else the machine is doing."""
+    import numpy as np
+
+    cpu0 = server.cpu_seconds() if server is not None else float("nan")
+    t0 = time.perf_counter()
+    sent, lat, errors, registered = asyncio.run(run_panel(url, n, think_s=think_s))
+    elapsed = time.perf_counter() - t0
+    cpu = (server.cpu_seconds() - cpu0) if server is not None else float("nan")
+    lat_ms = np.array(lat) * 1000
+    return {"participants": n, "answers": len(sent), "seconds": elapsed, "answers_per_s": len(sent) / elapsed,
+            "server_cpu_ms_per_answer": 1000 * cpu / max(len(sent), 1),
+            "p50_ms": float(np.percentile(lat_ms, 50)) if len(lat_ms) else float("nan"),
+            "p95_ms": float(np.percentile(lat_ms, 95)) if len(lat_ms) else float("nan"),
+            "errors": errors, "sent": sent, "registered": registered}
+
+
+def check_stored(answers: list[dict], sent: dict, pid_by_token: dict) -> None:
+    """Every acknowledged answer is stored exactly once with the values sent."""
+    keys = [(a["participant"], a["trial_index"], a["slot"]) for a in answers]
+    assert len(keys) == len(set(keys)), "an answer was stored twice"
+    stored = {(a["participant"], a["trial_index"], a["slot"]): a for a in answers}
+    for (token, idx), body in sent.items():
+        pid = pid_by_token[token]
+        for lab, v in body["ratings"].items():
+            assert stored[(pid, idx, lab)]["value"] == v, (token, idx, lab)
+
+
+def pid_by_token(db_url: str) -> dict:
+    import sqlalchemy as sa
+
+    sys.path.insert(0, str(ROOT / "src"))
+    from headmotion.listening.db import participants
+
+    eng = sa.create_engine(db_url)
+    with eng.connect() as c:
+        out = {r.token: r.id for r in c.execute(sa.select(participants.c.token, participants.c.id))}
+    eng.dispose()
+    return out
