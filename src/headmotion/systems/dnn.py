@@ -124,9 +124,10 @@ from ..errors import ParameterError
 from ..motion.control import mean_pose_of
 from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, FeatureTrack, Motion
-from ..motion.pauses import DEFAULT_IDLE, settle_in_pauses
+from ..motion.pauses import DEFAULT_IDLE
 from . import dnn_post
-from .base import EMBEDDING, Synthesizer
+from .base import EMBEDDING, STREAMING, Synthesizer
+from .dnn_stream import DnnPostStages, DnnStream, frame_energy_db
 
 MODEL_FPS = 100.0
 #: product default share of the training variance carried by the slow posture component
@@ -186,6 +187,7 @@ class _DnnSystem(Synthesizer):
     """Shared implementation; see the module docstring.  Use the registered subclasses."""
 
     name: ClassVar[str] = ""
+    capabilities: ClassVar[frozenset[str]] = frozenset({STREAMING})
     default_feature: ClassVar[str] = "wav"
     #: whether the system learns a waveform embedding (CCCAE / AE) before the regressor
     uses_embedding: ClassVar[bool] = False
@@ -550,41 +552,28 @@ class _DnnSystem(Synthesizer):
             y = nets.apply_postfilter(postfilter, y, segment=int(self.segment))
         return y
 
-    def _predict_values(self, feats: np.ndarray, *, seed: int | None = None, post: bool = True) -> np.ndarray:
-        """Model-rate features ``(T, D)`` → rotation vectors ``(T, 3)`` at the model rate; with
-        ``post``, variance restoration and posture drift as the parameters say (no pauses)."""
+    def _network_values(self, feats: np.ndarray) -> np.ndarray:
+        """Model-rate features ``(T, D)`` → normalised network output ``(T, 3)`` (float32):
+        embedding (CCCAE / AE systems), regressor, post-filter."""
         self._check_features(feats, "the feature track")
         x = np.asarray(self.feature_norm_.transform(feats), dtype=np.float32)
         if self.autoencoder_ is not None:
             x = np.asarray(self.embedding_norm_.transform(self._embed_values(x)), dtype=np.float32)
-        y = self._network_output(x, self.regressor_, self.postfilter_)
+        return self._network_output(x, self.regressor_, self.postfilter_)
+
+    def _predict_values(self, feats: np.ndarray, *, seed: int | None = None, post: bool = True) -> np.ndarray:
+        """Model-rate features ``(T, D)`` → rotation vectors ``(T, 3)`` at the model rate; with
+        ``post``, variance restoration and posture drift as the parameters say (no pauses)."""
+        y = self._network_values(feats)
         if post:
             y = self._post(y, seed)
         return np.asarray(self.motion_norm_.inverse_transform(y), dtype=np.float64)
 
     def _post(self, y: np.ndarray, seed: int | None) -> np.ndarray:
-        """Variance restoration and posture drift on normalised network output (identity, the
-        very same array, when both are off)."""
-        if self.variance_restore:
-            y = dnn_post.restore_variance(y, self.gv_)
-        share = float(self.drift_share)
-        if share > 0:
-            s = self.seed if seed is None else seed
-            rng = np.random.default_rng(None if s is None else int(s))
-            y = dnn_post.add_drift(y, share=share, sd=self.motion_sd_, fps=float(self.model_fps),
-                                   tau_s=float(self.drift_tau_s), rng=rng)
-        return y
-
-    def _settle(self, rv: np.ndarray, audio: Audio) -> np.ndarray:
-        """Pauses (``idle``): slow the motion where :func:`~headmotion.features.vad.speaking_mask`
-        finds no speech for ≥ 0.5 s (offline mode of :func:`settle_in_pauses`)."""
-        if self.idle is None or float(self.idle) >= 1.0 or len(rv) < 2:
-            return rv
-        from ..features.vad import speaking_mask
-
-        mask = np.asarray(speaking_mask(audio, fps=float(self.model_fps), n_frames=len(rv)), dtype=bool)
-        return settle_in_pauses(rv, mask, fps=float(self.model_fps), idle=float(self.idle),
-                                mean_pose=np.asarray(self.motion_norm_.mean_, dtype=np.float64))
+        """Variance restoration and posture drift about the running mean
+        (:class:`~headmotion.systems.dnn_post.CausalPost`) on normalised network output (the
+        values unchanged when both are off)."""
+        return DnnPostStages(self, seed).post.push(y)
 
     def predict_features(self, features: FeatureTrack, *, seed: int | None = None) -> Motion:
         """Head motion from an already extracted feature track at the model frame rate
@@ -612,9 +601,22 @@ class _DnnSystem(Synthesizer):
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
         with _torch_context(0, getattr(self, "n_threads", None)):
-            rv = self._predict_values(feats, seed=seed)
-        rv = self._settle(rv, audio)
+            y = self._network_values(feats)
+        stages = DnnPostStages(self, seed)
+        energy = None
+        if stages.needs_energy:
+            x = audio.samples
+            if audio.sample_rate != int(self.sample_rate_):
+                from ..io.audio import resample
+
+                x = resample(x, audio.sample_rate, int(self.sample_rate_))
+            energy = frame_energy_db(x, sample_rate=int(self.sample_rate_), fps=mfps, n_frames=T)
+        rv = stages.push(np.asarray(y, dtype=np.float64), energy)
         return Motion(rv, mfps, meta={"system": self.name})
+
+    def _stream(self, *, seed: int | None):
+        """The stream of :mod:`headmotion.systems.dnn_stream` (lookahead ``latency_ms``)."""
+        return DnnStream(self, seed=seed)
 
     def embed(self, audio: Audio, *, fps: float | None = None, n_frames: int | None = None) -> FeatureTrack:
         """The learned waveform embedding (Wav_CCCAE / Wav_AE, paper Table 1) of ``audio``.
@@ -743,7 +745,7 @@ class CccaeSystem(_DnnSystem):
     """M_CCCAE (paper §3): waveform → CCCAE embedding (α = 1 by default) → regressor → post-filter."""
 
     name = "cccae"
-    capabilities = frozenset({EMBEDDING})
+    capabilities = frozenset({EMBEDDING, STREAMING})
     default_feature = "wav"
     uses_embedding = True
     default_alpha = 1.0
@@ -753,7 +755,7 @@ class AeDnnSystem(_DnnSystem):
     """M_AE (paper §4.2): the same pipeline with a plain autoencoder (α = 0)."""
 
     name = "ae-dnn"
-    capabilities = frozenset({EMBEDDING})
+    capabilities = frozenset({EMBEDDING, STREAMING})
     default_feature = "wav"
     uses_embedding = True
     default_alpha = 0.0
