@@ -17,7 +17,7 @@ pytestmark = pytest.mark.usefixtures("torch_one_thread")
 SMALL = dict(regressor_hidden=(32,), postfilter_hidden=(32,), postfilter_code=8, max_epochs=2,
              patience=3, batch_size=256, n_threads=1)
 #: documented tolerance of stream vs predict (radians; float32 network arithmetic in other batch sizes)
-TOL = 1e-4
+TOL = 1e-6
 
 
 @pytest.fixture(scope="module")
