@@ -44,6 +44,7 @@ window bookkeeping is a few lines here.
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import numpy as np
@@ -87,6 +88,22 @@ def frame_energy_db(samples: np.ndarray, *, sample_rate: int, fps: float, n_fram
     frames = frame_signal(np.asarray(samples, dtype=np.float32), sample_rate=sample_rate, fps=fps,
                           n_frames=n_frames, win_length=win)
     return log_energy_db(frames)
+
+
+@contextlib.contextmanager
+def _threads(n: int | None):
+    """torch's intra-op threads set to the model's ``n_threads`` for the block (inference needs no
+    seeding: the networks are in eval mode; ``_torch_context``'s seeding costs ~ms per call)."""
+    import torch
+
+    prev = torch.get_num_threads()
+    if n:
+        torch.set_num_threads(int(n))
+    try:
+        yield
+    finally:
+        if n:
+            torch.set_num_threads(prev)
 
 
 class DnnPostStages:
@@ -152,6 +169,9 @@ class DnnStream:
         self.buf0 = 0        # utterance sample index of buf[0]
         self.n_in = 0        # samples received
         self.emitted = 0     # frames emitted
+        self.reg = np.zeros((0, 3), dtype=np.float32)  # regressor outputs of frames reg0 … reg_end − 1
+        self.reg0 = 0
+        self.reg_end = 0
         self.done = False
 
     # -- bookkeeping ---------------------------------------------------------------------------
@@ -165,30 +185,68 @@ class DnnStream:
             return 0
         return self.block * ((r_ok - self.seg) // self.block + 1)
 
-    def _window_start(self, first: int) -> int:
-        """First frame of the window that reproduces frames ``first …`` (on the segment grid)."""
-        back = (self.block if self.seg > 1 else 0) + self.ctx + self.left
-        return max(0, self.block * ((first - back) // self.block))
+    def _regress(self, end: int, T: int | None) -> None:
+        """Extend the cache of regressor outputs to frames ``< end`` (``T``: the utterance's
+        length at flush, for the end's edge padding; None mid-stream)."""
+        import torch
 
-    def _run(self, upto: int, n_local_total: int | None) -> np.ndarray:
-        """Frames ``emitted … upto − 1`` from the window; ``n_local_total`` is the number of frames
-        of the window at the end of the utterance (None mid-stream)."""
+        from ..models import nets
+
+        if end <= self.reg_end:
+            return
+        v0, ctx = self.reg_end, self.ctx
+        fa = max(0, v0 - ctx - self.left)                       # first frame of the audio window
+        x = self.buf[fa * self.hop - self.buf0:]
+        # mid-stream: every frame the audio holds (the deltas of the last needed frames need the
+        # static features of the next ones; the window's own last frames are not used)
         from ..align import n_frames as count_frames
 
-        f0 = self._window_start(self.emitted)
-        s0 = f0 * self.hop - self.buf0
-        x = self.buf[s0:]
-        n_local = n_local_total if n_local_total is not None else count_frames(len(x), self.sr, self.fps)
-        feats = self.sys._extract(Audio(x, self.sr), n_local)
-        y = self.sys._network_values(feats)
-        a, b = self.emitted - f0, upto - f0
-        e = None
+        fb = max(end + ctx, fa + count_frames(len(x), self.sr, self.fps)) if T is None else T
+        feats = self.sys._extract(Audio(x, self.sr), fb - fa)
+        # the features of frames v0 − ctx … end + ctx − 1, edge-padded outside [0, T) as offline
+        idx = np.arange(v0 - ctx, end + ctx)
+        idx = np.clip(idx, 0, (T if T is not None else fb) - 1) - fa
+        F = np.asarray(feats, dtype=np.float32)[idx]
+        self.sys._check_features(F, "the feature track")
+        z = np.asarray(self.sys.feature_norm_.transform(F), dtype=np.float32)
+        if self.sys.autoencoder_ is not None:
+            z = np.asarray(self.sys.embedding_norm_.transform(self.sys._embed_values(z)), dtype=np.float32)
+        net = self.sys.regressor_
+        with torch.no_grad():
+            y = net(nets.gather_windows(torch.from_numpy(np.ascontiguousarray(z)),
+                                        torch.arange(end - v0), 2 * ctx + 1)).numpy()
+        self.reg = np.concatenate([self.reg, y]) if len(self.reg) else y
+        self.reg_end = end
+
+    def _run(self, upto: int, T: int | None) -> np.ndarray:
+        """Frames ``emitted … upto − 1`` (``T``: the utterance's length at flush)."""
+        from ..models import nets
+
+        e = self.emitted
+        if self.sys.postfilter_ is not None:
+            # the post-filter blocks covering e … upto − 1 start at e − hop … (offline grid)
+            end = (upto - self.block + self.seg) if T is None else T
+            self._regress(end, T)
+            s = max(0, e - self.block)
+            seq = self.reg[s - self.reg0: end - self.reg0]
+            y = nets.apply_postfilter(self.sys.postfilter_, seq, segment=self.seg)[e - s: upto - s]
+        else:
+            self._regress(upto, T)
+            y = self.reg[e - self.reg0: upto - self.reg0]
+        en = None
         if self.post.needs_energy:
-            e = frame_energy_db(x, sample_rate=self.sr, fps=self.fps, n_frames=b)[a:]
-        rv = self.post.push(np.asarray(y[a:b], dtype=np.float64), e)
+            sf = max(0, e - 1)
+            sub = self.buf[sf * self.hop - self.buf0:]
+            en = frame_energy_db(sub, sample_rate=self.sr, fps=self.fps, n_frames=upto - sf)[e - sf:]
+        rv = self.post.push(np.asarray(y, dtype=np.float64), en)
         self.emitted = upto
-        # drop audio no later window needs
-        keep = self._window_start(self.emitted) * self.hop
+        # drop what no later block needs: regressor outputs before the next first block, audio
+        # before the next feature window and the next energy window
+        r_keep = max(0, upto - self.block) if self.sys.postfilter_ is not None else upto
+        if r_keep > self.reg0:
+            self.reg = self.reg[r_keep - self.reg0:]
+            self.reg0 = r_keep
+        keep = min(max(0, self.reg_end - self.ctx - self.left), max(0, upto - 1)) * self.hop
         if keep > self.buf0:
             self.buf = self.buf[keep - self.buf0:]
             self.buf0 = keep
@@ -209,9 +267,7 @@ class DnnStream:
         upto = self._final_frames()
         if upto <= self.emitted:
             return self._motion(np.zeros((0, 3)))
-        from . import dnn
-
-        with dnn._torch_context(0, getattr(self.sys, "n_threads", None)):
+        with _threads(getattr(self.sys, "n_threads", None)):
             return self._motion(self._run(upto, None))
 
     def flush(self) -> Motion:
@@ -223,11 +279,8 @@ class DnnStream:
         T = count_frames(self.n_in, self.sr, self.fps)
         if T <= self.emitted:
             return self._motion(np.zeros((0, 3)))
-        from . import dnn
-
-        f0 = self._window_start(self.emitted)
-        with dnn._torch_context(0, getattr(self.sys, "n_threads", None)):
-            return self._motion(self._run(T, T - f0))
+        with _threads(getattr(self.sys, "n_threads", None)):
+            return self._motion(self._run(T, T))
 
 
 __all__ = ["DnnStream", "DnnPostStages", "feature_reach", "frame_energy_db", "ENERGY_WINDOW_S"]
