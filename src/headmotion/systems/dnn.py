@@ -46,14 +46,17 @@ Output rate — ``predict`` gives motion at the model rate (``model_fps``, 100 f
 Additions to the paper (issue 14; :mod:`headmotion.systems.dnn_post` documents and implements
 them), applied at synthesis in this order, each a parameter:
 
-* ``variance_restore`` (default True): global-variance scaling about the utterance mean with the
-  training-set ratio ``gv_`` (per axis, after the post-filter; stored in the model);
+* ``variance_restore`` (default True): global-variance scaling with the training-set ratio ``gv_``
+  (per axis, after the post-filter; stored in the model) about the **running mean** of the
+  network output (issue 16; the utterance mean until then);
 * ``drift_share`` (default :data:`DEFAULT_DRIFT_SHARE` = 0.15) and ``drift_tau_s``
   (:data:`DEFAULT_DRIFT_TAU_S` = 4 s): a seeded Ornstein–Uhlenbeck posture component carrying
   that share of the training variance; ``seed`` (default 0) is the synthesis seed,
   ``predict(seed=…)`` overrides it;
-* ``idle`` (default 0.4): :func:`headmotion.motion.pauses.settle_in_pauses` (offline mode) with
-  the speech mask of :func:`headmotion.features.vad.speaking_mask`; None switches it off.
+* ``idle`` (default 0.4): pauses settled causally — the adaptive energy detector of
+  :mod:`headmotion.systems.tws.speech` on each frame's dBFS energy, :class:`~headmotion.motion.
+  pauses.CausalPauseWeight` and :class:`~headmotion.motion.pauses.PauseSettler` (issue 16; the
+  offline mode with :func:`headmotion.features.vad.speaking_mask` until then); None switches it off.
 
 :data:`PAPER_PARAMS` (``variance_restore=False, drift_share=0, idle=None``) gives the paper's
 output bit for bit and makes the synthesis deterministic; the paper's protocols must set it.
@@ -84,9 +87,24 @@ spectrum much closer but loses the coupling for most seeds; 0.15 at 4 s is the l
 keeps diversity ≥ 0.5 with p < 0.05 for 3 of 4 seeds (a slower drift disturbs the FCCA's local
 windows less).  No setting keeps p < 0.05 for every seed.
 
-Streaming: not implemented.  The variance restoration's centre is the utterance mean and the
-speech mask's thresholds come from the whole clip's energy distribution, so a stream equal to
-``predict`` needs causal versions of both (a running mean, a causal VAD) — open.
+Streaming (issue 16; :mod:`headmotion.systems.dnn_stream`): every DNN system has the
+``streaming`` capability — ``stream()`` works with the lookahead the ±25-frame regressor context
+and the 50-frame post-filter segments need, stated by the stream's ``latency_ms``: **797.5 ms**
+for mfcc-dnn, 767.5 ms for cccae / ae-dnn / wav-dnn, 757.5 ms for fbank-dnn, 940 ms for f0e-dnn
+(worst case, the first frame of each 25-frame block).  Everything after the network is causal
+(running-mean centre, OU drift, causal speech detector and pause weight) and ``predict`` uses the
+very same code, so the stream equals ``predict``: to ≤ 2e-7 rad for mfcc, fbank and wav features
+(float32 network arithmetic in other batch sizes, soxr on a window for ``wav``), approximately
+for f0e-dnn (Praat's pitch path is global: up to 0.015 rad on the test clip).
+
+Before / after the causal post stage, offline ``predict`` on the held-out video speakers
+(``scripts/p2dnn_measure.py mfcc-dnn-final video``, product defaults, seeds 0 / 1): SD ratio
+(pitch / yaw / roll) 0.77 / 0.90 / 0.87 and 0.72 / 0.82 / 0.90 → 0.74 / 0.78 / 0.77 and
+0.67 / 0.75 / 0.82 (the running mean damps the first seconds of a clip); < 0.5 Hz share
+0.46 / 0.45 → 0.50 / 0.51 (recordings 0.73), spectral L1 0.55 / 0.63 → 0.44 / 0.47; pause / speech
+speed 0.55 / 0.54 → 0.40 / 0.41 (recordings 0.57; ZEGGS mocap 0.39: the causal weight settles
+from 50 ms of silence on); FCCA excess 0.073 / 0.065 → 0.053 / 0.054, pooled p 0.002 / 0.030 →
+0.020 / 0.016; diversity 0.61 → 0.58.  PAPER_PARAMS output unchanged (bit for bit).
 
 Beyond the common interface: ``predict_features(track)`` runs the model on an already extracted 100-fps feature track and
 raises :class:`~headmotion.errors.ParameterError` when its dimension or rate is not the one the
