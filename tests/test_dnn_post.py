@@ -65,10 +65,16 @@ def test_variance_restore_makes_the_training_sd_ratio_one(fitted):
         p = m._prepare(r, m.feature_config_)
         preds.append(m.motion_norm_.transform(m.predict(r.audio).rotvec))
         truth.append(m.motion_norm_.transform(p.motion))
-    np.testing.assert_allclose(dnn_post.within_sd(preds) / dnn_post.within_sd(truth), 1.0, rtol=1e-4)
+    # about the running mean (issue 16: causal), not the utterance mean the ratio was measured
+    # about: within 3 % of 1 on 20 s recordings (exactly 1 with the utterance mean)
+    np.testing.assert_allclose(dnn_post.within_sd(preds) / dnn_post.within_sd(truth), 1.0, atol=0.03)
     m.set_params(variance_restore=False)
     quiet = [m.motion_norm_.transform(m.predict(r.audio).rotvec) for r in corpus if m.splits_[r.id] == "train"]
-    np.testing.assert_allclose(dnn_post.within_sd(quiet) * m.gv_, dnn_post.within_sd(preds), rtol=1e-4)
+    np.testing.assert_allclose(dnn_post.within_sd(quiet) * m.gv_, dnn_post.within_sd(preds), rtol=0.03)
+    # the known answer: mean_t + gv (y - mean_t) with mean_t the running mean of the network output
+    for q, p in zip(quiet, preds):
+        c = np.cumsum(q, axis=0) / np.arange(1, len(q) + 1)[:, None]
+        np.testing.assert_allclose(p, c + m.gv_ * (q - c), atol=1e-9)
 
 
 def test_paper_params_reproduce_the_paper_pipeline_exactly(fitted):
@@ -100,13 +106,17 @@ def test_seeds_differ_same_seed_same_and_pauses_slow_down(fitted, tmp_path):
     back = load_model(m.save(tmp_path / "m.hmz"))
     assert back.get_params() == m.get_params()
     np.testing.assert_array_equal(back.predict(audio, seed=1).rotvec, a)
-    # pauses: with idle 0 the head is still inside pauses (away from the ramps)
+    # pauses: with idle 0 the head is still where the causal pause weight is 1 (the adaptive energy
+    # detector of systems/tws/speech.py on the frames' dBFS energy, CausalPauseWeight)
     m.set_params(idle=0.0)
     still = m.predict(audio, seed=1).rotvec
-    mask = speaking_mask(audio, fps=100.0, n_frames=len(still))
-    from headmotion.motion.pauses import pause_weight
+    from headmotion.motion.pauses import CausalPauseWeight
+    from headmotion.systems.dnn_stream import frame_energy_db
+    from headmotion.systems.tws.speech import SpeechDetector
 
-    w = pause_weight(mask, fps=100.0)
+    e = frame_energy_db(audio.samples, sample_rate=audio.sample_rate, fps=100.0, n_frames=len(still))
+    flags = SpeechDetector(col=0, mu=0.0, sd=1.0, db_per_unit=1.0, fps=100.0).flags(e[:, None])
+    w = CausalPauseWeight(fps=100.0).push(flags)
     inside = np.flatnonzero(w[1:] == 1.0) + 1
     assert len(inside) > 0
     assert np.abs(np.diff(still, axis=0))[inside - 1].max() < 1e-12

@@ -405,7 +405,7 @@ def test_stream_live_refuses_a_non_causal_model_and_bad_addresses():
         name = "cccae"
         causal = False
 
-    with pytest.raises(ParameterError, match="'cccae' is not causal and cannot stream"):
+    with pytest.raises(ParameterError, match="'cccae' cannot stream"):
         stream_live(Offline(), stdin=io.BytesIO(b""))
     with pytest.raises(NetworkError, match="--websocket 'nowhere'"):
         open_outputs(websocket="nowhere")

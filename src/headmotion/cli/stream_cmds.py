@@ -60,8 +60,8 @@ def stream(
         raise ParameterError(f"--neck-share must be between 0 and 1; got {neck_share}")
     g, o = control_from_options(gain, offset, (gain_pitch, gain_yaw, gain_roll), (offset_pitch, offset_yaw, offset_roll))
     m = load_cli_model(model)
-    if not m.causal:
-        raise ParameterError(f"system {m.name!r} is not causal and cannot stream")
+    if not getattr(m, "can_stream", m.causal):
+        raise ParameterError(f"system {m.name!r} cannot stream (neither causal nor streaming)")
     stream_live(m, input=input, sample_rate=sample_rate, realtime=realtime, device=device, chunk_ms=chunk_ms,
                 json_stream=None if no_json else sys.stdout, vmc=vmc, websocket=websocket, neck_share=neck_share,
                 seed=seed, stream_kwargs={"gain": g, "offset": o},

@@ -196,9 +196,9 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
     from ..errors import ParameterError
     from .inputs import open_input
 
-    if not model.causal:
-        raise ParameterError(f"system {getattr(model, 'name', '?')!r} is not causal and cannot stream "
-                             "without lookahead; use a tws-basic, tws-hier or le2012 model")
+    if not getattr(model, "can_stream", getattr(model, "causal", False)):
+        raise ParameterError(f"system {getattr(model, 'name', '?')!r} cannot stream (neither causal nor "
+                             "streaming); use a tws-basic, tws-hier, le2012 or DNN model")
     rate = int(model.sample_rate)
     fps = float(model.frame_rate)
     stream = model.stream(seed=seed, **(stream_kwargs or {}))

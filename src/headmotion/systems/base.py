@@ -22,7 +22,7 @@ A system is an estimator in scikit-learn's manner:
 Synthesis::
 
     predict(audio, *, seed=None, gain=1.0, offset=0.0) -> Motion     # at model.frame_rate
-    stream(*, seed=None, gain=1.0, offset=0.0) -> MotionStream         # causal systems only
+    stream(*, seed=None, gain=1.0, offset=0.0) -> MotionStream         # CAUSAL or STREAMING systems
 
 ``audio`` may be at any sample rate: it is resampled once, where the features are computed.
 :attr:`Synthesizer.sample_rate` is the rate the features analyse (and the rate a stream's
@@ -31,11 +31,14 @@ Synthesis::
 about the training data's mean pose ``mean_pose_`` (pitch, yaw, roll in radians).
 
 Capabilities are declared, not sniffed: ``capabilities`` is a frozenset of :data:`CAUSAL`
-(``stream()`` works), :data:`EMBEDDING` (``embed(audio, fps=, n_frames=)`` gives a learned
+(``stream()`` works with at most a short lookahead, and the stream equals ``predict``; such a
+system may also synthesise hour-long files block by block), :data:`STREAMING` (``stream()`` works,
+with the lookahead its stream's ``latency_ms`` states — the DNN systems: their ±25-frame context
+and post-filter segments need ~0.8 s of future audio), :data:`EMBEDDING` (``embed(audio, fps=, n_frames=)`` gives a learned
 embedding), :data:`NEEDS_OTHER_SPEAKERS` (train on the other speakers' recordings).
 
 Subclasses implement ``fit``, ``_predict(audio, *, seed) -> Motion`` (raw, before gain),
-``_stream(*, seed)`` when causal, ``_get_state`` / ``_set_state`` for persistence through
+``_stream(*, seed)`` when causal or streaming, ``_get_state`` / ``_set_state`` for persistence through
 :mod:`headmotion.models.serialization` (no pickle), and ``_legacy_mean_pose`` for model files
 written before ``mean_pose`` was stored.
 """
@@ -70,6 +73,7 @@ SYSTEMS: dict[str, str] = {
 
 #: capability names
 CAUSAL = "causal"
+STREAMING = "streaming"
 EMBEDDING = "embedding"
 NEEDS_OTHER_SPEAKERS = "needs_other_speakers"
 
@@ -149,6 +153,11 @@ class Synthesizer(ABC):
     def causal(self) -> bool:
         return CAUSAL in self.capabilities
 
+    @property
+    def can_stream(self) -> bool:
+        """``stream()`` works: CAUSAL or STREAMING (the stream's ``latency_ms`` states its lookahead)."""
+        return bool({CAUSAL, STREAMING} & self.capabilities)
+
     # -- rates --------------------------------------------------------------------------------
     @property
     def sample_rate(self) -> int:
@@ -186,9 +195,10 @@ class Synthesizer(ABC):
         """The system's motion before gain and offset."""
 
     def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0) -> MotionStream:
-        """Incremental synthesis (systems with the CAUSAL capability)."""
-        if CAUSAL not in self.capabilities:
-            raise ParameterError(f"system {self.name!r} is not causal and cannot stream")
+        """Incremental synthesis (systems with the CAUSAL or STREAMING capability)."""
+        if not self.can_stream:
+            raise ParameterError(f"system {self.name!r} cannot stream (it has neither the causal nor the "
+                                 f"streaming capability)")
         self._check_fitted()
         as_triple(gain, "gain"), as_triple(offset, "offset")
         self._validate_params()
@@ -273,4 +283,4 @@ def load_model(path) -> Synthesizer:
 
 
 __all__ = ["Synthesizer", "MotionStream", "SYSTEMS", "system_class", "create", "load_model", "CAUSAL", "EMBEDDING",
-           "NEEDS_OTHER_SPEAKERS", "STOCHASTIC", "check_stochastic"]
+           "NEEDS_OTHER_SPEAKERS", "STREAMING", "STOCHASTIC", "check_stochastic"]

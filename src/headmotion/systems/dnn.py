@@ -46,14 +46,17 @@ Output rate — ``predict`` gives motion at the model rate (``model_fps``, 100 f
 Additions to the paper (issue 14; :mod:`headmotion.systems.dnn_post` documents and implements
 them), applied at synthesis in this order, each a parameter:
 
-* ``variance_restore`` (default True): global-variance scaling about the utterance mean with the
-  training-set ratio ``gv_`` (per axis, after the post-filter; stored in the model);
+* ``variance_restore`` (default True): global-variance scaling with the training-set ratio ``gv_``
+  (per axis, after the post-filter; stored in the model) about the **running mean** of the
+  network output (issue 16; the utterance mean until then);
 * ``drift_share`` (default :data:`DEFAULT_DRIFT_SHARE` = 0.15) and ``drift_tau_s``
   (:data:`DEFAULT_DRIFT_TAU_S` = 4 s): a seeded Ornstein–Uhlenbeck posture component carrying
   that share of the training variance; ``seed`` (default 0) is the synthesis seed,
   ``predict(seed=…)`` overrides it;
-* ``idle`` (default 0.4): :func:`headmotion.motion.pauses.settle_in_pauses` (offline mode) with
-  the speech mask of :func:`headmotion.features.vad.speaking_mask`; None switches it off.
+* ``idle`` (default 0.4): pauses settled causally — the adaptive energy detector of
+  :mod:`headmotion.systems.tws.speech` on each frame's dBFS energy, :class:`~headmotion.motion.
+  pauses.CausalPauseWeight` and :class:`~headmotion.motion.pauses.PauseSettler` (issue 16; the
+  offline mode with :func:`headmotion.features.vad.speaking_mask` until then); None switches it off.
 
 :data:`PAPER_PARAMS` (``variance_restore=False, drift_share=0, idle=None``) gives the paper's
 output bit for bit and makes the synthesis deterministic; the paper's protocols must set it.
@@ -84,9 +87,29 @@ spectrum much closer but loses the coupling for most seeds; 0.15 at 4 s is the l
 keeps diversity ≥ 0.5 with p < 0.05 for 3 of 4 seeds (a slower drift disturbs the FCCA's local
 windows less).  No setting keeps p < 0.05 for every seed.
 
-Streaming: not implemented.  The variance restoration's centre is the utterance mean and the
-speech mask's thresholds come from the whole clip's energy distribution, so a stream equal to
-``predict`` needs causal versions of both (a running mean, a causal VAD) — open.
+Streaming (issue 16; :mod:`headmotion.systems.dnn_stream`): every DNN system has the
+``streaming`` capability — ``stream()`` works with the lookahead the ±25-frame regressor context
+and the 50-frame post-filter segments need, stated by the stream's ``latency_ms``: **797.5 ms**
+for mfcc-dnn, 767.5 ms for cccae / ae-dnn / wav-dnn, 757.5 ms for fbank-dnn, 940 ms for f0e-dnn
+(worst case, the first frame of each 25-frame block).  Everything after the network is causal
+(running-mean centre, OU drift, causal speech detector and pause weight) and ``predict`` uses the
+very same code, so the stream equals ``predict``: to ≤ 2e-7 rad for mfcc, fbank and wav features
+(float32 network arithmetic in other batch sizes, soxr on a window for ``wav``), approximately
+for f0e-dnn (Praat's pitch path is global: up to 0.015 rad on the test clip).
+
+Before / after the causal post stage, offline ``predict`` on the held-out video speakers
+(``scripts/p2dnn_measure.py mfcc-dnn-final video``, product defaults, seeds 0 / 1): SD ratio
+(pitch / yaw / roll) 0.77 / 0.90 / 0.87 and 0.72 / 0.82 / 0.90 → 0.74 / 0.78 / 0.77 and
+0.67 / 0.75 / 0.82 (the running mean damps the first seconds of a clip); < 0.5 Hz share
+0.46 / 0.45 → 0.50 / 0.51 (recordings 0.73), spectral L1 0.55 / 0.63 → 0.44 / 0.47; pause / speech
+speed 0.55 / 0.54 → 0.40 / 0.41 (recordings 0.57; ZEGGS mocap 0.39: the causal weight settles
+from 50 ms of silence on); FCCA excess 0.073 / 0.065 → 0.053 / 0.054, pooled p 0.002 / 0.030 →
+0.020 / 0.016; diversity 0.61 → 0.58.  On the ZEGGS folds: SD ratio 0.66 / 0.57 / 0.59 and
+0.54 / 0.64 / 0.56 → 0.63 / 0.51 / 0.55 and 0.48 / 0.50 / 0.54, spectral L1 0.30 / 0.29 →
+0.36 / 0.50, pause ratio 0.42 / 0.41 → 0.46 / 0.46 (mocap 0.37), FCCA p 0.001 / 0.025 →
+0.005 / 0.035.  ``scripts/p3dnn_ablation.py`` separates the two: the running-mean centre costs the
+SD (2–9 %), the causal pauses move the spectrum (ZEGGS L1 +0.05 / +0.17) and the pause ratio.
+PAPER_PARAMS output unchanged (bit for bit).
 
 Beyond the common interface: ``predict_features(track)`` runs the model on an already extracted 100-fps feature track and
 raises :class:`~headmotion.errors.ParameterError` when its dimension or rate is not the one the
@@ -124,9 +147,10 @@ from ..errors import ParameterError
 from ..motion.control import mean_pose_of
 from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, FeatureTrack, Motion
-from ..motion.pauses import DEFAULT_IDLE, settle_in_pauses
+from ..motion.pauses import DEFAULT_IDLE
 from . import dnn_post
-from .base import EMBEDDING, Synthesizer
+from .base import EMBEDDING, STREAMING, Synthesizer
+from .dnn_stream import DnnPostStages, DnnStream, frame_energy_db
 
 MODEL_FPS = 100.0
 #: product default share of the training variance carried by the slow posture component
@@ -186,6 +210,7 @@ class _DnnSystem(Synthesizer):
     """Shared implementation; see the module docstring.  Use the registered subclasses."""
 
     name: ClassVar[str] = ""
+    capabilities: ClassVar[frozenset[str]] = frozenset({STREAMING})
     default_feature: ClassVar[str] = "wav"
     #: whether the system learns a waveform embedding (CCCAE / AE) before the regressor
     uses_embedding: ClassVar[bool] = False
@@ -550,41 +575,28 @@ class _DnnSystem(Synthesizer):
             y = nets.apply_postfilter(postfilter, y, segment=int(self.segment))
         return y
 
-    def _predict_values(self, feats: np.ndarray, *, seed: int | None = None, post: bool = True) -> np.ndarray:
-        """Model-rate features ``(T, D)`` → rotation vectors ``(T, 3)`` at the model rate; with
-        ``post``, variance restoration and posture drift as the parameters say (no pauses)."""
+    def _network_values(self, feats: np.ndarray) -> np.ndarray:
+        """Model-rate features ``(T, D)`` → normalised network output ``(T, 3)`` (float32):
+        embedding (CCCAE / AE systems), regressor, post-filter."""
         self._check_features(feats, "the feature track")
         x = np.asarray(self.feature_norm_.transform(feats), dtype=np.float32)
         if self.autoencoder_ is not None:
             x = np.asarray(self.embedding_norm_.transform(self._embed_values(x)), dtype=np.float32)
-        y = self._network_output(x, self.regressor_, self.postfilter_)
+        return self._network_output(x, self.regressor_, self.postfilter_)
+
+    def _predict_values(self, feats: np.ndarray, *, seed: int | None = None, post: bool = True) -> np.ndarray:
+        """Model-rate features ``(T, D)`` → rotation vectors ``(T, 3)`` at the model rate; with
+        ``post``, variance restoration and posture drift as the parameters say (no pauses)."""
+        y = self._network_values(feats)
         if post:
             y = self._post(y, seed)
         return np.asarray(self.motion_norm_.inverse_transform(y), dtype=np.float64)
 
     def _post(self, y: np.ndarray, seed: int | None) -> np.ndarray:
-        """Variance restoration and posture drift on normalised network output (identity, the
-        very same array, when both are off)."""
-        if self.variance_restore:
-            y = dnn_post.restore_variance(y, self.gv_)
-        share = float(self.drift_share)
-        if share > 0:
-            s = self.seed if seed is None else seed
-            rng = np.random.default_rng(None if s is None else int(s))
-            y = dnn_post.add_drift(y, share=share, sd=self.motion_sd_, fps=float(self.model_fps),
-                                   tau_s=float(self.drift_tau_s), rng=rng)
-        return y
-
-    def _settle(self, rv: np.ndarray, audio: Audio) -> np.ndarray:
-        """Pauses (``idle``): slow the motion where :func:`~headmotion.features.vad.speaking_mask`
-        finds no speech for ≥ 0.5 s (offline mode of :func:`settle_in_pauses`)."""
-        if self.idle is None or float(self.idle) >= 1.0 or len(rv) < 2:
-            return rv
-        from ..features.vad import speaking_mask
-
-        mask = np.asarray(speaking_mask(audio, fps=float(self.model_fps), n_frames=len(rv)), dtype=bool)
-        return settle_in_pauses(rv, mask, fps=float(self.model_fps), idle=float(self.idle),
-                                mean_pose=np.asarray(self.motion_norm_.mean_, dtype=np.float64))
+        """Variance restoration and posture drift about the running mean
+        (:class:`~headmotion.systems.dnn_post.CausalPost`) on normalised network output (the
+        values unchanged when both are off)."""
+        return DnnPostStages(self, seed).post.push(y)
 
     def predict_features(self, features: FeatureTrack, *, seed: int | None = None) -> Motion:
         """Head motion from an already extracted feature track at the model frame rate
@@ -612,9 +624,22 @@ class _DnnSystem(Synthesizer):
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
         with _torch_context(0, getattr(self, "n_threads", None)):
-            rv = self._predict_values(feats, seed=seed)
-        rv = self._settle(rv, audio)
+            y = self._network_values(feats)
+        stages = DnnPostStages(self, seed)
+        energy = None
+        if stages.needs_energy:
+            x = audio.samples
+            if audio.sample_rate != int(self.sample_rate_):
+                from ..io.audio import resample
+
+                x = resample(x, audio.sample_rate, int(self.sample_rate_))
+            energy = frame_energy_db(x, sample_rate=int(self.sample_rate_), fps=mfps, n_frames=T)
+        rv = stages.push(np.asarray(y, dtype=np.float64), energy)
         return Motion(rv, mfps, meta={"system": self.name})
+
+    def _stream(self, *, seed: int | None):
+        """The stream of :mod:`headmotion.systems.dnn_stream` (lookahead ``latency_ms``)."""
+        return DnnStream(self, seed=seed)
 
     def embed(self, audio: Audio, *, fps: float | None = None, n_frames: int | None = None) -> FeatureTrack:
         """The learned waveform embedding (Wav_CCCAE / Wav_AE, paper Table 1) of ``audio``.
@@ -743,7 +768,7 @@ class CccaeSystem(_DnnSystem):
     """M_CCCAE (paper §3): waveform → CCCAE embedding (α = 1 by default) → regressor → post-filter."""
 
     name = "cccae"
-    capabilities = frozenset({EMBEDDING})
+    capabilities = frozenset({EMBEDDING, STREAMING})
     default_feature = "wav"
     uses_embedding = True
     default_alpha = 1.0
@@ -753,7 +778,7 @@ class AeDnnSystem(_DnnSystem):
     """M_AE (paper §4.2): the same pipeline with a plain autoencoder (α = 0)."""
 
     name = "ae-dnn"
-    capabilities = frozenset({EMBEDDING})
+    capabilities = frozenset({EMBEDDING, STREAMING})
     default_feature = "wav"
     uses_embedding = True
     default_alpha = 0.0

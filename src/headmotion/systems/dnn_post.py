@@ -25,6 +25,14 @@ an MMSE regressor averages over the many head movements that fit the same speech
 All arrays here are in the model's normalised motion space (rotation-vector components, which for
 head rotations of a few degrees are pitch, yaw and roll to within a fraction of a percent).
 
+Causal centre (issue 16): for the DNN systems' product output (and their stream), the centre
+about which both steps scale is the **running mean** of the network output so far,
+``c_t = mean(y_0 … y_t)`` (:class:`CausalPost`), not the utterance mean: it needs no future
+frames, converges to the utterance mean, and fed chunk by chunk it gives exactly what one call over
+the whole utterance gives, so ``predict`` and ``stream`` agree.  :func:`restore_variance` and
+:func:`add_drift` (utterance-mean centre) are kept for analysis and the tests of the earlier
+behaviour.
+
 Library considered: none does per-utterance GV scaling or an OU process in a few lines; scipy's
 ``lfilter`` would run the OU recursion, a loop-free numpy version is used instead.
 """
@@ -88,4 +96,58 @@ def add_drift(y: np.ndarray, *, share: float, sd, fps: float, tau_s: float, rng:
     return c + np.sqrt(1.0 - share) * (y - c) + np.sqrt(share) * np.asarray(sd, dtype=np.float64) * slow
 
 
-__all__ = ["GV_CAP", "within_sd", "gv_ratio", "restore_variance", "ou_process", "add_drift"]
+class CausalPost:
+    """Variance restoration and posture drift about the running mean, with state (see the module
+    docstring): ``push(y)`` takes the next frames ``(n, D)`` of normalised network output and
+    returns ``c + k (y − c) + sqrt(share) · sd · OU`` with ``c`` the running mean,
+    ``k = gv · sqrt(1 − share)`` (``gv`` = 1 without restoration).  The OU process is drawn from
+    ``rng`` in frame order (``x_0 ~ N(0, 1)``, as :func:`ou_process`), so chunking does not change
+    the draws.  Feeding an utterance in chunks gives bit for bit the output of one push."""
+
+    def __init__(self, *, gv=None, share: float = 0.0, sd=None, fps: float = 100.0, tau_s: float = 4.0,
+                 rng: np.random.Generator | None = None):
+        self.gv = None if gv is None else np.asarray(gv, dtype=np.float64)
+        self.share = float(share)
+        self.sd = None if sd is None else np.asarray(sd, dtype=np.float64)
+        if self.share > 0 and (rng is None or self.sd is None):
+            raise ValueError("CausalPost with drift needs rng and sd")
+        self.a = float(np.exp(-1.0 / (float(tau_s) * float(fps))))
+        self.rng = rng
+        self.total = None   # running sum of y (float64)
+        self.n = 0          # frames seen
+        self.x = None       # last OU value
+
+    @property
+    def identity(self) -> bool:
+        return self.gv is None and self.share <= 0
+
+    def push(self, y: np.ndarray) -> np.ndarray:
+        y = np.asarray(y, dtype=np.float64)
+        if self.identity:
+            return y
+        n, D = y.shape
+        if n == 0:
+            return y.copy()
+        if self.total is None:
+            self.total = np.zeros(D)
+        cs = np.cumsum(np.vstack([self.total[None], y]), axis=0)[1:]   # sequential: chunking-invariant
+        c = cs / np.arange(self.n + 1, self.n + n + 1, dtype=np.float64)[:, None]
+        self.total, self.n = cs[-1], self.n + n
+        k = np.sqrt(1.0 - self.share) * (np.ones(D) if self.gv is None else self.gv)
+        out = c + k * (y - c)
+        if self.share > 0:
+            e = self.rng.standard_normal((n, D))
+            first = self.x is None
+            if first:
+                e[1:] *= np.sqrt(1.0 - self.a * self.a)
+                zi = np.zeros((1, D))
+            else:
+                e *= np.sqrt(1.0 - self.a * self.a)
+                zi = (self.a * self.x)[None]
+            slow, _ = lfilter([1.0], [1.0, -self.a], e, axis=0, zi=zi)
+            self.x = slow[-1].copy()
+            out = out + np.sqrt(self.share) * self.sd * slow
+        return out
+
+
+__all__ = ["CausalPost", "GV_CAP", "within_sd", "gv_ratio", "restore_variance", "ou_process", "add_drift"]

@@ -40,8 +40,9 @@ def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
     from ..live.frames import frame_records
     from ..live.inputs import Resampler
 
-    if not model.causal:
-        raise ParameterError(f"view --live needs a causal model (tws-basic, tws-hier, le2012); "
+    if not getattr(model, "can_stream", getattr(model, "causal", False)):
+        raise ParameterError(f"view --live needs a model that streams (tws-basic, tws-hier, le2012, the DNN "
+                             f"systems); "
                              f"{model_path or 'the model'} is {getattr(model, 'name', '?')!r}")
     model_sr = int(model.sample_rate)
     app = FastAPI(title="headmotion live", docs_url=None, redoc_url=None, openapi_url=None)
