@@ -93,7 +93,6 @@ def test_paper_params_reproduce_the_paper_pipeline_exactly(fitted):
 
 
 def test_seeds_differ_same_seed_same_and_pauses_slow_down(fitted, tmp_path):
-    from headmotion.features.vad import speaking_mask
     from headmotion.systems import load_model
 
     corpus, m = fitted
