@@ -78,9 +78,13 @@ def split_at_pauses(recording: Recording, n_folds: int, *, min_pause_s: float = 
             f"recording {recording.id!r} ({len(m) / fps:.1f} s) has no pause ≥ {min_pause_s:g} s that leaves "
             f"two folds of ≥ {min_fold_s:g} s; expected a longer take with pauses")
     out = []
+    # the parts are slices of an aligned recording: not re-aligned, so no frame is lost at a cut
     for i, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
-        out.append(Recording.aligned(f"{recording.id}_p{i}", recording.speaker, recording.task,
-                                     recording.audio.slice_seconds(a / fps, b / fps), m.slice_frames(a, b)))
+        last = i == len(cuts) - 2
+        sp = None if recording.speaking is None else recording.speaking[a:b]
+        out.append(Recording(id=f"{recording.id}_p{i}", speaker=recording.speaker, task=recording.task,
+                             audio=recording.audio.slice_seconds(a / fps, None if last else b / fps),
+                             motion=m.slice_frames(a, b), speaking=sp))
     return out
 
 
