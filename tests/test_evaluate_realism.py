@@ -61,7 +61,7 @@ def corpus():
 
 @pytest.fixture(scope="module")
 def res(corpus):
-    return P.evaluate(corpus, [("energy", EnergyFollower), ("wobble", SeededWobble), "desync", "still"],
+    return P.evaluate(corpus, [("energy", EnergyFollower), ("wobble", SeededWobble), "desync", "shifted", "still"],
                       protocol="speakers", speaker_folds=3, features=envelope, n_shifts=30, seed=1,
                       feature_sets=[], fig48=False, samples=3)
 
@@ -85,6 +85,7 @@ def test_realism_columns_per_recording_and_condition(res, corpus):
     assert res.mean("wobble", "spectral_l1") > res.mean("energy", "spectral_l1")
     # desync with no other recording of the held-out speaker = the motion circularly shifted
     assert np.allclose(res.values("desync", "sd_ratio_yaw"), 1, atol=1e-9)
+    assert np.allclose(res.values("shifted", "sd_ratio_roll"), 1, atol=1e-9)
     # saturation only where the system declares its range; the clipped pitch sits at its limit
     assert len(res.values("energy", "saturation")) == 0
     assert np.all(res.values("wobble", "saturation") > 0.5)
@@ -93,7 +94,7 @@ def test_realism_columns_per_recording_and_condition(res, corpus):
     assert len(res.values("still", "diversity")) == 0
     # pooled coupling rows, one per condition
     p = [r for r in res.rows if r["recording"] == "ALL" and r["metric"] == "fcca_p_pooled"]
-    assert {r["system"] for r in p} == {"ground-truth", "energy", "wobble", "desync", "still"}
+    assert {r["system"] for r in p} == {"ground-truth", "energy", "wobble", "desync", "shifted", "still"}
     assert res.values("energy", "fcca_p_pooled")[0] < 0.05  # it follows the speech energy
     assert res.values("wobble", "fcca_p_pooled")[0] > 0.05  # a sinusoid does not
 
