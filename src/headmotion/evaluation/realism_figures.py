@@ -101,6 +101,9 @@ def speed_histogram_figure(conditions: Mapping[str, Sequence], *, path, title: s
         hd = R.hellinger(R.histogram(ref, edges), h)
         ax.plot(centres, h, color="black" if n == GROUND_TRUTH else cmap(i % 10),
                 lw=2.5 if n == GROUND_TRUTH else 1.3, label=f"{n} (H={hd:.2f})", drawstyle="steps-mid")
+    top = 2.5 * float(R.histogram(ref, edges).max())
+    if top > 0:  # a still head's single spike would squash every other curve
+        ax.set_ylim(0, min(1.0, top))
     ax.set_xlabel("angular speed (°/s); the last bin holds everything faster")
     ax.set_ylabel("share of frames")
     ax.legend(fontsize=8)
