@@ -65,3 +65,56 @@ def test_bad_input():
         settle_in_pauses(np.zeros((10, 3)), np.ones(10, bool), fps=FPS, idle=1.5)
     with pytest.raises(ParameterError):
         settle_in_pauses(np.zeros((10, 3)), np.ones(10, bool))
+
+
+# -- causal mode (streaming systems, issue 16) ------------------------------------------------
+from headmotion.motion.pauses import CausalPauseWeight, PauseSettler  # noqa: E402
+
+
+def test_causal_weight_known_timing():
+    flags = np.ones(400, bool)
+    flags[100:250] = False   # 1.5 s of silence
+    flags[300:310] = False   # 0.1 s gap between words
+    flags[150] = True        # one loud frame inside the pause does not end it
+    w = CausalPauseWeight(fps=FPS, delay_s=0.15, full_s=0.5, min_speech_s=0.05, release_s=0.1).push(flags)
+    assert np.all(w[:100] == 0) and np.all(w[100:115] == 0)   # nothing until 0.15 s of silence
+    assert 0 < w[130] < 1 and np.all(np.diff(w[100:150]) >= 0)
+    np.testing.assert_allclose(w[151:250], 1.0, atol=1e-9)   # full idle by 0.5 s, blip ignored
+    # speech confirmed after 5 frames, then down to 0 within 0.1 s
+    assert w[253] == pytest.approx(1.0) and w[270] == pytest.approx(0.0, abs=1e-9)
+    assert np.all(w[300:310] == 0)                            # short gap: no settling
+
+
+def test_causal_weight_and_settler_chunked_equal_whole():
+    rng = np.random.default_rng(3)
+    flags = rng.random(1000) < 0.5
+    flags[200:500] = False
+    x = np.cumsum(rng.standard_normal((1000, 3)), axis=0)
+    w_all = CausalPauseWeight(fps=FPS).push(flags)
+    y_all = PauseSettler(fps=FPS, idle=0.3).push(x, w_all)
+    cw, cs = CausalPauseWeight(fps=FPS), PauseSettler(fps=FPS, idle=0.3)
+    parts, i = [], 0
+    for n in rng.integers(1, 90, size=200):
+        if i >= 1000:
+            break
+        w = cw.push(flags[i:i + n])
+        parts.append(cs.push(x[i:i + n], w))
+        i += n
+    np.testing.assert_allclose(np.vstack(parts), y_all, rtol=0, atol=1e-12)
+    # a causal filter: changing the future does not change the past
+    flags2 = flags.copy()
+    flags2[700:] = ~flags2[700:]
+    y2 = PauseSettler(fps=FPS, idle=0.3).push(x, CausalPauseWeight(fps=FPS).push(flags2))
+    np.testing.assert_allclose(y2[:700], y_all[:700], rtol=0, atol=1e-12)
+
+
+def test_causal_settling_slows_a_pause():
+    t = np.arange(600) / FPS
+    x = np.stack([np.sin(2 * np.pi * 0.7 * t)] * 3, axis=1)
+    mask = np.ones(600, bool)
+    mask[200:400] = False
+    y = settle_in_pauses(x, mask, fps=FPS, idle=0.25, causal=True)
+    sp = lambda z, a, b: np.abs(np.diff(z[a:b], axis=0)).mean()  # noqa: E731
+    assert sp(y, 260, 400) == pytest.approx(0.25 * sp(x, 260, 400), rel=1e-9)  # fully settled after 0.5 s
+    np.testing.assert_array_equal(y[:200], x[:200])                              # causal: speech before untouched
+    assert np.max(np.abs(np.diff(y, axis=0))) <= np.max(np.abs(np.diff(x, axis=0))) * 1.1  # no jump (the offset relaxes at 1/relax_s)

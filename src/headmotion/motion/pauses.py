@@ -21,8 +21,16 @@ default 1 s) once speech resumes, so the output rejoins the system's motion and 
 optional ``pull`` (1/s, default 0: the recordings show little of it) draws the head towards the
 mean pose in pauses.
 
-Streaming: deciding that a non-speech run will last ``min_pause_s`` needs that much look-ahead;
-the template-warping streams already have 0.7 s of latency, which covers 0.5 s.
+Causal mode (streaming systems, issue 16: the streamed output must equal the offline output):
+:class:`CausalPauseWeight` decides from the speech flags up to the current frame only — the weight
+stays 0 for the first ``delay_s`` (0.05 s) of a non-speech run, then rises with a raised cosine
+to 1 at ``full_s`` (0.3 s) of silence (real heads slow at once when speech stops: ZEGGS 0.35 of
+speech speed in the first 0.25 s; on the ZEGGS folds 0.15 s / 0.5 s left the pause ratio 0.47–0.60
+against 0.37, 0.05 s / 0.3 s gives 0.41–0.49 with idle 0.4); speech that lasts ``min_speech_s``
+(0.05 s) brings it back to 0 linearly within ``release_s`` (0.1 s).  :class:`PauseSettler` is the
+velocity scaling of :func:`settle_in_pauses` as a recursion with state, so a stream that feeds it
+chunk by chunk gets exactly what one call over the whole utterance gives.
+:func:`settle_in_pauses` uses it too (``causal=True`` swaps the look-ahead weight for the causal one).
 
 Library considered: scipy.signal filters act on whole signals with fixed coefficients; the
 mask-dependent velocity scaling with offset relaxation is a few lines of numpy.
@@ -72,9 +80,135 @@ def pause_weight(speech_mask, *, fps: float, min_pause_s: float = 0.5, ramp_s: f
     return w
 
 
+class CausalPauseWeight:
+    """Causal pause weight (0 speech … 1 settled pause) from per-frame speech flags, fed in chunks.
+
+    Parameters
+    ----------
+    fps : float
+    delay_s : seconds of non-speech before the weight starts to rise (gaps between words stay 0)
+    full_s : seconds of non-speech at which the weight reaches 1 (raised cosine from ``delay_s``)
+    min_speech_s : speech must last this long to end a pause (single loud frames do not)
+    release_s : time to go from 1 back to 0 once speech is confirmed (linear)
+    """
+
+    def __init__(self, *, fps: float, delay_s: float = 0.05, full_s: float = 0.3, min_speech_s: float = 0.05,
+                 release_s: float = 0.1):
+        if fps <= 0:
+            raise ParameterError(f"fps must be positive; got {fps}")
+        if not 0 <= delay_s < full_s or min_speech_s < 0 or release_s < 0:
+            raise ParameterError(f"need 0 <= delay_s < full_s, min_speech_s >= 0 and release_s >= 0; got "
+                                 f"{delay_s}, {full_s}, {min_speech_s}, {release_s}")
+        self.fps = float(fps)
+        self.delay = delay_s * self.fps
+        self.full = full_s * self.fps
+        self.min_speech = max(1, int(round(min_speech_s * self.fps)))
+        self.step_down = 1.0 / max(release_s * self.fps, 1.0)
+        self.t = 0              # frames seen
+        self.last_speech = -1   # last frame with confirmed speech (-1: none yet)
+        self.run = 0            # consecutive speech frames at the end of the last chunk
+        self.peak = -np.inf     # running max of target[k] + step_down * k
+
+    def push(self, flags) -> np.ndarray:
+        """Weights of the next frames given their speech flags (True = speech).
+
+        ``w[t] = max(target[t], w[t-1] - step)`` with ``target`` the raised-cosine ramp of the
+        frames since the last confirmed speech, computed in closed form as
+        ``max_{k<=t}(target[k] + step k) - step t`` (vectorised, and identical whether the
+        utterance comes in one chunk or many)."""
+        f = np.asarray(flags, dtype=bool).ravel()
+        n = len(f)
+        if n == 0:
+            return np.zeros(0)
+        idx = np.arange(self.t, self.t + n)
+        # speech-run length at every frame (continuing the previous chunk's run)
+        breaks = np.where(~f, idx, self.t - 1 - self.run)
+        last_break = np.maximum.accumulate(breaks)
+        run = np.where(f, idx - last_break, 0)
+        confirmed = np.where(run >= self.min_speech, idx, self.last_speech)
+        last = np.maximum.accumulate(confirmed)
+        silence = idx - last
+        u = np.clip((silence - self.delay) / (self.full - self.delay), 0.0, 1.0)
+        target = 0.5 * (1.0 - np.cos(np.pi * u))
+        m = np.maximum.accumulate(np.maximum(target + self.step_down * idx, self.peak))
+        w = np.maximum(m - self.step_down * idx, target)
+        self.peak = float(m[-1])
+        self.last_speech = int(last[-1])
+        self.run = int(run[-1])
+        self.t += n
+        return w
+
+
+class PauseSettler:
+    """The velocity scaling of :func:`settle_in_pauses` as a recursion with state.
+
+    ``push(x, w)`` takes the next frames ``x`` (n, D) of the system's motion and their pause
+    weights ``w`` (n,) and returns the settled frames; feeding an utterance in chunks gives exactly
+    the output of one call over the whole of it."""
+
+    def __init__(self, *, fps: float, idle: float = DEFAULT_IDLE, relax_s: float = 1.0, pull: float = 0.0,
+                 mean_pose=None):
+        if not 0.0 <= idle <= 1.0:
+            raise ParameterError(f"idle must be in [0, 1]; got {idle}")
+        if relax_s <= 0 or pull < 0:
+            raise ParameterError(f"relax_s must be > 0 and pull >= 0; got {relax_s}, {pull}")
+        if pull > 0 and mean_pose is None:
+            raise ParameterError("pull > 0 needs mean_pose")
+        self.fps, self.idle, self.relax_s, self.pull = float(fps), float(idle), float(relax_s), float(pull)
+        self.mu = None if mean_pose is None else np.asarray(mean_pose, dtype=np.float64)
+        self.prev_x = None
+        self.prev_y = None
+        self.off = None
+
+    def push(self, x, w) -> np.ndarray:
+        x = np.asarray(x, dtype=np.float64)
+        w = np.asarray(w, dtype=np.float64)
+        if len(w) != len(x):
+            raise ParameterError(f"{len(x)} frames of motion but {len(w)} pause weights")
+        y = np.empty_like(x)
+        if len(x) == 0:
+            return y
+        rate = 1.0 - (1.0 - self.idle) * w
+        decay = np.exp(-(1.0 - w) / (self.relax_s * self.fps))  # the offset decays only outside pauses
+        k_pull = 1.0 - np.exp(-self.pull * w / self.fps)
+        if self.prev_x is None:
+            self.off = np.zeros(x.shape[1])
+            self.prev_x, self.prev_y = x[0], x[0]
+            first = x[:1]
+            k_pull[0] = 0.0  # the utterance's first frame is the motion's
+        else:
+            first = self.prev_x[None]
+        dx = np.diff(np.vstack([first, x]), axis=0)   # dx[0] = 0 for the utterance's first frame
+        u = (rate - 1.0)[:, None] * dx
+        off, py = self.off, self.prev_y
+        if self.pull == 0.0:
+            # off[t] = decay[t] off[t-1] + u[t], in closed form over blocks short enough that the
+            # running product of decays stays far from underflow (>= e^-5)
+            B = max(1, int(5.0 * self.relax_s * self.fps))
+            offs = np.empty_like(x)
+            for b0 in range(0, len(x), B):
+                P = np.cumprod(decay[b0:b0 + B])
+                offs[b0:b0 + B] = P[:, None] * (off + np.cumsum(u[b0:b0 + B] / P[:, None], axis=0))
+                off = offs[min(b0 + B, len(x)) - 1]
+            y = x + offs
+            px, py = x[-1], y[-1]
+        else:
+            for t in range(len(x)):
+                off = off * decay[t] + u[t]
+                yt = x[t] + off
+                if k_pull[t] > 0:
+                    yt = yt - k_pull[t] * (py + rate[t] * dx[t] - self.mu)
+                    off = yt - x[t]
+                y[t] = yt
+                py = yt
+            px = x[-1]
+        self.off, self.prev_x, self.prev_y = off, px, py
+        return y
+
+
 def settle_in_pauses(motion, speech_mask, *, fps: float | None = None, idle: float = DEFAULT_IDLE,
                      min_pause_s: float = 0.5, ramp_s: float = 0.2, relax_s: float = 1.0, pull: float = 0.0,
-                     mean_pose=None):
+                     mean_pose=None, causal: bool = False):
     """Slow the motion down in pauses.
 
     Parameters
@@ -88,6 +222,8 @@ def settle_in_pauses(motion, speech_mask, *, fps: float | None = None, idle: flo
     relax_s : time constant (s) with which the offset left by a pause decays in speech
     pull : rate (1/s) of an exponential pull towards ``mean_pose`` in pauses (0 = none)
     mean_pose : (D,), default the motion's mean
+    causal : decide from the flags up to each frame only (:class:`CausalPauseWeight` with its
+        defaults; ``min_pause_s`` and ``ramp_s`` are then unused)
 
     Returns
     -------
@@ -107,29 +243,17 @@ def settle_in_pauses(motion, speech_mask, *, fps: float | None = None, idle: flo
     mask = np.asarray(speech_mask, dtype=bool)
     if len(mask) != len(x):
         raise ParameterError(f"speech mask has {len(mask)} frames but the motion {len(x)}; give it at the motion's rate")
-    w = pause_weight(mask, fps=f, min_pause_s=min_pause_s, ramp_s=ramp_s)
+    w = (CausalPauseWeight(fps=f).push(mask) if causal
+         else pause_weight(mask, fps=f, min_pause_s=min_pause_s, ramp_s=ramp_s))
     if len(x) < 2 or not w.any():
         return motion
     mu = x.mean(axis=0) if mean_pose is None else np.asarray(mean_pose, dtype=np.float64)
-    rate = 1.0 - (1.0 - idle) * w
-    decay = np.exp(-(1.0 - w) / (relax_s * f))  # offset decays only outside pauses
-    k_pull = 1.0 - np.exp(-pull * w / f)
-    dx = np.diff(x, axis=0)
-    y = np.empty_like(x)
-    y[0] = x[0]
-    off = np.zeros(x.shape[1])
-    for t in range(1, len(x)):
-        off = off * decay[t] + (rate[t] - 1.0) * dx[t - 1]
-        yt = x[t] + off
-        if k_pull[t] > 0:
-            yt = yt - k_pull[t] * (y[t - 1] + rate[t] * dx[t - 1] - mu)
-            off = yt - x[t]
-        y[t] = yt
+    y = PauseSettler(fps=f, idle=idle, relax_s=relax_s, pull=pull, mean_pose=mu).push(x, w)
     if not is_motion:
         return y
     meta = dict(motion.meta)
-    meta["pauses"] = {"idle": idle, "min_pause_s": min_pause_s, "ramp_s": ramp_s, "relax_s": relax_s, "pull": pull}
+    meta["pauses"] = {"causal": causal, "idle": idle, "min_pause_s": min_pause_s, "ramp_s": ramp_s, "relax_s": relax_s, "pull": pull}
     return motion.replace(rotvec=y, meta=meta)
 
 
-__all__ = ["pause_weight", "settle_in_pauses", "DEFAULT_IDLE"]
+__all__ = ["CausalPauseWeight", "PauseSettler", "pause_weight", "settle_in_pauses", "DEFAULT_IDLE"]

@@ -2,7 +2,26 @@
 (vectors, limits, then the subclass's models), generation, streaming and persistence.
 
 The parts live in :mod:`.features` (blocked extraction), :mod:`.vectors` (training vectors at change
-points), :mod:`.limits` (safety limits) and :mod:`.generator` (the causal generator and stream).
+points), :mod:`.limits` (safety limits), :mod:`.speech` (the per-frame speech detector) and
+:mod:`.generator` (the causal generator and stream).
+
+Product defaults and the thesis's literal behaviour (issue 14; measured in
+``docs/natural_motion_diagnosis.md`` and ``docs/tws_realism.md``):
+
+* ``stochastic="params"`` — the warping parameters are sampled from the regression Gaussian (thesis
+  §5.5's modification), seeded by ``seed``; ``"none"`` reproduces the thesis's ML tables, whose
+  deterministic choices settle into a fixed point (a 2.5 Hz limit cycle on real data);
+* ``min_swing_deg=0.5`` — training motion is segmented with a minimum swing of 0.5° between
+  extrema (:func:`headmotion.motion.segmentation.segment_axis`), so video tracking jitter does not
+  become hundreds of 0.1–0.2 s segments; 0 is the thesis's segmentation.  Stored in the model (a
+  file without it was trained with 0);
+* ``soft_limit=True`` — the pull back towards the mean pose of :mod:`.limits`; False = hard clip only;
+* ``log_params`` — model (and sample) the duration and amplitude in log space (heavy-tailed like the
+  recordings' segments) instead of linearly as the thesis does;
+* ``idle=0.4`` — in pauses the head's speed is scaled by ``idle``
+  (:mod:`headmotion.motion.pauses`, causal mode; the ZEGGS mocap's pause/speech speed ratio is
+  0.39); 1 = no settling (the thesis).  Model files written before these parameters load with
+  ``soft_limit=False`` and ``idle=1`` (they have no speech detector), i.e. as they behaved.
 """
 
 from __future__ import annotations
@@ -19,6 +38,7 @@ from ..base import CAUSAL, Synthesizer, check_stochastic
 from .features import extract_blocked, make_feature_config
 from .generator import Generator, TwsStream
 from .limits import Limits
+from .speech import SpeechDetector
 from .vectors import collect
 
 
@@ -43,8 +63,37 @@ class TwsBase(Synthesizer):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (1 if k == "feature_block" else 0):
                 raise ParameterError(f"the {k!r} parameter of {self.name} must be a whole number "
                                      f"{'>= 1' if k == 'feature_block' else '>= 0'}; got {v!r}")
+        ms = self.min_swing_deg
+        if isinstance(ms, bool) or not isinstance(ms, (int, float, np.integer, np.floating)) or not 0 <= ms < 90:
+            raise ParameterError(f"the 'min_swing_deg' parameter of {self.name} must be a number of degrees "
+                                 f">= 0 (0 = the thesis's segmentation); got {ms!r}")
+        idle = self.idle
+        if isinstance(idle, bool) or not isinstance(idle, (int, float, np.integer, np.floating)) or not 0 <= idle <= 1:
+            raise ParameterError(f"the 'idle' parameter of {self.name} must be in [0, 1] (speed in pauses as a "
+                                 f"fraction of speech; 1 = no settling); got {idle!r}")
+        if not isinstance(self.log_params, (bool, np.bool_)):
+            raise ParameterError(f"the 'log_params' parameter of {self.name} must be True or False; "
+                                 f"got {self.log_params!r}")
+        if not isinstance(self.soft_limit, (bool, np.bool_)):
+            raise ParameterError(f"the 'soft_limit' parameter of {self.name} must be True or False; "
+                                 f"got {self.soft_limit!r}")
         if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
             raise ParameterError(f"the 'fps' parameter of {self.name} must be a positive number or None; got {self.fps!r}")
+
+    #: smallest amplitude (radians) taken to log space with ``log_params`` (0.006°)
+    _LOG_FLOOR = 1e-4
+
+    def _y_in(self, y: np.ndarray) -> np.ndarray:
+        """Training targets ``(d, a)`` in the space the regression models them (log with ``log_params``)."""
+        y = np.asarray(y, dtype=np.float64)
+        return np.log(np.maximum(y, self._LOG_FLOOR)) if getattr(self, "log_params", False) else y
+
+    def _y_out(self, y) -> tuple[float, float]:
+        """``(d, a)`` back from the regression's space."""
+        y = np.asarray(y, dtype=np.float64)
+        if getattr(self, "log_params", False):
+            y = np.exp(y)
+        return float(y[0]), float(y[1])
 
     @property
     def _stochastic(self) -> str:
@@ -80,7 +129,9 @@ class TwsBase(Synthesizer):
         self.sample_rate_ = int(recs[0].audio.sample_rate)
         self.feature_config_ = make_feature_config(self.features, self.fps_)
         total = len(recs) + 2
-        motions, raw, names = [], [], []
+        from ...features.vad import speaking_mask
+
+        motions, raw, names, masks = [], [], [], []
         for i, r in enumerate(recs):
             m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
             T = len(m)
@@ -89,6 +140,7 @@ class TwsBase(Synthesizer):
             tr = self.feature_config_.extract(r.audio, n_frames=T)
             motions.append(np.asarray(m.rotvec))
             raw.append(np.asarray(tr.values, dtype=np.float64))
+            masks.append(speaking_mask(r.audio, fps=self.fps_, n_frames=T))
             names = list(tr.names)
             if progress:
                 progress(i + 1, total, f"features {r.id}")
@@ -101,7 +153,11 @@ class TwsBase(Synthesizer):
         feats = [np.asarray(self.normalizer_.transform(f), dtype=np.float64) for f in raw]
         self.n_features_ = feats[0].shape[1]
         self.feature_names_ = names
-        data = collect(motions, feats, self.fps_, with_frames=self._with_frames)
+        data = collect(motions, feats, self.fps_, with_frames=self._with_frames,
+                       min_swing=float(np.radians(self.min_swing_deg)))
+        self.speech_detector_ = SpeechDetector.for_features(names, self.normalizer_, self.fps_)
+        if self.speech_detector_ is not None:
+            self.speech_detector_.score(feats, masks)
         n_seg = [len(d.y) for d in data]
         if min(n_seg) < 4:
             raise ParameterError(
@@ -130,7 +186,7 @@ class TwsBase(Synthesizer):
         gen = Generator(self, rng=np.random.default_rng(seed), fps=self.fps_)
         gen.push_features(self._features_blocks(audio, T) if self.blocked else self._features_full(audio, T))
         gen.run()
-        return Motion(gen.render(0, T), self.fps_, meta={"system": self.name, "seed": seed})
+        return Motion(gen.render_settled(0, T), self.fps_, meta={"system": self.name, "seed": seed})
 
     def _stream(self, *, seed: int | None) -> TwsStream:
         return TwsStream(self, seed=self.seed if seed is None else seed)
@@ -155,6 +211,8 @@ class TwsBase(Synthesizer):
         arrays = dict(arrays)
         arrays.update(self.limits_.to_arrays())
         arrays.update(self.normalizer_.to_arrays("norm_"))
+        if getattr(self, "speech_detector_", None) is not None:
+            arrays.update(self.speech_detector_.to_arrays())
         return cfg, arrays
 
     def _set_state(self, config, arrays):
@@ -162,6 +220,11 @@ class TwsBase(Synthesizer):
 
         params = dict(config["params"])
         params.pop("gain", None)  # older files: a per-model gain (always 1.0 in practice)
+        # older files: trained with the thesis's segmentation, no soft limit, no pause settling
+        params.setdefault("min_swing_deg", 0.0)
+        params.setdefault("soft_limit", False)
+        params.setdefault("idle", 1.0)
+        params.setdefault("log_params", False)
         self.__init__(**params)
         self.fps_ = float(config["fps"])
         self.sample_rate_ = int(config["sample_rate"])
@@ -170,6 +233,7 @@ class TwsBase(Synthesizer):
         self.feature_names_ = list(config.get("feature_names", []))
         self.limits_ = Limits.from_arrays(arrays)
         self.normalizer_ = Normalizer.from_arrays(arrays, "norm_")
+        self.speech_detector_ = SpeechDetector.from_arrays(arrays)
         self._load_model_state(config, arrays)
 
 

@@ -45,7 +45,12 @@ class TwsBasic(TwsBase):
     n_components : int, GMM components per speed class (fewer when a class has little data)
     method : "ml", "mmse" or "sample" — how (d, a) is taken from the conditional distribution
     stochastic : "none", "choice" (= "class", the speed class), "params" or "both" — what is
-        sampled (§5.5 modifications; the vocabulary of :mod:`headmotion.systems.base`)
+        sampled (default "params"; §5.5 modifications; the vocabulary of :mod:`headmotion.systems.base`)
+    min_swing_deg : smallest swing (degrees) between extrema when segmenting training motion
+        (0.5; 0 = the thesis's segmentation; see :mod:`headmotion.systems.tws.base`)
+    soft_limit : pull back towards the mean pose before the hard clip (True; False = literal)
+    idle : speed in pauses as a fraction of speech, decided causally (0.4; 1 = no settling)
+    log_params : regress and sample (d, a) in log space (False = linear, the thesis)
     feature_block, feature_context : frames per feature block and audio context (streaming)
     seed : default synthesis seed (``predict(seed=None)``)
     random_state : EM initialisation seed (training)
@@ -56,7 +61,8 @@ class TwsBasic(TwsBase):
     name = "tws-basic"
 
     def __init__(self, features="f0e", *, fps: float | None = None, n_components: int = 4,
-                 method: str = "mmse", stochastic: str = "none",
+                 method: str = "mmse", stochastic: str = "params", min_swing_deg: float = 0.5,
+                 soft_limit: bool = True, idle: float = 0.4, log_params: bool = False,
                  feature_block: int = 50, feature_context: int = 20, seed: int | None = 0,
                  random_state: int = 0, n_init: int = 2, blocked: bool = False):
         self.features = features
@@ -64,6 +70,10 @@ class TwsBasic(TwsBase):
         self.n_components = n_components
         self.method = method
         self.stochastic = stochastic
+        self.min_swing_deg = min_swing_deg
+        self.soft_limit = soft_limit
+        self.idle = idle
+        self.log_params = log_params
         self.feature_block = feature_block
         self.feature_context = feature_context
         self.seed = seed
@@ -88,9 +98,9 @@ class TwsBasic(TwsBase):
                     continue
                 M = int(max(1, min(self.n_components, n // (10 * (X.shape[1] + 2)))))
                 g = GMMRegression(M, n_init=self.n_init, random_state=self.random_state, max_iter=50)
-                self.gmms_[(j, c)] = g.fit(X[idx], a["y"][idx])
+                self.gmms_[(j, c)] = g.fit(X[idx], self._y_in(a["y"][idx]))
             if not any((j, c) in self.gmms_ for c in range(3)):
-                g = GMMRegression(1).fit(X, a["y"])
+                g = GMMRegression(1).fit(X, self._y_in(a["y"]))
                 self.gmms_[(j, 0)] = g
             if progress:
                 progress(j + 1, 3, f"axis {j}: {sum(1 for c in range(3) if (j, c) in self.gmms_)} speed classes")
@@ -112,7 +122,7 @@ class TwsBasic(TwsBase):
             c = cl[int(np.argmax(ll[0]))]
         method = "sample" if self._stochastic in ("params", "both") else self.method
         y = self.gmms_[(j, c)].predict(x, method=method, rng=rng)[0]
-        return float(y[0]), float(y[1])
+        return self._y_out(y)
 
     def speed_class_confusion(self, corpus) -> np.ndarray:
         """Table 5.2: rows true class, columns predicted (counts), given the true boundaries."""
@@ -122,7 +132,7 @@ class TwsBasic(TwsBase):
             m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
             motions.append(np.asarray(m.rotvec))
             feats.append(self._features_full(r.audio, len(m)))
-        data = collect(motions, feats, self.fps_)
+        data = collect(motions, feats, self.fps_, min_swing=float(np.radians(self.min_swing_deg)))
         conf = np.zeros((3, 3), dtype=np.int64)
         for j in range(3):
             a = data[j].arrays()

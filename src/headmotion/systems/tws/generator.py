@@ -5,6 +5,11 @@ current segment ends first, builds its input vector from what has been generated
 speech up to that frame, asks the system for ``(d, a)``, applies the limits and appends the warped
 template (:func:`headmotion.motion.templates.template_shape`).  It is causal: frames before the
 earliest pending change point are final, which is what :class:`TwsStream` emits.
+
+Pauses (issue 14 §3): :meth:`Generator.render_settled` passes the rendered frames, in order, through
+:class:`headmotion.motion.pauses.PauseSettler` with weights from
+:class:`headmotion.motion.pauses.CausalPauseWeight` over the system's speech detector
+(:mod:`.speech`) — causal, so offline synthesis and the stream give the same frames.
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...align import n_frames as _n_frames
+from ...motion.pauses import CausalPauseWeight, PauseSettler
 from ...motion.templates import template_shape
 from ...types import Audio, Motion
 from .limits import Limits
@@ -33,8 +39,19 @@ class Generator:
         self.F = np.zeros((0, system.n_features_))
         self.rendered = 0
         self.ctx = system._init_generation()
+        self.soft = bool(getattr(system, "soft_limit", False))
+        det = getattr(system, "speech_detector_", None)
+        idle = float(getattr(system, "idle", 1.0))
+        self.settled = 0
+        if det is not None and idle < 1.0:
+            self.detector = det.start()
+            self.weigher = CausalPauseWeight(fps=fps)
+            self.settler = PauseSettler(fps=fps, idle=idle)
+        else:
+            self.detector = None
         for j in range(3):
-            n, s = lim.clip(j, lim.d_mean[j], lim.a_mean[j], lim.mean[j] - lim.a_mean[j] / 2, 1.0, fps)
+            n, s = lim.clip(j, lim.d_mean[j], lim.a_mean[j], lim.mean[j] - lim.a_mean[j] / 2, 1.0, fps,
+                            soft=self.soft)
             c = lim.mean[j] - s / 2
             self.segs[j].append((0, n, s, c))
             self.next_change[j] = n
@@ -67,7 +84,7 @@ class Generator:
             state = dict(prev=np.array([n / self.fps, abs(s), c_new]), others=np.array(others),
                          seg_start=st, gen=self.ctx)
             d, a = self.sys._choose(j, template, state, self.F, t, self.rng)
-            n_new, s_new = self.sys.limits_.clip(j, d, a, c_new, sign, self.fps)
+            n_new, s_new = self.sys.limits_.clip(j, d, a, c_new, sign, self.fps, soft=self.soft)
             self.segs[j].append((t, n_new, s_new, c_new))
             self.next_change[j] = t + n_new
         return int(self.next_change.min())
@@ -86,6 +103,19 @@ class Generator:
             ph = np.clip((tt - starts[k]) / ns[k], 0.0, 1.0)
             out[:, j] = cs[k] + ss[k] * template_shape(ph)
         return out
+
+
+    def render_settled(self, a: int, b: int) -> np.ndarray:
+        """Frames [a, b) after settling in pauses; calls must cover the utterance in order
+        (``a`` = the previous call's ``b``) and the features of frames < b must be pushed."""
+        x = self.render(a, b)
+        if self.detector is None or b <= a:
+            return x
+        if a != self.settled:
+            raise RuntimeError(f"render_settled: frames must come in order (expected {self.settled}, got {a})")
+        self.settled = b
+        w = self.weigher.push(self.detector.push(self.F[a:b]))
+        return self.settler.push(x, w)
 
 
 class TwsStream:
@@ -139,7 +169,7 @@ class TwsStream:
 
     def _emit(self, upto: int) -> Motion:
         a, b = self.emitted, max(self.emitted, upto)
-        rv = self.gen.render(a, b)
+        rv = self.gen.render_settled(a, b)
         self.emitted = b
         return Motion(rv, self.fps)
 

@@ -119,7 +119,12 @@ class TwsHier(TwsBase):
     hmm_iter : int, Baum–Welch iterations (capped for training speed)
     lm_weight : float, weight of the language-model log probability
     method : "ml", "mmse" or "sample"
-    stochastic : "none", "choice" (= "cluster"), "params" or "both"
+    stochastic : "none", "choice" (= "cluster"), "params" or "both" (default "params": sampled, seeded)
+    min_swing_deg : smallest swing (degrees) between extrema when segmenting training motion
+        (0.5; 0 = the thesis's segmentation; see :mod:`headmotion.systems.tws.base`)
+    soft_limit : pull back towards the mean pose before the hard clip (True; False = literal)
+    idle : speed in pauses as a fraction of speech, decided causally (0.4; 1 = no settling)
+    log_params : regress and sample (d, a) in log space (False = linear, the thesis)
     feature_block, feature_context, seed, blocked : see :class:`~headmotion.systems.tws.basic.TwsBasic`
     n_init : int, k-means random restarts
     random_state : int, training seed (k-means, HMM initialisation)
@@ -130,7 +135,8 @@ class TwsHier(TwsBase):
 
     def __init__(self, features="f0e", *, fps: float | None = None, n_clusters: int | None = 4,
                  n_states: int = 5, hmm_iter: int = 10, lm_weight: float = 1.0, method: str = "ml",
-                 stochastic: str = "none", feature_block: int = 50,
+                 stochastic: str = "params", min_swing_deg: float = 0.5,
+                 soft_limit: bool = True, idle: float = 0.4, log_params: bool = False, feature_block: int = 50,
                  feature_context: int = 20, seed: int | None = 0, n_init: int = 10, random_state: int = 0,
                  blocked: bool = False):
         self.features = features
@@ -141,6 +147,10 @@ class TwsHier(TwsBase):
         self.lm_weight = lm_weight
         self.method = method
         self.stochastic = stochastic
+        self.min_swing_deg = min_swing_deg
+        self.soft_limit = soft_limit
+        self.idle = idle
+        self.log_params = log_params
         self.feature_block = feature_block
         self.feature_context = feature_context
         self.seed = seed
@@ -262,9 +272,9 @@ class TwsHier(TwsBase):
         for c in range(clusters.k):
             sel = idx[clusters.labels == c]
             xc = self._xreg(a["prev"][sel], a["others"][sel], a["frame"][sel], a["ctx"][sel], D)
-            g = GMMRegression(1).fit(xc, a["y"][sel])
+            g = GMMRegression(1).fit(xc, self._y_in(a["y"][sel]))
             regs.append(g)
-            self.fit_info_["bic"][f"{j}_{tau}_{c}"] = g.bic(xc, a["y"][sel])
+            self.fit_info_["bic"][f"{j}_{tau}_{c}"] = g.bic(xc, self._y_in(a["y"][sel]))
             const = (np.hstack([a["prev"][sel], a["others"][sel]]) - self.oth_mu_) / self.oth_sd_
             seqs = [np.hstack([seg_frames[i], np.tile(const[n], (len(seg_frames[i]), 1))]) for n, i in enumerate(sel)]
             hmms.append(LeftToRightHMM(self.n_states, n_iter=self.hmm_iter, random_state=self.random_state)
@@ -342,7 +352,7 @@ class TwsHier(TwsBase):
             y = cond.sample(rng)[0]
         else:
             y = cond.means[0, 0]
-        return float(y[0]), float(y[1])
+        return self._y_out(y)
 
     # -- analysis -----------------------------------------------------------------------------
     def cluster_confusion(self, corpus) -> dict[str, np.ndarray]:
@@ -356,7 +366,8 @@ class TwsHier(TwsBase):
             mo = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
             motions.append(np.asarray(mo.rotvec))
             feats.append(self._features_full(r.audio, len(mo)))
-        data = collect(motions, feats, self.fps_, with_frames=True)
+        data = collect(motions, feats, self.fps_, with_frames=True,
+                       min_swing=float(np.radians(self.min_swing_deg)))
         kmax = max(self.templates_[j][t].k for j in range(3) for t in (0, 1))
         conf = {"hmm": np.zeros((kmax, kmax), dtype=np.int64), "gmm": np.zeros((kmax, kmax), dtype=np.int64)}
         D = self.n_features_

@@ -5,6 +5,16 @@ Durations are clipped to ``[min segment, 99.5th percentile of training]``; ampli
 training maximum, to the fastest per-frame change seen in (smoothed) training data (a half-cosine
 of amplitude ``a`` over ``n`` frames changes by at most ``pi a / (2 n)`` per frame), and so that
 the segment's end stays within the training range widened by 10 % on each side.
+
+Soft limit (``soft=True``; issue 14, diagnosis §3.4 — not in the thesis, which had no limits): before
+the hard clip, a segment that moves *away* from the training mean pose has its amplitude scaled by
+``max(0, 1 - (c - mean) / (edge - mean))``, ``c`` the current position and ``edge`` the training
+maximum (rising) or minimum (falling).  At the mean nothing changes; the nearer the head is to the
+edge of the training range, the smaller the excursions away from the mean, while moves back towards
+it are free — a pull back towards the mean pose.  Sampled amplitudes alone otherwise random-walk
+the head to the clip limits and pin it there (tws-basic on ZEGGS: 2–7 % of frames saturated;
+tws-hier on the whole ZEGGS take: yaw pinned at +35–40° for 20 s).  ``soft=False`` is the literal
+behaviour.
 """
 
 from __future__ import annotations
@@ -60,10 +70,24 @@ class Limits:
         kw["d_min"] = float(kw["d_min"])
         return cls(**kw)
 
-    def clip(self, j: int, d: float, a: float, c: float, sign: float, fps: float) -> tuple[int, float]:
-        """Frames and signed amplitude of a new segment after applying the limits."""
+    def soften(self, j: int, a: float, c: float, sign: float) -> float:
+        """The amplitude after the soft limit (module docstring) for a segment from ``c`` in
+        direction ``sign`` (+1 rising, -1 falling)."""
+        dev = c - self.mean[j]
+        edge = self.hi[j] if sign > 0 else self.lo[j]
+        room = edge - self.mean[j]
+        if sign * dev <= 0 or sign * room <= 0:  # moving towards the mean (or no room measured)
+            return a
+        return a * max(0.0, 1.0 - dev / room)
+
+    def clip(self, j: int, d: float, a: float, c: float, sign: float, fps: float, *,
+             soft: bool = False) -> tuple[int, float]:
+        """Frames and signed amplitude of a new segment after applying the limits (with ``soft``,
+        the soft limit first)."""
         n = int(round(min(max(d, self.d_min), max(self.d_max[j], self.d_min)) * fps))
         n = max(n, 1)
+        if soft:
+            a = self.soften(j, max(a, 0.0), c, sign)
         a = min(max(a, 0.0), self.a_max[j], 2.0 * n * self.v_max[j] / math.pi)
         span = self.hi[j] - self.lo[j]
         lo, hi = self.lo[j] - 0.1 * span, self.hi[j] + 0.1 * span

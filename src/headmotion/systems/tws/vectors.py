@@ -57,12 +57,13 @@ def context_frames(F: np.ndarray, t: int) -> np.ndarray:
     return F[idx].ravel()
 
 
-def segment_motion(rotvec: np.ndarray, fps: float) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Per axis: boundaries (K+1,) and smoothed values at them (:func:`~headmotion.motion.segmentation.segment`)."""
+def segment_motion(rotvec: np.ndarray, fps: float, *, min_swing: float = 0.0) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per axis: boundaries (K+1,) and smoothed values at them (:func:`~headmotion.motion.segmentation.segment`;
+    ``min_swing`` in radians, 0 = the thesis's segmentation)."""
     rv = np.asarray(rotvec, dtype=np.float64)
     out = []
     for j in range(3):
-        s = segment(rv[:, j], fps=fps)
+        s = segment(rv[:, j], fps=fps, min_swing=min_swing)
         out.append((s.bounds, s.values))
     return out
 
@@ -76,11 +77,13 @@ def current_segment_params(bounds: np.ndarray, values: np.ndarray, t: int, fps: 
     return (bounds[k + 1] - bounds[k]) / fps, abs(values[k + 1] - values[k])
 
 
-def collect(motions: list[np.ndarray], feats: list[np.ndarray], fps: float, *, with_frames: bool = False):
-    """Training vectors for the three axes from aligned motions (T, 3) and features (T, D)."""
+def collect(motions: list[np.ndarray], feats: list[np.ndarray], fps: float, *, with_frames: bool = False,
+            min_swing: float = 0.0):
+    """Training vectors for the three axes from aligned motions (T, 3) and features (T, D);
+    ``min_swing`` (radians) as in :func:`segment_motion`."""
     data = [AxisData() for _ in range(3)]
     for r, (rv, F) in enumerate(zip(motions, feats)):
-        segs = segment_motion(rv, fps)
+        segs = segment_motion(rv, fps, min_swing=min_swing)
         for j in range(3):
             b, v = segs[j]
             for k in range(1, len(b) - 1):
