@@ -122,11 +122,16 @@ def test_cccae_embedding_correlates_better_than_ae_and_waveform(corpus, trained)
 def test_cccae_prediction_beats_the_mean(corpus, trained):
     from headmotion.evaluation.metrics import nmse
 
+    from headmotion.align import fit_length
+    from headmotion.systems.dnn import PAPER_PARAMS
+
     cccae, _ = trained
     test = corpus["env_3"]
-    from headmotion.align import fit_length
-
-    pred = cccae.predict(test.audio)
+    keep = {k: getattr(cccae, k) for k in PAPER_PARAMS}
+    try:  # the paper's claim, on the paper's output (variance restoration and drift raise the MSE)
+        pred = cccae.set_params(**PAPER_PARAMS).predict(test.audio)
+    finally:
+        cccae.set_params(**keep)
     assert pred.fps == cccae.frame_rate == 100.0  # the model's own rate; the caller resamples
     pred = pred.resample(test.motion.fps)
     assert abs(len(pred) - len(test.motion)) <= 1

@@ -198,3 +198,19 @@ def test_info_model_default_prints_the_card(capsys):
     out = capsys.readouterr().out
     assert "Model card" in out and "licence" in out.lower()
     assert "mead_lrs3" in out  # says it was left out, and why
+
+
+def test_systems_declare_their_reachable_range():
+    """tws-* and le2012 declare their clip (training range ± 10 %); the DNN systems none."""
+    from headmotion.synthetic import planted_corpus
+    from headmotion.systems import create
+
+    c = planted_corpus(minutes=1.0, n_recordings=3, fps=50.0, seed=2)
+    allr = np.vstack([r.motion.rotvec for r in c])
+    lo, hi = allr.min(0), allr.max(0)
+    for name in ("tws-basic", "le2012"):
+        m = create(name).fit(c)
+        r = m.reachable_range()
+        assert r.shape == (3, 2), name
+        np.testing.assert_allclose(r[:, 1] - r[:, 0], 1.2 * (hi - lo), rtol=0.05, err_msg=name)
+    assert Synthesizer.reachable_range(create("tws-basic")) is None  # the contract's default

@@ -113,8 +113,37 @@ def test_causal_settling_slows_a_pause():
     x = np.stack([np.sin(2 * np.pi * 0.7 * t)] * 3, axis=1)
     mask = np.ones(600, bool)
     mask[200:400] = False
-    y = settle_in_pauses(x, mask, fps=FPS, idle=0.25, causal=True)
+    y = settle_in_pauses(x, mask, fps=FPS, idle=0.25, causal="quick")
     sp = lambda z, a, b: np.abs(np.diff(z[a:b], axis=0)).mean()  # noqa: E731
     assert sp(y, 260, 400) == pytest.approx(0.25 * sp(x, 260, 400), rel=1e-9)  # fully settled after 0.5 s
     np.testing.assert_array_equal(y[:200], x[:200])                              # causal: speech before untouched
     assert np.max(np.abs(np.diff(y, axis=0))) <= np.max(np.abs(np.diff(x, axis=0))) * 1.1  # no jump (the offset relaxes at 1/relax_s)
+
+
+def test_causal_weight_depends_on_the_past_only_and_starts_after_min_pause():
+    m = np.ones(600, bool)
+    m[100:300] = False  # 2 s pause
+    w = pause_weight(m, fps=FPS, ramp_s=0.2, causal=True)
+    assert np.all(w[:149] == 0)  # not a pause until it has lasted 0.5 s (frames 100..149)
+    assert np.all(w[170:300] == 1.0)  # ramped up within 0.2 s
+    assert w[300] > 0.9 and np.all(w[320:] == 0)  # ramps down after speech resumes, within 0.2 s
+    assert np.max(np.abs(np.diff(w))) < 0.1
+    for t in (120, 160, 250, 310):  # changing the future does not change the past
+        m2 = m.copy()
+        m2[t + 1:] = ~m2[t + 1:]
+        np.testing.assert_array_equal(pause_weight(m2, fps=FPS, ramp_s=0.2, causal=True)[:t + 1], w[:t + 1])
+
+
+def test_causal_settle_is_causal_and_slows_to_idle():
+    rng = np.random.default_rng(1)
+    x = np.cumsum(rng.standard_normal((600, 3)), axis=0)
+    m = np.ones(600, bool)
+    m[100:400] = False
+    y = settle_in_pauses(x, m, fps=FPS, idle=0.25, causal=True, mean_pose=np.zeros(3))
+    np.testing.assert_allclose(y[:149], x[:149])
+    sp = lambda z, a, b: np.abs(np.diff(z[a:b], axis=0)).sum()  # noqa: E731
+    assert sp(y, 180, 400) == pytest.approx(0.25 * sp(x, 180, 400), rel=1e-9)
+    x2 = x.copy()
+    x2[300:] += 5.0
+    y2 = settle_in_pauses(x2, m, fps=FPS, idle=0.25, causal=True, mean_pose=np.zeros(3))
+    np.testing.assert_array_equal(y2[:300], y[:300])

@@ -30,7 +30,14 @@ against 0.37, 0.05 s / 0.3 s gives 0.41–0.49 with idle 0.4); speech that lasts
 (0.05 s) brings it back to 0 linearly within ``release_s`` (0.1 s).  :class:`PauseSettler` is the
 velocity scaling of :func:`settle_in_pauses` as a recursion with state, so a stream that feeds it
 chunk by chunk gets exactly what one call over the whole utterance gives.
-:func:`settle_in_pauses` uses it too (``causal=True`` swaps the look-ahead weight for the causal one).
+:func:`settle_in_pauses` uses it too (``causal="quick"`` swaps the look-ahead weight for this causal one).
+
+Streaming: deciding that a non-speech run will last ``min_pause_s`` needs that much look-ahead;
+the template-warping streams already have 0.7 s of latency, which covers 0.5 s.  Systems without
+look-ahead (le2012's frame-by-frame ascent) use ``causal=True``: a run counts as a pause once it
+has lasted ``min_pause_s`` (the slowing starts then, ramping up over ``ramp_s``), and the ramp back
+to full speed runs over ``ramp_s`` *after* speech resumes; every output frame then depends only on
+the mask and motion up to that frame.
 
 Library considered: scipy.signal filters act on whole signals with fixed coefficients; the
 mask-dependent velocity scaling with offset relaxation is a few lines of numpy.
@@ -53,11 +60,14 @@ def _runs(mask: np.ndarray):
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
-def pause_weight(speech_mask, *, fps: float, min_pause_s: float = 0.5, ramp_s: float = 0.2) -> np.ndarray:
+def pause_weight(speech_mask, *, fps: float, min_pause_s: float = 0.5, ramp_s: float = 0.2,
+                 causal: bool = False) -> np.ndarray:
     """Per frame, how far into a pause (0 = speech or short gap, 1 = inside a pause).
 
     Non-speech runs of at least ``min_pause_s`` get 1, with raised-cosine ramps of ``ramp_s``
-    seconds at both ends inside the run (at most half the run each)."""
+    seconds at both ends inside the run (at most half the run each).  With ``causal``, frame t
+    depends on the mask up to t only: the weight ramps up (raised cosine over ``ramp_s``) once a
+    non-speech run has lasted ``min_pause_s`` and ramps down the same way once speech resumes."""
     if fps <= 0:
         raise ParameterError(f"fps must be positive; got {fps}")
     if min_pause_s < 0 or ramp_s < 0:
@@ -67,6 +77,14 @@ def pause_weight(speech_mask, *, fps: float, min_pause_s: float = 0.5, ramp_s: f
         raise ParameterError(f"speech_mask must be 1-D (one flag per frame); given shape {s.shape}")
     w = np.zeros(len(s))
     shortest = max(1, int(round(min_pause_s * fps)))
+    if causal:
+        k = int(round(ramp_s * fps))
+        run, phase = 0, 0
+        for t in range(len(s)):
+            run = 0 if s[t] else run + 1
+            phase = min(phase + 1, k) if run >= shortest else max(phase - 1, 0)
+            w[t] = (1.0 if run >= shortest else 0.0) if k == 0 else 0.5 * (1 - np.cos(np.pi * phase / k))
+        return w
     for a, b in _runs(~s):
         n = b - a
         if n < shortest:
@@ -221,9 +239,12 @@ def settle_in_pauses(motion, speech_mask, *, fps: float | None = None, idle: flo
     ramp_s : raised-cosine ramp at each end of a pause (s)
     relax_s : time constant (s) with which the offset left by a pause decays in speech
     pull : rate (1/s) of an exponential pull towards ``mean_pose`` in pauses (0 = none)
-    mean_pose : (D,), default the motion's mean
-    causal : decide from the flags up to each frame only (:class:`CausalPauseWeight` with its
-        defaults; ``min_pause_s`` and ``ramp_s`` are then unused)
+    mean_pose : (D,), default the motion's mean (give it with ``causal`` and ``pull``: the motion's
+        mean is not known causally)
+    causal : False (look-ahead: a pause is known whole), True (the causal weight of
+        :func:`pause_weight`: slowing starts once the run has lasted ``min_pause_s``; le2012) or
+        ``"quick"`` (:class:`CausalPauseWeight` with its defaults, as the template-warping streams
+        use it: slowing starts after 0.05 s of silence; ``min_pause_s`` and ``ramp_s`` unused)
 
     Returns
     -------
@@ -243,8 +264,10 @@ def settle_in_pauses(motion, speech_mask, *, fps: float | None = None, idle: flo
     mask = np.asarray(speech_mask, dtype=bool)
     if len(mask) != len(x):
         raise ParameterError(f"speech mask has {len(mask)} frames but the motion {len(x)}; give it at the motion's rate")
-    w = (CausalPauseWeight(fps=f).push(mask) if causal
-         else pause_weight(mask, fps=f, min_pause_s=min_pause_s, ramp_s=ramp_s))
+    if causal not in (False, True, "quick"):
+        raise ParameterError(f"causal must be False, True or 'quick'; got {causal!r}")
+    w = (CausalPauseWeight(fps=f).push(mask) if causal == "quick"
+         else pause_weight(mask, fps=f, min_pause_s=min_pause_s, ramp_s=ramp_s, causal=bool(causal)))
     if len(x) < 2 or not w.any():
         return motion
     mu = x.mean(axis=0) if mean_pose is None else np.asarray(mean_pose, dtype=np.float64)
@@ -252,7 +275,8 @@ def settle_in_pauses(motion, speech_mask, *, fps: float | None = None, idle: flo
     if not is_motion:
         return y
     meta = dict(motion.meta)
-    meta["pauses"] = {"causal": causal, "idle": idle, "min_pause_s": min_pause_s, "ramp_s": ramp_s, "relax_s": relax_s, "pull": pull}
+    meta["pauses"] = {"idle": idle, "min_pause_s": min_pause_s, "ramp_s": ramp_s, "relax_s": relax_s, "pull": pull,
+                      "causal": causal}
     return motion.replace(rotvec=y, meta=meta)
 
 

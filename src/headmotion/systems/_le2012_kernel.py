@@ -6,6 +6,10 @@ synthesis (17× real time, the slowest row of the benchmarks).  These numba kern
 arithmetic in compiled loops.  numba is already a dependency of librosa; kernels are cached on disk
 after the first compilation.  :mod:`headmotion.systems.le2012` documents the algorithm; the tests
 check these kernels against the plain-numpy reference implementation there.
+
+Every frame's ascent starts from ``2 p1 - p2 - pull (p1 - pose) + jitter[t]`` (``p1``, ``p2`` the
+two previous frames): ``pull = 0`` and ``jitter = 0`` is Le et al.'s constant-velocity start; the
+leaky pull towards the training mean pose and the seeded jitter are ours (see le2012.py).
 """
 
 from __future__ import annotations
@@ -50,7 +54,7 @@ def _ascent_update(theta, g, gv, ga, sd, lo, hi, step):
 
 
 @njit(cache=True)
-def ascent_independent(out, LW, CM, PR, mu, sd, lo, hi, step, n_steps):
+def ascent_independent(out, LW, CM, PR, mu, sd, lo, hi, step, n_steps, pull, pose, jitter):
     """Five univariate conditional mixtures (eq 2.21). ``out`` (T, 3) holds frames 0 and 1."""
     T = out.shape[0]
     M = LW.shape[2]
@@ -61,7 +65,7 @@ def ascent_independent(out, LW, CM, PR, mu, sd, lo, hi, step, n_steps):
     theta = np.empty(3)
     for t in range(2, T):
         for k in range(3):
-            theta[k] = 2.0 * out[t - 1, k] - out[t - 2, k]
+            theta[k] = 2.0 * out[t - 1, k] - out[t - 2, k] - pull * (out[t - 1, k] - pose[k]) + jitter[t, k]
         for _ in range(n_steps):
             _motion_terms(theta, out[t - 1], out[t - 2], mu, sd, z, gv, ga)
             for i in range(5):
@@ -85,7 +89,7 @@ def ascent_independent(out, LW, CM, PR, mu, sd, lo, hi, step, n_steps):
 
 
 @njit(cache=True)
-def ascent_joint(out, LW, CM, P, mu, sd, lo, hi, step, n_steps):
+def ascent_joint(out, LW, CM, P, mu, sd, lo, hi, step, n_steps, pull, pose, jitter):
     """One joint conditional mixture over (angles, v, a) (eq 5.15)."""
     T = out.shape[0]
     M = LW.shape[1]
@@ -99,7 +103,7 @@ def ascent_joint(out, LW, CM, P, mu, sd, lo, hi, step, n_steps):
     lp = np.empty(M)
     for t in range(2, T):
         for k in range(3):
-            theta[k] = 2.0 * out[t - 1, k] - out[t - 2, k]
+            theta[k] = 2.0 * out[t - 1, k] - out[t - 2, k] - pull * (out[t - 1, k] - pose[k]) + jitter[t, k]
         for _ in range(n_steps):
             _motion_terms(theta, out[t - 1], out[t - 2], mu, sd, z, gv, ga)
             best = -1e300

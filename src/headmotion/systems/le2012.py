@@ -13,6 +13,34 @@ Synthesis is causal: for every frame, ``θ_t`` maximises the product of eq 2.21 
 previously synthesised frames, by gradient ascent (analytic gradients of the GMM log densities;
 started from a constant-velocity prediction).
 
+Additions that are not in Le et al. (2012) nor the thesis (issue 14, diagnosis §3.5), each a
+parameter whose "off" value gives the literal system (``pull_tau_s=None, start_sd=0, idle=None``):
+
+* ``pull_tau_s`` (default 2 s): a leaky pull towards the training mean pose inside the causal
+  ascent — every frame starts from ``p1 + (p1 - p2) - (p1 - mean) / (pull_tau_s · fps)`` instead of
+  the constant-velocity prediction.  Without it the ascent has momentum and nothing that brings the
+  head back: on the ZEGGS take it wandered 9.4° (SD of the 5 s running mean; the recording 3.3°)
+  into the limits of the training range.
+* ``start_sd`` (default 0.5): seeded stochasticity.  The paper and the thesis are silent (the
+  synthesis is a deterministic MAP ascent); we add, to every frame's starting point, Gaussian noise
+  of ``start_sd`` × the training motion's mean per-frame speed per angle, drawn from
+  ``numpy.random.default_rng(seed)``, so the ascent ends in different local maxima for different
+  seeds; the same seed gives the same motion.
+* ``idle`` (default 0.4): pauses — :func:`headmotion.motion.pauses.settle_in_pauses` in its
+  *causal* mode (the synthesis is causal, so a pause is recognised once it has lasted 0.5 s),
+  speech mask from :func:`headmotion.features.vad.speaking_mask`.  The VAD's thresholds use the
+  whole clip's energy distribution, so a stream would need a causal VAD as well; le2012 has no
+  stream today.
+
+Defaults chosen on held-out data (``scripts/p2dnn_measure.py le2012``; ZEGGS 4 folds / video
+corpus 2 speaker-disjoint folds, 2 seeds): the pull alone stops the wandering (ZEGGS saturation
+11 % → 0, SD ratio 1.6–1.8 → 0.5–0.6) but makes pull + momentum a damped oscillator (limit-cycle
+index 0.31, 1.5–4 Hz share 0.14 on video); the seeded start (0.5) breaks it (ZEGGS: spectral L1
+0.12–0.16, SD ratio 0.73–1.27, LC 0.18, diversity 1.3; video: L1 0.34–0.45, SD ratio 0.4–0.6,
+diversity 0.64); idle 0.4 brings the pause/speech speed ratio to 0.42 (ZEGGS, recording 0.37) and
+0.61 (video, 0.57) where 0.7 left 0.55 / 0.69.  Coupling: none of this ties le2012 to speech
+(pooled FCCA p 0.36–0.94); it should not be the default.
+
 The "fair" variant (``joint=True``, eq 5.15) replaces the five GMMs by one 10-component GMM over
 ``(pitch, yaw, roll, v, a, p, l)``, so the angles are optimised jointly and their positions
 relative to each other are modelled, as template warping does.
@@ -76,6 +104,12 @@ class Le2012(Synthesizer):
     seed : int, default synthesis seed (the synthesis is deterministic; kept for the contract)
     compiled : bool, run the per-frame ascent as a compiled numba kernel (same arithmetic as the
         numpy reference loop, ~100× faster); False uses the numpy loop
+    pull_tau_s : float or None, time constant (s) of the pull towards the training mean pose
+        (None or 0: none, as in the paper)
+    start_sd : float >= 0, seeded noise on each frame's starting point, in units of the training
+        motion's mean per-frame speed (0: deterministic, as in the paper)
+    idle : float in [0, 1] or None, speed in pauses as a fraction of the motion's own (None: no
+        pause handling, as in the paper)
     """
 
     name = "le2012"
@@ -83,8 +117,12 @@ class Le2012(Synthesizer):
     def __init__(self, features="prosody", *, fps: float | None = None, n_components: int = 10,
                  joint: bool = False, n_steps: int = 12, step: float = 0.05,
                  max_train_frames: int = 10000, random_state: int = 0, seed: int | None = 0,
-                 compiled: bool = True):
+                 compiled: bool = True, pull_tau_s: float | None = 2.0, start_sd: float = 0.5,
+                 idle: float | None = 0.4):
         self.features = features
+        self.pull_tau_s = pull_tau_s
+        self.start_sd = start_sd
+        self.idle = idle
         self.compiled = compiled
         self.fps = fps
         self.n_components = n_components
@@ -102,6 +140,15 @@ class Le2012(Synthesizer):
                 raise ParameterError(f"the {k!r} parameter of le2012 must be a whole number >= 1; got {v!r}")
         if not (isinstance(self.step, (int, float)) and self.step > 0):
             raise ParameterError(f"the 'step' parameter of le2012 must be a positive number; got {self.step!r}")
+        v = self.pull_tau_s
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or v < 0):
+            raise ParameterError(f"the 'pull_tau_s' parameter of le2012 must be None or a number >= 0 (s); got {v!r}")
+        v = self.start_sd
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+            raise ParameterError(f"the 'start_sd' parameter of le2012 must be a number >= 0; got {v!r}")
+        v = self.idle
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v <= 1):
+            raise ParameterError(f"the 'idle' parameter of le2012 must be None or a number in [0, 1]; got {v!r}")
         if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
             raise ParameterError(f"the 'fps' parameter of le2012 must be a positive number or None; got {self.fps!r}")
 
@@ -184,7 +231,7 @@ class Le2012(Synthesizer):
         r = np.exp(lp - lp.max())
         return -(r[:, None] * pd).sum(axis=0) / r.sum()
 
-    def _ascent_reference(self, out, cond, mu, sd, lo, hi):
+    def _ascent_reference(self, out, cond, mu, sd, lo, hi, pull=0.0, pose=None, jitter=None):
         """Plain-numpy per-frame gradient ascent (the reference the compiled kernels are tested
         against; ``compiled=False`` uses it)."""
         T = len(out)
@@ -197,6 +244,10 @@ class Le2012(Synthesizer):
         for t in range(2, T):
             p1, p2 = out[t - 1], out[t - 2]
             theta = p1 + (p1 - p2)
+            if pull:
+                theta = theta - pull * (p1 - pose)
+            if jitter is not None:
+                theta = theta + jitter[t]
             for _ in range(self.n_steps):
                 du, dd = theta - p1, theta - 2 * p1 + p2
                 v, a = np.sqrt(du @ du), np.sqrt(dd @ dd)
@@ -217,8 +268,20 @@ class Le2012(Synthesizer):
             out[t] = theta
 
 
-    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:  # noqa: ARG002  (deterministic)
-        """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``); deterministic."""
+    def _start_terms(self, T: int, seed: int | None):
+        """``(pull, pose, jitter)`` of each frame's starting point (see the module docstring)."""
+        tau = self.pull_tau_s
+        pull = 1.0 / (float(tau) * self.fps_) if tau else 0.0
+        jitter = np.zeros((T, 3))
+        if self.start_sd:
+            s = self.seed if seed is None else seed
+            rng = np.random.default_rng(None if s is None else int(s))
+            jitter = float(self.start_sd) * float(self.z_mu_[3]) * rng.standard_normal((T, 3))
+        return pull, np.asarray(self.start_, dtype=np.float64), jitter
+
+    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
+        """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``); see the
+        module docstring for the pull, the seeded start and pauses."""
         from ..align import n_frames as _n
 
         T = _n(len(audio.samples), audio.sample_rate, self.fps_)
@@ -233,12 +296,14 @@ class Le2012(Synthesizer):
         out[0] = out[min(1, T - 1)] = self.start_
         span = self.hi_ - self.lo_
         lo, hi = self.lo_ - 0.1 * span, self.hi_ + 0.1 * span
+        pull, pose, jitter = self._start_terms(T, seed)
         if self.compiled:
             from ._le2012_kernel import ascent_independent, ascent_joint
 
             args = (np.ascontiguousarray(mu, dtype=np.float64), np.ascontiguousarray(sd, dtype=np.float64),
                     np.ascontiguousarray(lo, dtype=np.float64), np.ascontiguousarray(hi, dtype=np.float64),
-                    float(self.step), int(self.n_steps))
+                    float(self.step), int(self.n_steps), float(pull), np.ascontiguousarray(pose),
+                    np.ascontiguousarray(jitter))
             if self.joint:
                 lw, cm, P = cond["joint"]
                 ascent_joint(out, np.ascontiguousarray(lw), np.ascontiguousarray(cm), np.ascontiguousarray(P), *args)
@@ -249,13 +314,26 @@ class Le2012(Synthesizer):
                 PR = np.ascontiguousarray(np.stack([cond[k][2][:, 0, 0] for k in keys], axis=0))
                 ascent_independent(out, LW, CM, PR, *args)
         else:
-            self._ascent_reference(out, cond, mu, sd, lo, hi)
+            self._ascent_reference(out, cond, mu, sd, lo, hi, pull, pose, jitter if self.start_sd else None)
+        if self.idle is not None and float(self.idle) < 1.0 and T >= 2:
+            from ..features.vad import speaking_mask
+            from ..motion.pauses import settle_in_pauses
+
+            mask = np.asarray(speaking_mask(audio, fps=self.fps_, n_frames=T), dtype=bool)
+            out = settle_in_pauses(out, mask, fps=self.fps_, idle=float(self.idle), mean_pose=pose, causal=True)
         rv = pitch_yaw_roll_to_rotvec(out[:, 0], out[:, 1], out[:, 2])
         return Motion(rv, self.fps_, meta={"system": self.name})
 
     # -- persistence --------------------------------------------------------------------------
     def _legacy_mean_pose(self) -> np.ndarray:
         return np.asarray(self.start_, dtype=np.float64)
+
+    def reachable_range(self) -> np.ndarray:
+        """The clip of the ascent: the training range widened by 10 % on each side (``(3, 2)``,
+        pitch, yaw, roll in radians)."""
+        self._check_fitted()
+        span = self.hi_ - self.lo_
+        return np.stack([self.lo_ - 0.1 * span, self.hi_ + 0.1 * span], axis=1)
 
     def _get_state(self):
         arrays = {"z_mu": self.z_mu_, "z_sd": self.z_sd_, "start": self.start_, "lo": self.lo_, "hi": self.hi_}
@@ -269,7 +347,10 @@ class Le2012(Synthesizer):
     def _set_state(self, config, arrays):
         from ..features import Normalizer
 
-        self.__init__(**config["params"])
+        params = dict(config["params"])
+        if "pull_tau_s" not in params:  # files written before these options: the paper's system
+            params.update(pull_tau_s=None, start_sd=0.0, idle=None)
+        self.__init__(**params)
         self.fps_ = float(config["fps"])
         self.sample_rate_ = int(config["sample_rate"])
         self.z_mu_, self.z_sd_ = arrays["z_mu"], arrays["z_sd"]

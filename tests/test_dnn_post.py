@@ -1,0 +1,112 @@
+"""Known-answer tests of the DNN systems' additions (issue 14 §2): variance restoration, the
+seeded posture drift, pauses, and that switching them off gives the paper's output exactly."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from headmotion.systems import dnn_post
+
+torch = pytest.importorskip("torch")
+pytestmark = pytest.mark.usefixtures("torch_one_thread")
+
+SMALL = dict(regressor_hidden=(32,), context=10, postfilter_hidden=(32,), postfilter_code=8, max_epochs=3,
+             patience=3, batch_size=128, n_threads=1)
+
+
+def test_gv_ratio_and_restore_give_the_target_sd():
+    rng = np.random.default_rng(0)
+    target = [rng.standard_normal((300, 3)) * [1.0, 2.0, 3.0] + 5.0, rng.standard_normal((200, 3)) - 1.0]
+    pred = [0.25 * t + rng.standard_normal(3) for t in target]  # 4x too quiet, other offsets
+    g = dnn_post.gv_ratio(pred, target)
+    restored = [dnn_post.restore_variance(p, g) for p in pred]
+    np.testing.assert_allclose(dnn_post.within_sd(restored), dnn_post.within_sd(target), rtol=1e-12)
+    np.testing.assert_allclose([r.mean(0) for r in restored], [p.mean(0) for p in pred], atol=1e-12)  # about its mean
+    assert np.all(dnn_post.gv_ratio([1e-3 * t for t in target], target) == dnn_post.GV_CAP)
+
+
+def test_ou_process_is_stationary_with_the_given_time_constant():
+    x = dnn_post.ou_process(200_000, 2, fps=100.0, tau_s=2.0, rng=np.random.default_rng(1))
+    assert x.std(axis=0) == pytest.approx([1.0, 1.0], abs=0.05)
+    lag = 200  # tau · fps: autocorrelation e^-1
+    r = np.mean(x[lag:] * x[:-lag], axis=0) / x.var(axis=0)
+    assert r == pytest.approx([np.exp(-1)] * 2, abs=0.06)
+
+
+def test_add_drift_keeps_the_variance_and_share_zero_is_identity():
+    rng = np.random.default_rng(2)
+    y = rng.standard_normal((100_000, 3))
+    out = dnn_post.add_drift(y, share=0.4, sd=np.ones(3), fps=100.0, tau_s=2.0, rng=np.random.default_rng(3))
+    assert out.std(axis=0) == pytest.approx([1.0] * 3, abs=0.05)
+    assert np.corrcoef(out[:, 0], y[:, 0])[0, 1] == pytest.approx(np.sqrt(0.6), abs=0.02)
+    np.testing.assert_array_equal(dnn_post.add_drift(y, share=0.0, sd=np.ones(3), fps=100.0, tau_s=2.0,
+                                                     rng=np.random.default_rng(3)), y)
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    from test_cccae import envelope_corpus
+
+    from headmotion.systems import create
+
+    corpus = envelope_corpus(n_recordings=3, seconds=20.0, fps=25.0, seed=7, splits=["train", "train", "valid"])
+    return corpus, create("mfcc-dnn", **SMALL).fit(corpus)
+
+
+def test_variance_restore_makes_the_training_sd_ratio_one(fitted):
+    corpus, m = fitted
+    m.set_params(variance_restore=True, drift_share=0.0, idle=None)
+    assert np.all(m.gv_ > 1.0) and np.all(m.gv_ < dnn_post.GV_CAP)  # the MMSE net is too quiet
+    preds, truth = [], []
+    for r in corpus:
+        if m.splits_[r.id] != "train":
+            continue
+        p = m._prepare(r, m.feature_config_)
+        preds.append(m.motion_norm_.transform(m.predict(r.audio).rotvec))
+        truth.append(m.motion_norm_.transform(p.motion))
+    np.testing.assert_allclose(dnn_post.within_sd(preds) / dnn_post.within_sd(truth), 1.0, rtol=1e-4)
+    m.set_params(variance_restore=False)
+    quiet = [m.motion_norm_.transform(m.predict(r.audio).rotvec) for r in corpus if m.splits_[r.id] == "train"]
+    np.testing.assert_allclose(dnn_post.within_sd(quiet) * m.gv_, dnn_post.within_sd(preds), rtol=1e-4)
+
+
+def test_paper_params_reproduce_the_paper_pipeline_exactly(fitted):
+    from headmotion.models import nets
+    from headmotion.systems.dnn import PAPER_PARAMS
+
+    corpus, m = fitted
+    m.set_params(**PAPER_PARAMS)
+    audio = corpus[2].audio
+    got = m.predict(audio, seed=5).rotvec
+    feats = m._extract(audio, len(got))
+    y = nets.predict_regressor(m.regressor_, np.asarray(m.feature_norm_.transform(feats), dtype=np.float32))
+    y = nets.apply_postfilter(m.postfilter_, y, segment=int(m.segment))
+    np.testing.assert_array_equal(got, np.asarray(m.motion_norm_.inverse_transform(y), dtype=np.float64))
+    np.testing.assert_array_equal(m.predict(audio, seed=6).rotvec, got)  # deterministic
+
+
+def test_seeds_differ_same_seed_same_and_pauses_slow_down(fitted, tmp_path):
+    from headmotion.features.vad import speaking_mask
+    from headmotion.systems import load_model
+
+    corpus, m = fitted
+    m.set_params(variance_restore=True, drift_share=0.3, idle=0.4, seed=0)
+    audio = corpus[2].audio
+    a, b, a2 = m.predict(audio, seed=1).rotvec, m.predict(audio, seed=2).rotvec, m.predict(audio, seed=1).rotvec
+    np.testing.assert_array_equal(a, a2)
+    assert np.abs(a - b).mean() > 0.2 * a.std()
+    np.testing.assert_array_equal(m.predict(audio).rotvec, m.predict(audio, seed=0).rotvec)  # the seed parameter
+    back = load_model(m.save(tmp_path / "m.hmz"))
+    assert back.get_params() == m.get_params()
+    np.testing.assert_array_equal(back.predict(audio, seed=1).rotvec, a)
+    # pauses: with idle 0 the head is still inside pauses (away from the ramps)
+    m.set_params(idle=0.0)
+    still = m.predict(audio, seed=1).rotvec
+    mask = speaking_mask(audio, fps=100.0, n_frames=len(still))
+    from headmotion.motion.pauses import pause_weight
+
+    w = pause_weight(mask, fps=100.0)
+    inside = np.flatnonzero(w[1:] == 1.0) + 1
+    assert len(inside) > 0
+    assert np.abs(np.diff(still, axis=0))[inside - 1].max() < 1e-12
