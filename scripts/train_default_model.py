@@ -85,7 +85,15 @@ def held_out_section(eval_dir: Path, system: str) -> str:
     from headmotion.evaluation.report import (REALISM_COLUMNS, coupling_line, read_metrics_csv, realism_summary,
                                               realism_targets)
 
-    rows = read_metrics_csv(eval_dir / "metrics.csv")
+    if (eval_dir / "metrics.csv").is_file():
+        rows = read_metrics_csv(eval_dir / "metrics.csv")
+    else:  # a report kept in the repository, compressed
+        import gzip
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            (Path(tmp) / "m.csv").write_bytes(gzip.decompress((eval_dir / "metrics.csv.gz").read_bytes()))
+            rows = read_metrics_csv(Path(tmp) / "m.csv")
     cfg = json.loads((eval_dir / "config.json").read_text()) if (eval_dir / "config.json").is_file() else {}
     systems = list(dict.fromkeys(r["system"] for r in rows))
     recs = sorted({r["recording"] for r in rows if r["recording"] != "ALL" and not r["recording"].startswith("speaker:")})
@@ -112,7 +120,8 @@ def held_out_section(eval_dir: Path, system: str) -> str:
     return "\n".join(lines)
 
 
-def unseen_speech_check(model, speech_dir: Path, pooled_heads, *, samples: int = 4) -> tuple[str, list[dict]]:
+def unseen_speech_check(model, speech_dir: Path, pooled_heads, *, samples: int = 4,
+                        skip=()) -> tuple[str, list[dict]]:
     """Measures of the model on every readable audio file of ``speech_dir`` (not in the corpus)."""
     from headmotion.errors import HeadMotionError
     from headmotion.evaluation import realism as R
@@ -123,6 +132,8 @@ def unseen_speech_check(model, speech_dir: Path, pooled_heads, *, samples: int =
     pooled = pooled_heads
     rows = []
     for p in sorted(speech_dir.iterdir()):
+        if p.stem in skip:
+            continue
         try:
             au = load_audio(p, sample_rate=16000)
         except HeadMotionError as e:
@@ -150,6 +161,20 @@ def unseen_speech_check(model, speech_dir: Path, pooled_heads, *, samples: int =
     return hdr + body, rows
 
 
+def shown_args(args: list[str]) -> str:
+    """The command line for the card, without the note's text and the path of a model trained before."""
+    out, skip = [], False
+    for x in args:
+        if skip:
+            skip = False
+            continue
+        if x in ("--note", "--from-model"):
+            skip = True
+            continue
+        out.append(x)
+    return " ".join(out)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("corpus", nargs="?", type=Path, default=DEFAULT_CORPUS)
@@ -163,6 +188,11 @@ def main(argv=None) -> int:
     ap.add_argument("--speech", type=Path, default=DEFAULT_SPEECH, help="unseen speech to check the model on")
     ap.add_argument("--samples", type=int, default=4)
     ap.add_argument("--note", default="", help="a paragraph for the card (why this system was chosen)")
+    ap.add_argument("--from-model", type=Path, default=None,
+                    help="a model this script trained before (same corpus, system and settings): write it and its card "
+                         "without training again")
+    ap.add_argument("--skip-speech", default="video_retalking_1",
+                    help="comma-separated stems of --speech files to leave out (their speech is in the corpus)")
     a = ap.parse_args(argv)
 
     from headmotion.corpus import Corpus
@@ -184,9 +214,18 @@ def main(argv=None) -> int:
     params = {k: parse_value(v) for k, v in (s.split("=", 1) for s in a.set)}
     print(f"{len(corpus)} recordings kept, {len(dropped)} left out ({', '.join(sorted({f for _, f in dropped}))})")
     t = time.time()
-    model = create(a.system, **params).fit(corpus)
-    fit_s = time.time() - t
-    print(f"trained {a.system} in {fit_s:.0f} s")
+    if a.from_model is not None:
+        from headmotion.systems import load_model
+
+        model = load_model(a.from_model)
+        if model.name != a.system:
+            raise SystemExit(f"{a.from_model} is a {model.name} model, not {a.system}")
+        fit_s = float("nan")
+        print(f"loaded {a.from_model} (trained before by this script)")
+    else:
+        model = create(a.system, **params).fit(corpus)
+        fit_s = time.time() - t
+        print(f"trained {a.system} in {fit_s:.0f} s")
     a.output.parent.mkdir(parents=True, exist_ok=True)
     model.save(a.output)
 
@@ -213,8 +252,8 @@ def main(argv=None) -> int:
           "them (HDTF, VoxCeleb2, GRID, …) carry their own terms. No clip is in this repository — only the model "
           "learnt from poses estimated from them.",
           f"* **Provenance**: trained {_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC from commit "
-          f"{git_commit()} in {fit_s:.0f} s by `python scripts/train_default_model.py "
-          f"{' '.join(sys.argv[1:])}`.",
+          f"{git_commit()} ({'trained before, card written with --from-model' if fit_s != fit_s else f'{fit_s:.0f} s'})"
+          f" by `python scripts/train_default_model.py {shown_args(sys.argv[1:])}`.",
           ""]
     if a.note:
         md += ["## Why this system\n", a.note, ""]
@@ -224,7 +263,8 @@ def main(argv=None) -> int:
     if a.speech.is_dir():
         pooled = Motion(np.vstack([(r.motion if abs(r.motion.fps - 25) < 1e-9 else r.motion.resample(25.0)).rotvec
                                    for r in recs]), 25.0)
-        tab, _ = unseen_speech_check(model, a.speech, pooled, samples=a.samples)
+        tab, _ = unseen_speech_check(model, a.speech, pooled, samples=a.samples,
+                                     skip={x.strip() for x in a.skip_speech.split(",") if x.strip()})
         md += [f"## On real speech it has not seen (`{a.speech}`)\n",
                f"First sample (seed 0) per file; *diversity* of {a.samples} samples (seeds 0–{a.samples - 1}) in "
                "units of the training heads' SD; shares, L1 and H speed against the pooled training heads "

@@ -214,3 +214,12 @@ def test_systems_declare_their_reachable_range():
         assert r.shape == (3, 2), name
         np.testing.assert_allclose(r[:, 1] - r[:, 0], 1.2 * (hi - lo), rtol=0.05, err_msg=name)
     assert Synthesizer.reachable_range(create("tws-basic")) is None  # the contract's default
+
+
+def test_info_model_stream_prints_its_card(capsys):
+    from headmotion.cli import main
+
+    assert main(["info", "--model", "stream"]) == 0
+    out = capsys.readouterr().out
+    assert "Model card" in out and "tws-hier" in out
+    assert main(["info", "--model", "/nonexistent/model.hmz"]) != 0

@@ -83,6 +83,10 @@ def _model_card(model: str, as_json: bool) -> None:
         from .synth_cmds import default_model_path
 
         path = default_model_path()
+    elif model == "stream":
+        from .synth_cmds import default_stream_model_path
+
+        path = default_stream_model_path()
     else:
         path = Path(model)
     if not path.is_file():
@@ -103,7 +107,7 @@ def info(
     file: Optional[Path] = typer.Argument(None, help="a motion file (bvh, csv, json, npz, c3d) or an audio/video file"),
     as_json: bool = typer.Option(False, "--json", help="print the information as JSON"),
     model: Optional[str] = typer.Option(None, "--model",
-                                        help="print a model's card: 'default' (the bundled model) or a .hmz file"),
+                                        help="print a model's card: 'default' (the bundled model), 'stream' (the bundled streaming model) or a .hmz file"),
 ):
     """What a motion, audio or model file holds: format, duration, rate, joints/markers, frames;
     ``--model default`` prints the bundled default model's card."""

@@ -49,7 +49,7 @@ def frame_json(index: int, fps: float, rotvec: np.ndarray, pyr_deg: np.ndarray) 
 
 @app.command()
 def stream(
-    model: Optional[Path] = typer.Option(None, "-m", "--model", help="Model file of a causal system (default: the shipped model)."),
+    model: Optional[Path] = typer.Option(None, "-m", "--model", help="Model file of a causal system (default: the shipped streaming model, tws-hier)."),
     sample_rate: Optional[int] = typer.Option(None, "--sample-rate", help="Rate of the PCM on stdin (default: the model's)."),
     chunk_ms: float = typer.Option(10.0, "--chunk-ms", help="Read stdin in chunks of this many milliseconds."),
     seed: int = typer.Option(0, "--seed"),
@@ -63,6 +63,10 @@ def stream(
 
     if chunk_ms <= 0:
         raise ParameterError(f"--chunk-ms must be positive; got {chunk_ms}")
+    if model is None:  # the default model (mfcc-dnn) is not causal: the shipped streaming model
+        from .synth_cmds import default_stream_model_path
+
+        model = default_stream_model_path()
     m = load_cli_model(model)
     if not m.causal:
         raise ParameterError(f"system {m.name!r} is not causal and cannot stream")
