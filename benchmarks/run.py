@@ -88,7 +88,7 @@ def bench_synth(res: Results, quick: bool, cache: dict):
 
     default = load_model(default_model_path())
     t = time_median(lambda: default.predict(audio, seed=0), repeats=2 if quick else 3)
-    res.add(Row("2 synth", "shipped default model (tws-hier): features + synthesis, 60 s", audio.duration / t,
+    res.add(Row("2 synth", f"shipped default model ({default.name}): features + synthesis, 60 s", audio.duration / t,
                 "x RT", ">= 200x", audio.duration / t >= 200, f"{t * 1000:.0f} ms; model load excluded"))
     for name in systems:
         t0 = time.perf_counter()

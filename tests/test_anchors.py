@@ -57,7 +57,7 @@ def test_anchor_errors(corpus):
 
 
 def test_anchors_are_evaluation_conditions_not_systems(corpus):
-    assert sorted(ANCHORS) == ["desync", "ground-truth", "other-speaker", "shaped-noise", "still"]
+    assert sorted(ANCHORS) == ["desync", "ground-truth", "other-speaker", "shaped-noise", "shifted", "still"]
     assert [n for n, c in ANCHORS.items() if c.needs_other_speakers] == ["other-speaker"]
     with pytest.raises(ParameterError, match="unknown system 'desync'"):
         create("desync")

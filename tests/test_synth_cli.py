@@ -29,7 +29,7 @@ def speech(tmp_path_factory, corpus_dir):
 
 def test_default_model_is_shipped_and_small():
     p = default_model_path()
-    assert p.exists() and p.stat().st_size < 2_000_000
+    assert p.exists() and p.stat().st_size < 3_000_000  # mfcc-dnn: 2.5 MB of float32 weights
 
 
 @pytest.mark.parametrize("ext", ["bvh", "csv", "json", "npz"])
@@ -116,8 +116,16 @@ def test_synth_contract_options(speech, tmp_path, capsys):
     assert main(["synth", str(speech), "-o", str(off), "--offset", "2,0,-1"]) == 0
     d = rotvec_to_pitch_yaw_roll(load_motion(off).rotvec).mean(0) - rotvec_to_pitch_yaw_roll(load_motion(base).rotvec).mean(0)
     np.testing.assert_allclose(np.degrees(d), [2.0, 0.0, -1.0], atol=1e-6)
-    assert main(["synth", str(speech), "-o", str(tmp_path / "c.npz"), "--stochastic", "cluster", "--seed", "4"]) == 0
-    assert main(["synth", str(speech), "-o", str(tmp_path / "x.npz"), "--stochastic", "always"]) == 2
+    # the default (mfcc-dnn) has no 'stochastic' parameter: refused; the streaming model (tws-hier) takes it
+    capsys.readouterr()
+    assert main(["synth", str(speech), "-o", str(tmp_path / "c.npz"), "--stochastic", "cluster"]) == 2
+    assert "stochastic" in capsys.readouterr().err
+    from headmotion.cli.synth_cmds import default_stream_model_path
+
+    tws = str(default_stream_model_path())
+    assert main(["synth", str(speech), "-m", tws, "-o", str(tmp_path / "c.npz"), "--stochastic", "cluster",
+                 "--seed", "4"]) == 0
+    assert main(["synth", str(speech), "-m", tws, "-o", str(tmp_path / "x.npz"), "--stochastic", "always"]) == 2
     assert "'stochastic' parameter of tws-hier must be one of" in capsys.readouterr().err
     assert main(["synth", str(speech), "-o", str(tmp_path / "x.npz"), "--gain", "1,2"]) != 0
 
@@ -134,4 +142,4 @@ def test_load_model_reads_the_file_once(monkeypatch):
 
     monkeypatch.setattr(B, "load_model_file", counting)
     m = B.load_model(default_model_path())
-    assert len(calls) == 1 and m.name == "tws-hier" and m.frame_rate == 100.0 and m.sample_rate == 16000
+    assert len(calls) == 1 and m.name == "mfcc-dnn" and m.frame_rate == 100.0 and m.sample_rate == 16000

@@ -22,7 +22,18 @@ def evaluate_cmd(
     systems: str = typer.Option(..., "--systems", "-s",
                                 help="comma-separated systems and anchors, e.g. tws-hier,tws-basic,shaped-noise,desync"),
     output: Path = typer.Option(..., "-o", "--output", help="report directory (metrics.csv, report.md, figures/)"),
-    protocol: str = typer.Option("loo", "--protocol", help="loo (leave one recording out, thesis §5.9) or split (paper §4.1)"),
+    protocol: str = typer.Option("loo", "--protocol",
+                                 help="loo (leave one recording out, thesis §5.9), split (paper §4.1) or speakers "
+                                      "(leave speakers out; see --speaker-folds)"),
+    speaker_folds: int = typer.Option(0, "--speaker-folds",
+                                      help="with --protocol speakers: number of speaker-disjoint folds (0 = one per speaker)"),
+    folds_at_pauses: int = typer.Option(0, "--folds-at-pauses",
+                                        help="cut every recording into N folds at its pauses first (a single long take, "
+                                             "e.g. the ZEGGS mocap); then loo is leave-one-fold-out"),
+    samples: int = typer.Option(4, "--samples", help="predictions per recording for the diversity measure (<2: none)"),
+    exclude: Optional[str] = typer.Option(None, "--exclude",
+                                          help="comma-separated recording-id prefixes to leave out (e.g. mead_lrs3)"),
+    min_seconds: float = typer.Option(0.0, "--min-seconds", help="leave out recordings shorter than this"),
     features: str = typer.Option("f0e", "--features", help="feature set for Forced CCA"),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786"),
     jobs: int = typer.Option(1, "--jobs", "-j", help="folds in parallel on this machine (-1 = all cores)"),
@@ -43,18 +54,38 @@ def evaluate_cmd(
     names = [s.strip() for s in systems.split(",") if s.strip()]
     if not names:
         raise ParameterError("--systems needs at least one system name")
-    if protocol not in ("loo", "split"):
-        raise ParameterError(f"--protocol must be loo or split; got {protocol!r}")
+    if protocol not in ("loo", "split", "speakers"):
+        raise ParameterError(f"--protocol must be loo, split or speakers; got {protocol!r}")
+    if folds_at_pauses < 0 or folds_at_pauses == 1:
+        raise ParameterError(f"--folds-at-pauses must be 0 (off) or ≥ 2; got {folds_at_pauses}")
     corpus = Corpus.load(corpus_dir)
     if speaker:
         corpus = corpus.filter(speaker=speaker)
+    if exclude:
+        prefixes = tuple(p.strip() for p in exclude.split(",") if p.strip())
+        corpus = corpus.subset([i for i, rid in enumerate(corpus.ids) if not rid.startswith(prefixes)])
+    if min_seconds > 0:
+        corpus = corpus.subset([i for i, r in enumerate(corpus) if r.duration >= min_seconds])
+    if not len(corpus):
+        raise ParameterError(f"no recordings of {corpus_dir} left to evaluate after --speaker/--exclude/--min-seconds")
+    pause_warns: list[str] = []
+    if folds_at_pauses:
+        from ..evaluation.pause_folds import split_corpus_at_pauses
+
+        corpus, pause_warns = split_corpus_at_pauses(corpus, folds_at_pauses)
+        console.print(f"folds at pauses: {', '.join(f'{r.id} {r.duration:.1f} s' for r in corpus)}", highlight=False,
+                      soft_wrap=True)
     fsets = None
     if feature_table is not None:
         fsets = [] if feature_table.strip().lower() == "none" else [f.strip() for f in feature_table.split(",") if f.strip()]
     with progress_bar("evaluating") as update:
         result = evaluate(corpus, names, protocol=protocol, features=features, n_jobs=jobs, scheduler=scheduler,
                           seed=seed, n_shifts=shifts, window_s=window, feature_sets=fsets, strict=strict,
+                          samples=samples, speaker_folds=speaker_folds,
                           progress=lambda done, total, desc: update(done, total=total, description=desc))
+    result.warnings[:0] = pause_warns
+    if folds_at_pauses:
+        result.config["folds_at_pauses"] = folds_at_pauses
     out = write_report(result, output, figures=not no_figures, title=f"headmotion evaluation of {corpus_dir}")
     console.print(f"{len(result.recordings)} held-out recordings, {result.config['folds']} folds, "
                   f"{result.timings.get('total_wall', 0):.1f} s")
@@ -62,6 +93,12 @@ def evaluate_cmd(
         console.print(f"  {s:16s} NMSE {result.mean(s, 'nmse'):6.3f}  local CCA {result.mean(s, 'cca_local'):5.3f} "
                       f"(chance {result.mean(s, 'cca_local_null_mean'):5.3f})  FCCA {result.mean(s, 'fcca'):5.3f} "
                       f"(chance {result.mean(s, 'fcca_null_mean'):5.3f})", highlight=False, soft_wrap=True)
+    from ..evaluation.report import coupling_line, realism_summary
+
+    summ = realism_summary(result)
+    for s in result.systems:
+        if s in summ:
+            console.print("  " + coupling_line(s, summ[s])[2:].replace("**", ""), highlight=False, soft_wrap=True)
     for w in result.warnings[:5]:
         console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
     if len(result.warnings) > 5:

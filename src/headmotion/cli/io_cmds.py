@@ -81,12 +81,53 @@ def _model_info(file: Path, as_json: bool) -> None:
                       f"{len(spk)} speaker(s), fps {e(c.get('fps', '?'))}", highlight=False)
 
 
+def model_card_path(model_file: Path) -> Path:
+    """The model card beside a model file: the same name with ``.md``."""
+    return Path(model_file).with_suffix(".md")
+
+
+def _model_card(model: str, as_json: bool) -> None:
+    """``info --model default|PATH``: the model card (``<model>.md`` beside the file), then the file's
+    summary."""
+    from ..errors import ModelFileError
+
+    if model == "default":
+        from .synth_cmds import default_model_path
+
+        path = default_model_path()
+    elif model == "stream":
+        from .synth_cmds import default_stream_model_path
+
+        path = default_stream_model_path()
+    else:
+        path = Path(model)
+    if not path.is_file():
+        raise ModelFileError(f"model file not found: {path} (expected 'default' or a .hmz file)")
+    card = model_card_path(path)
+    if as_json:
+        _model_info(path, True)
+        return
+    if card.is_file():
+        console.print(card.read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
+    else:
+        console.print(f"(no model card: {card} does not exist)", highlight=False)
+    _model_info(path, False)
+
+
 @app.command("info")
 def info(
-    file: Path = typer.Argument(..., help="a motion file (bvh, csv, json, npz, c3d) or an audio/video file"),
+    file: Optional[Path] = typer.Argument(None, help="a motion file (bvh, csv, json, npz, c3d) or an audio/video file"),
     as_json: bool = typer.Option(False, "--json", help="print the information as JSON"),
+    model: Optional[str] = typer.Option(None, "--model",
+                                        help="print a model's card: 'default' (the bundled model), 'stream' (the bundled streaming model) or a .hmz file"),
 ):
-    """What a motion, audio or model file holds: format, duration, rate, joints/markers, frames."""
+    """What a motion, audio or model file holds: format, duration, rate, joints/markers, frames;
+    ``--model default`` prints the bundled default model's card."""
+    if model is not None:
+        _model_card(model, as_json)
+        return
+    if file is None:
+        raise ParameterError("info needs a file, or --model default|MODEL.hmz")
     if file.suffix.lower() == ".hmz":
         _model_info(file, as_json)
         return

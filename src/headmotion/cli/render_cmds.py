@@ -94,11 +94,11 @@ def view(
         if motions:
             raise ParameterError("view --live takes no motion files (it makes the motion from the audio); "
                                  f"got {', '.join(map(str, motions))}")
-        from ..systems.base import load_model
         from ..web.live import serve_live
+        from .synth_cmds import default_stream_model_path, load_cli_model
 
-        path = model if model is not None else Path(__file__).resolve().parents[1] / "data" / "default_model.hmz"
-        m = load_model(path)
+        path = model if model is not None else default_stream_model_path()  # the low-latency shipped model
+        m = load_cli_model(path)
         serve_live(m, host=host, port=port, seed=seed, model_path=path, open_browser=open_browser,
                    announce=lambda url: err_console.print(f"live page at {url}  (Ctrl-C to stop)"))
         return

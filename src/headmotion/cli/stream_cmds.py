@@ -23,7 +23,7 @@ from .synth_cmds import control_from_options, load_cli_model
 
 @app.command()
 def stream(
-    model: Optional[Path] = typer.Option(None, "-m", "--model", help="Model file of a causal system (default: the shipped model)."),
+    model: Optional[Path] = typer.Option(None, "-m", "--model", help="Model file of a system that streams (default: the shipped streaming model, tws-hier)."),
     input: str = typer.Option("-", "--input", "-i", help="'-' raw 16-bit mono PCM on stdin, 'mic' the microphone, "
                               "or an audio file."),
     realtime: bool = typer.Option(False, "--realtime", help="Pace a file at speech speed (demos, latency tests)."),
@@ -59,8 +59,12 @@ def stream(
     if neck_share is not None and not 0.0 <= neck_share <= 1.0:
         raise ParameterError(f"--neck-share must be between 0 and 1; got {neck_share}")
     g, o = control_from_options(gain, offset, (gain_pitch, gain_yaw, gain_roll), (offset_pitch, offset_yaw, offset_roll))
+    if model is None:  # the default model (mfcc-dnn) is not causal: the shipped streaming model
+        from .synth_cmds import default_stream_model_path
+
+        model = default_stream_model_path()
     m = load_cli_model(model)
-    if not getattr(m, "can_stream", m.causal):
+    if not m.can_stream:
         raise ParameterError(f"system {m.name!r} cannot stream (neither causal nor streaming)")
     stream_live(m, input=input, sample_rate=sample_rate, realtime=realtime, device=device, chunk_ms=chunk_ms,
                 json_stream=None if no_json else sys.stdout, vmc=vmc, websocket=websocket, neck_share=neck_share,

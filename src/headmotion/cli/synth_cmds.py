@@ -30,6 +30,11 @@ def default_model_path() -> Path:
     return Path(__file__).resolve().parents[1] / "data" / "default_model.hmz"
 
 
+def default_stream_model_path() -> Path:
+    """The causal model shipped for ``headmotion stream`` (the default model is not causal)."""
+    return Path(__file__).resolve().parents[1] / "data" / "default_stream_model.hmz"
+
+
 def load_cli_model(model: Optional[Path]):
     """The model file given, or the shipped default."""
     from ..systems.base import load_model

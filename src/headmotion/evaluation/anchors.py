@@ -16,7 +16,14 @@ speech.  Their protocol (:class:`Anchor`):
 Definitions:
 
 * ``ground-truth`` — the recording's own motion.
-* ``desync`` — the motion of *another recording of the same speaker* (cut or looped to length).
+* ``desync`` — the motion of *another recording of the same speaker* (cut or looped to length);
+  when the fold has none (held-out speakers, or a speaker with one recording) the recording's own
+  motion circularly shifted by half its length (chosen here, issue 14: the same spectrum and
+  amplitude as the ground truth, uncoupled from the speech).
+* ``shifted`` — the recording's own motion circularly shifted by half its length (chosen here, issue
+  14: the ruler of the realism targets — exactly the recording's amplitude and nearly its spectrum
+  and speed distribution, uncoupled from its speech; the "desync" of
+  ``docs/natural_motion_diagnosis.md``).
 * ``other-speaker`` — the motion of a recording of a *different speaker* (cut or looped).
 * ``shaped-noise`` — white noise filtered in the frequency domain by the magnitude spectrum of real
   head motion, inverted back to the time domain, then smoothed with a 5-point Gaussian (thesis
@@ -108,7 +115,22 @@ class Desync(Anchor):
     name = "desync"
 
     def _rotvec_for(self, recording, seed):
+        if not any(rid != recording.id and spk == recording.speaker for rid, spk, _ in self.refs_):
+            # a held-out speaker (protocol "speakers") or a one-recording speaker: the recording's own
+            # motion circularly shifted by half its length — same spectrum and amplitude, out of step
+            rv = np.asarray(recording.motion.rotvec)
+            return np.roll(rv, len(rv) // 2, axis=0)
         return loop_to_length(self._pick(recording, same_speaker=True, seed=seed), len(recording.motion))
+
+
+class Shifted(Anchor):
+    """The recording's own motion circularly shifted by half its length."""
+
+    name = "shifted"
+
+    def _rotvec_for(self, recording, seed):  # noqa: ARG002  (deterministic)
+        rv = np.asarray(recording.motion.rotvec)
+        return np.roll(rv, len(rv) // 2, axis=0)
 
 
 class OtherSpeaker(Anchor):
@@ -179,7 +201,8 @@ class ShapedNoise(Anchor):
 
 
 #: anchor name → class (the names ``headmotion evaluate --systems`` accepts besides systems)
-ANCHORS: dict[str, type[Anchor]] = {c.name: c for c in (GroundTruth, Desync, OtherSpeaker, ShapedNoise, Still)}
+ANCHORS: dict[str, type[Anchor]] = {c.name: c for c in (GroundTruth, Desync, Shifted, OtherSpeaker, ShapedNoise,
+                                                          Still)}
 
 
 def create_anchor(name: str) -> Anchor:
@@ -189,5 +212,5 @@ def create_anchor(name: str) -> Anchor:
     return ANCHORS[name]()
 
 
-__all__ = ["Anchor", "ANCHORS", "create_anchor", "GroundTruth", "Desync", "OtherSpeaker", "ShapedNoise", "Still",
+__all__ = ["Anchor", "ANCHORS", "create_anchor", "GroundTruth", "Desync", "Shifted", "OtherSpeaker", "ShapedNoise", "Still",
            "shaped_noise", "loop_to_length"]

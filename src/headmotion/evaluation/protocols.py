@@ -15,6 +15,15 @@ Protocols
     One fold per speaker: train on ``train`` (and ``valid``, labelled, for systems that stop
     early), test on ``test``; the split comes from the manifest or
     :func:`headmotion.corpus.paper_split`.
+``"speakers"`` (leave speakers out; the seeds are silent — issue 14 chooses systems "on held-out
+speakers")
+    The speakers, in a seeded random order, are dealt round-robin into ``speaker_folds`` groups
+    (0 = one group per speaker: leave-one-speaker-out); each fold trains on the other groups'
+    recordings and tests on its group's, so no held-out speaker is seen in training.
+
+A single long take (the ZEGGS mocap take) is cut into folds at its pauses first
+(:func:`.pause_folds.split_corpus_at_pauses`, ``headmotion evaluate --folds-at-pauses N``); ``loo``
+on the parts is then leave-one-fold-out.
 
 Conditions
 ----------
@@ -24,6 +33,24 @@ reference values of FCCA, SD, jerk).  Other anchors (``desync``, ``other-speaker
 their motion with ``motion_for(recording, seed=)``; systems get ``predict(audio, seed=)``.  A
 condition declaring that it needs *other* speakers' motion (an anchor's ``needs_other_speakers``,
 a system's ``needs_other_speakers`` capability) is fitted on the other speakers' recordings.
+
+Realism (issue 14 §1, :mod:`.realism`)
+--------------------------------------
+Every condition (the ground truth against itself, giving the reference values) also gets, per
+recording: ``band_0_0.5`` … ``band_4_10`` (share of power < 10 Hz per band; ``band_*_ref`` the
+ground truth's), ``spectral_l1``, ``sd_pitch|yaw|roll`` (°) and ``sd_ratio_pitch|yaw|roll``,
+``drift`` (``drift_ref``), ``speed_mean``, ``speed_hellinger``, ``accel_hellinger``,
+``limit_cycle`` (``limit_cycle_ref``), ``saturation`` (share of frames within 1° of the range the
+model declares through :meth:`~headmotion.systems.base.Synthesizer.reachable_range`; nan when it
+declares none), ``pause_ratio`` (``pause_ratio_ref``; speech mask of
+:func:`headmotion.features.vad.speaking_mask`), ``bc`` (``bc_ref``; EMAGE beat consistency with
+the speech onsets) and, for systems not declared deterministic (``stochastic="none"``) and
+``samples`` ≥ 2, ``diversity`` of ``samples`` predictions for the same speech (seeds derived from
+``(seed, recording, system, k)``; the first is the scored prediction).  Pooled over the held-out
+recordings (recording ``ALL``): ``fcca_excess_pooled`` / ``fcca_local_excess_pooled`` (mean
+excess) and ``fcca_p_pooled`` / ``fcca_local_p_pooled`` (Stouffer's combination of the
+per-recording circular-shift p-values, :func:`.realism.stouffer`).  The motions themselves are kept
+in :attr:`EvaluationResult.motions` for the realism figures.
 
 Metrics per (system, recording) — names as in ``metrics.csv``
 --------------------------------------------------------------
@@ -102,6 +129,8 @@ class FoldTask:
     trajectory_recording: str | None
     fig48: bool
     strict: bool = False
+    samples: int = 4
+    realism: bool = True
 
 
 @dataclass
@@ -120,6 +149,10 @@ class EvaluationResult:
     speakers: dict[str, str] = field(default_factory=dict)
     #: paper §4.1 split of every corpus recording (labels the paper Table 1 columns)
     splits: dict[str, str] = field(default_factory=dict)
+    #: ``{condition: {recording: (T, 3) rotation vectors}}`` of every held-out recording (realism figures)
+    motions: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    #: frame rate of each held-out recording's motion
+    fps: dict[str, float] = field(default_factory=dict)
 
     def values(self, system: str, metric: str) -> np.ndarray:
         """All values of ``metric`` for ``system`` over recordings (NaNs kept)."""
@@ -268,17 +301,22 @@ def run_fold(task: FoldTask) -> dict:
 
     Returns ``{"rows", "trajectories", "gt" (recording → (motion, features, speaker)), "timings",
     "warnings"}``."""
-    out = {"rows": [], "trajectories": {}, "gt": {}, "timings": {}, "warnings": []}
+    out = {"rows": [], "trajectories": {}, "gt": {}, "timings": {}, "warnings": [], "motions": {}}
     tests = list(task.test)
     t0 = time.perf_counter()
     feats = {rec.id: _extract(task.features, rec.audio, float(rec.motion.fps), len(rec.motion)) for rec in tests}
     out["timings"]["features"] = time.perf_counter() - t0
+    if task.realism:
+        t0 = time.perf_counter()
+        out["context"] = {rec.id: _realism_context(rec, out) for rec in tests}
+        out["timings"]["realism context"] = time.perf_counter() - t0
     for rec in tests:
         _score_ground_truth(task, rec, feats[rec.id], out)
     for spec in task.systems:
         name, factory = _system_spec(spec)
         if name != GROUND_TRUTH:
             _run_condition(task, name, factory, tests, feats, out)
+    out.pop("context", None)
     return out
 
 
@@ -294,6 +332,9 @@ def _score_ground_truth(task: FoldTask, rec, feats, out: dict) -> None:
         other = [o.motion if abs(o.motion.fps - rec.motion.fps) < 1e-9 else o.motion.resample(rec.motion.fps)
                  for o in task.others.filter(speaker=other_spk)]
         vals["paper_chance"] = C.paper_chance_score(rec.motion, other, window=win, seed=rseed)
+    if task.realism:
+        vals.update(_realism_scores(rec, rec.motion.rotvec, out["context"][rec.id]))
+        out["motions"].setdefault(GROUND_TRUTH, {})[rec.id] = np.asarray(rec.motion.rotvec, dtype=np.float32)
     out["rows"] += _rows(GROUND_TRUTH, rec.id, vals)
     out["gt"][rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats)[0], dtype=np.float32),
                          rec.speaker, float(rec.motion.fps))
@@ -363,6 +404,16 @@ def _run_condition(task: FoldTask, name: str, factory, tests, feats, out: dict) 
             continue
         vals = score_recording(rec.motion, pred, feats[rec.id], window_s=task.window_s, n_shifts=task.n_shifts,
                                seed=rseed)
+        if task.realism:
+            try:
+                samples = _samples(task, model, name, rec, pred)
+                vals.update(_realism_scores(rec, pred, out["context"][rec.id], limits=_limits_deg(model),
+                                            samples=samples))
+            except Exception as exc:
+                if task.strict:
+                    raise
+                out["warnings"].append(f"{name}: realism measures on {rec.id}: {type(exc).__name__}: {exc}")
+            out["motions"].setdefault(name, {})[rec.id] = np.asarray(pred, dtype=np.float32)
         if _has_embedding(model):
             try:
                 vals.update(_embedding_scores(task, model, name, rec))
@@ -375,6 +426,82 @@ def _run_condition(task: FoldTask, name: str, factory, tests, feats, out: dict) 
     out["timings"][key] = out["timings"].get(key, 0.0) + time.perf_counter() - t0
 
 
+# -- realism -------------------------------------------------------------------------------------
+def _realism_context(rec, out: dict) -> dict:
+    """Speech mask at the motion's frames and speech onsets of one held-out recording."""
+    from . import realism as R
+
+    ctx: dict = {"mask": None, "onsets": None}
+    try:
+        ctx["mask"] = R.speech_mask_for(rec.audio, rec.motion)
+    except Exception as exc:  # a silent or odd file: the pause measure is nan, the rest goes on
+        out["warnings"].append(f"speech mask of {rec.id}: {type(exc).__name__}: {exc}")
+    try:
+        ctx["onsets"] = R.speech_onsets(rec.audio)
+    except Exception as exc:
+        out["warnings"].append(f"speech onsets of {rec.id}: {type(exc).__name__}: {exc}")
+    return ctx
+
+
+#: realism keys not written to metrics.csv (the recording's own length)
+_REALISM_SKIP = ("n_frames", "seconds")
+
+
+def _realism_scores(rec, pred: np.ndarray, ctx: dict, *, limits=None, samples=None) -> dict[str, float]:
+    from . import realism as R
+
+    fps = float(rec.motion.fps)
+    row = R.realism(rec.motion, Motion(np.asarray(pred, dtype=float), fps), speech_mask=ctx.get("mask"),
+                    onsets=ctx.get("onsets"), limits_deg=limits, samples=samples)
+    # measures without their context (no declared range, no samples, no pause) are left out, not nan
+    return {k: float(v) for k, v in row.items() if k not in _REALISM_SKIP and np.isfinite(v)}
+
+
+def _limits_deg(model) -> np.ndarray | None:
+    """The system's declared reachable range in degrees (``(3, 2)``), or None."""
+    from ..systems.base import Synthesizer
+
+    if not isinstance(model, Synthesizer):
+        return None
+    r = model.reachable_range()
+    return None if r is None else np.degrees(np.asarray(r, dtype=float).reshape(3, 2))
+
+
+def _samples(task: FoldTask, model, name: str, rec, first: np.ndarray) -> list[np.ndarray] | None:
+    """``task.samples`` predictions for the recording's speech (the scored one first), or None for
+    anchors and systems declared deterministic."""
+    from ..systems.base import Synthesizer
+
+    if task.samples < 2 or not isinstance(model, Synthesizer):
+        return None
+    if model.get_params().get("stochastic", None) == "none":
+        return None
+    out = [first]
+    for k in range(1, task.samples):
+        m = _make_motion(model, rec, _sub_seed(task.seed, rec.id, name, k))
+        out.append(_conform(m, rec.motion, name, rec.id))
+    return out
+
+
+def pooled_rows(rows: list[dict], systems: Sequence[str]) -> list[dict]:
+    """Per system, recording ``ALL``: mean FCCA / local-FCCA excess over the held-out recordings and
+    the Stouffer-combined p-value of their circular-shift tests."""
+    from .realism import stouffer
+
+    out = []
+    for s in systems:
+        for m in ("fcca", "fcca_local"):
+            ex = [r["value"] for r in rows if r["system"] == s and r["metric"] == f"{m}_excess"
+                  and r["recording"] != "ALL"]
+            ps = [r["value"] for r in rows if r["system"] == s and r["metric"] == f"{m}_p" and r["recording"] != "ALL"]
+            ex = [v for v in ex if np.isfinite(v)]
+            if not ex:
+                continue
+            out += _rows(s, "ALL", {f"{m}_excess_pooled": float(np.mean(ex)), f"{m}_p_pooled": stouffer(ps),
+                                    f"{m}_n_pooled": float(len(ex))})
+    return out
+
+
 # -- folds -------------------------------------------------------------------------------------
 def _with_split(corpus: Corpus, idx: Sequence[int], split: dict[str, str]) -> Corpus:
     """Subset of ``corpus`` whose recordings carry the given split labels."""
@@ -385,8 +512,21 @@ def _with_split(corpus: Corpus, idx: Sequence[int], split: dict[str, str]) -> Co
                   sample_rate=corpus.sample_rate)
 
 
-def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0) -> list[tuple[str, Corpus, Corpus, Corpus | None]]:
-    """``(fold name, train, test, other speakers)`` for ``protocol`` ``"loo"`` or ``"split"``."""
+def speaker_groups(speakers: Sequence[str], n_folds: int = 0, *, seed: int = 0) -> list[list[str]]:
+    """The speakers in a seeded random order dealt round-robin into ``n_folds`` groups (0 or ≥ the
+    number of speakers: one group per speaker)."""
+    spk = sorted(set(speakers))
+    if n_folds < 0:
+        raise ParameterError(f"speaker folds must be ≥ 0; got {n_folds}")
+    k = len(spk) if n_folds == 0 else min(n_folds, len(spk))
+    order = [spk[i] for i in np.random.default_rng(seed).permutation(len(spk))]
+    return [sorted(order[i::k]) for i in range(k)]
+
+
+def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0,
+               speaker_folds: int = 0) -> list[tuple[str, Corpus, Corpus, Corpus | None]]:
+    """``(fold name, train, test, other speakers)`` for ``protocol`` ``"loo"``, ``"split"`` or
+    ``"speakers"`` (``speaker_folds`` groups; 0 = leave-one-speaker-out)."""
     entries = corpus.entries
     def others_of(spk):
         idx = [i for i, e in enumerate(entries) if e.speaker != spk]
@@ -408,8 +548,17 @@ def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0) -> list[
             folds.append((spk, _with_split(corpus, tr, split), _with_split(corpus, te, split), others_of(spk)))
         if not folds:
             raise ParameterError("the split protocol found no speaker with both train and test recordings")
+    elif protocol == "speakers":
+        groups = speaker_groups(corpus.speakers, speaker_folds, seed=seed)
+        if len(groups) < 2:
+            raise ParameterError(f"leaving speakers out needs at least 2 speakers; the corpus has {len(groups)}")
+        for g in groups:
+            te = [i for i, e in enumerate(entries) if e.speaker in g]
+            tr = [i for i, e in enumerate(entries) if e.speaker not in g]
+            name = g[0] if len(g) == 1 else f"{g[0]}+{len(g) - 1}"
+            folds.append((name, corpus.subset(tr), corpus.subset(te), corpus.subset(tr)))
     else:
-        raise ParameterError(f"protocol must be 'loo' or 'split'; got {protocol!r}")
+        raise ParameterError(f"protocol must be 'loo', 'split' or 'speakers'; got {protocol!r}")
     return folds
 
 
@@ -462,7 +611,8 @@ def _longest_held_out(folds) -> str:
 def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", features="f0e", n_jobs: int = 1,
              scheduler=None, seed: int = 0, window_s: float = DEFAULT_WINDOW_S, n_shifts: int = C.DEFAULT_SHIFTS,
              feature_sets: Sequence[str] | None = None, trajectory_recording: str | None = None,
-             fig48: bool = True, strict: bool = False, progress: Callable | None = None) -> EvaluationResult:
+             fig48: bool = True, strict: bool = False, progress: Callable | None = None, samples: int = 4,
+             realism: bool = True, speaker_folds: int = 0) -> EvaluationResult:
     """Cross-validate ``systems`` on ``corpus`` (see the module docstring).
 
     Parameters
@@ -471,7 +621,8 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     systems : sequence of registry names (``"tws-hier"``, ``"shaped-noise"``, …) or
         ``(name, factory)`` pairs where ``factory(**maybe_seed)`` returns a Synthesizer.
         ``"ground-truth"`` is always included.
-    protocol : ``"loo"`` | ``"split"``
+    protocol : ``"loo"`` | ``"split"`` | ``"speakers"`` (``speaker_folds`` groups of held-out
+        speakers; 0 = one per speaker)
     features : str | callable — the feature set used by FCCA (``f0e`` as in the thesis' choice of
         F0 + energy) or ``callable(audio, fps=, n_frames=) -> FeatureTrack``.
     n_jobs : int — parallel folds with joblib (``-1`` = all cores); ignored with ``scheduler``.
@@ -491,6 +642,10 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         is recorded in ``warnings`` and the evaluation goes on without that system's rows for the
         fold (e.g. a template-warping model cannot be trained from one 10-second clip).
     progress : callable ``(done, total, description)``, optional.
+    samples : int — predictions per held-out recording for the diversity measure (systems not
+        declared deterministic; < 2 = no diversity).
+    realism : bool — compute the realism measures (issue 14 §1) and keep the motions for their
+        figures.
     """
     t_start = time.perf_counter()
     specs = [_system_spec(s) for s in systems]
@@ -515,12 +670,13 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         except ImportError:
             feature_sets = ()
     feature_sets = tuple(feature_sets)
-    folds = make_folds(corpus, protocol, seed=seed)
+    folds = make_folds(corpus, protocol, seed=seed, speaker_folds=speaker_folds)
     if trajectory_recording is None:  # the longest held-out recording shows the most
         trajectory_recording = _longest_held_out(folds)
     tasks = [FoldTask(fold=name, train=tr, test=te, others=ot, systems=tuple(specs), features=features, seed=int(seed),
                       window_s=float(window_s), n_shifts=int(n_shifts),
-                      trajectory_recording=trajectory_recording, fig48=fig48, strict=bool(strict))
+                      trajectory_recording=trajectory_recording, fig48=fig48, strict=bool(strict),
+                      samples=int(samples), realism=bool(realism))
              for name, tr, te, ot in folds]
     timings: dict[str, float] = {}
     with dask_client(scheduler) as client:  # one connection for the folds and the feature table
@@ -544,8 +700,11 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     traj: dict[str, np.ndarray] = {}
     gt: dict = {}
     warns: list[str] = []
+    motions: dict[str, dict[str, np.ndarray]] = {}
     for res in results:  # in fold order, whatever order they finished in
         rows += res["rows"]
+        for cond, d in res.get("motions", {}).items():
+            motions.setdefault(cond, {}).update(d)
         traj.update(res["trajectories"])
         gt.update(res["gt"])
         warns += res["warnings"]
@@ -557,6 +716,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     warns += table_warns
     if fig48:
         rows += _fig48_rows(gt)
+    rows += pooled_rows(rows, [GROUND_TRUTH] + [n for n, _ in specs])
     recs = [rid for rid in corpus.ids if rid in gt]
     fps = gt[trajectory_recording][3] if trajectory_recording in gt else 100.0
     timings["total_wall"] = time.perf_counter() - t_start
@@ -564,11 +724,14 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     splits = paper_split(corpus, seed=seed)
     config = {"protocol": protocol, "features": feature_set_name(features),
               "seed": seed, "window_s": window_s, "n_shifts": n_shifts, "systems": [GROUND_TRUTH] + [n for n, _ in specs],
-              "folds": len(tasks), "feature_sets": fs_names, "splits": splits}
+              "folds": len(tasks), "feature_sets": fs_names, "splits": splits, "samples": int(samples),
+              "speaker_folds": int(speaker_folds) if protocol == "speakers" else None,
+              "fold_tests": {t.fold: list(t.test.ids) for t in tasks}}
     return EvaluationResult(rows=rows, config=config, systems=[GROUND_TRUTH] + [n for n, _ in specs], recordings=recs,
                             trajectories=traj, trajectory_recording=trajectory_recording, trajectory_fps=fps,
                             timings=timings, warnings=warns, speakers={e.recording: e.speaker for e in corpus.entries},
-                            splits=splits)
+                            splits=splits, motions=motions, fps={rid: gt[rid][3] for rid in recs})
 
 
-__all__ = ["evaluate", "EvaluationResult", "FoldTask", "make_folds", "run_fold", "score_recording", "GROUND_TRUTH"]
+__all__ = ["evaluate", "EvaluationResult", "FoldTask", "make_folds", "run_fold", "score_recording", "GROUND_TRUTH",
+           "speaker_groups", "pooled_rows"]

@@ -63,8 +63,13 @@ def spectra_figure(conditions: Mapping[str, Sequence], *, path, title: str = "")
     names = _order(conditions)
     fig, axes = plt.subplots(1, 3, figsize=(14, 4), sharey=True)
     cmap = plt.get_cmap("tab10")
+    floor = None
     for i, n in enumerate(names):
         p = mean_psd(conditions[n])
+        if n == GROUND_TRUTH or floor is None:
+            pos = p[1:][p[1:] > 0]
+            if len(pos):  # the y range follows the ground truth (a still head's ~0 power would squash it)
+                floor = float(np.nanmin(pos)) * 1e-2
         for j, ax in enumerate(axes):
             ax.semilogy(GRID[1:], p[1:, j], color="black" if n == GROUND_TRUTH else cmap(i % 10),
                         lw=2.5 if n == GROUND_TRUTH else 1.3, label=n)
@@ -74,6 +79,8 @@ def spectra_figure(conditions: Mapping[str, Sequence], *, path, title: str = "")
         ax.set_title(f"{R.AXES[j]}")
         ax.set_xlabel("Hz")
         ax.set_xlim(0, 10)
+    if floor is not None and np.isfinite(floor):
+        axes[0].set_ylim(bottom=floor)
     axes[0].set_ylabel("power (deg²/Hz)")
     axes[-1].legend(fontsize=8)
     fig.suptitle(f"Per-axis motion spectra {title}".strip())
@@ -94,6 +101,9 @@ def speed_histogram_figure(conditions: Mapping[str, Sequence], *, path, title: s
         hd = R.hellinger(R.histogram(ref, edges), h)
         ax.plot(centres, h, color="black" if n == GROUND_TRUTH else cmap(i % 10),
                 lw=2.5 if n == GROUND_TRUTH else 1.3, label=f"{n} (H={hd:.2f})", drawstyle="steps-mid")
+    top = 2.5 * float(R.histogram(ref, edges).max())
+    if top > 0:  # a still head's single spike would squash every other curve
+        ax.set_ylim(0, min(1.0, top))
     ax.set_xlabel("angular speed (°/s); the last bin holds everything faster")
     ax.set_ylabel("share of frames")
     ax.legend(fontsize=8)

@@ -10,8 +10,13 @@
   paper Table 1 (feature ↔ motion local CCA per feature set on every corpus recording, columns
   train / valid / test of the paper §4.1 split, and the excess over chance),
   paper Fig 2 (SD of rotation and velocity) and jerk / acceleration,
-  the paper's chance score, and thesis Fig 4.8 (local vs global CCA against window size).
-* ``figures/*.png`` via :mod:`.figures`.
+  the paper's chance score, and thesis Fig 4.8 (local vs global CCA against window size);
+  realism (issue 14 §1): one table per condition (medians over held-out recordings of the
+  measures of :mod:`.realism`), the anchors as the ruler, the issue's targets checked per system
+  (:func:`realism_targets`), and one line per system with its pooled speech coupling (mean FCCA
+  excess and the Stouffer-pooled p).
+* ``figures/*.png`` via :mod:`.figures` and :mod:`.realism_figures` (per-axis spectra over the
+  ground truth's, speed histograms, realism vs coupling scatter).
 
 Library considered: pandas (not a dependency; the tables are small and written by hand).
 """
@@ -197,6 +202,170 @@ def feature_table_section(table: dict[str, dict[str, float]], *, feature_sets, s
     return _feature_table_md(result, held_out_note=False)
 
 
+# -- realism (issue 14) -----------------------------------------------------------------------------
+#: (metric, column header, digits) of the realism table
+REALISM_COLUMNS = (
+    ("band_1.5_4", "1.5–4 Hz", 2), ("band_0_0.5", "<0.5 Hz", 2), ("spectral_l1", "L1", 2),
+    ("sd_ratio_pitch", "SD ratio p", 2), ("sd_ratio_yaw", "SD ratio y", 2), ("sd_ratio_roll", "SD ratio r", 2),
+    ("speed_hellinger", "H speed", 2), ("accel_hellinger", "H accel", 2), ("limit_cycle", "LC", 2),
+    ("saturation", "sat", 3), ("pause_ratio", "pause", 2), ("drift", "drift (°)", 2), ("bc", "BC", 2),
+    ("diversity", "diversity", 2))
+#: anchors: the ruler of the realism table (ground truth, uncoupled-but-real, unreal)
+RULER = (GROUND_TRUTH, "shifted", "desync", "shaped-noise", "other-speaker", "still")
+
+
+def realism_summary(result: EvaluationResult) -> dict[str, dict[str, float]]:
+    """``{condition: {metric: median over held-out recordings}}`` of the realism measures, plus
+    the pooled coupling (``fcca_excess_pooled``, ``fcca_p_pooled``, …) and ``n``."""
+    keys = {k for k, _, _ in REALISM_COLUMNS} | {"band_1.5_4_ref", "limit_cycle_ref", "pause_ratio_ref",
+                                                 "drift_ref", "bc_ref", "band_0.5_1.5", "band_4_10", "sd_pitch",
+                                                 "sd_yaw", "sd_roll", "speed_mean"}
+    recs = set(result.recordings)
+    out: dict[str, dict[str, float]] = {}
+    for s in result.systems:
+        d: dict[str, float] = {}
+        for k in keys:
+            v = _vals(result, s, k, recs)
+            d[k] = float(np.median(v)) if len(v) else float("nan")
+        d["n"] = float(len(_vals(result, s, "spectral_l1", recs)))
+        for k in ("fcca_excess_pooled", "fcca_p_pooled", "fcca_local_excess_pooled", "fcca_local_p_pooled",
+                  "fcca_n_pooled"):
+            v = _vals(result, s, k, ["ALL"])
+            d[k] = float(v[0]) if len(v) else float("nan")
+        out[s] = d
+    return out
+
+
+def realism_targets(summary: dict[str, dict[str, float]]) -> dict[str, dict[str, bool | None]]:
+    """Issue 14's targets per condition (None where the reference is missing):
+    ``band`` 1.5–4 Hz share within ±0.05 of the ground truth's; ``l1`` spectral L1 ≤ desync's +
+    0.1 (desync = the ``shifted`` anchor when evaluated, as in the diagnosis, else ``desync``); ``sd`` every SD ratio in 0.6–1.5; ``speed`` speed Hellinger ≤ desync's + 0.05; ``lc``
+    limit-cycle index ≤ the ground truth's + 0.1; ``sat`` saturation ≤ 2 % (None when the system
+    declares no range); ``pause`` pause/speech speed ratio within ±30 % of the ground truth's."""
+    gt = summary.get(GROUND_TRUTH, {})
+    ds = summary.get("shifted") or summary.get("desync", {})
+
+    def ok(cond):
+        return None if not np.isfinite(cond[0]) or not np.isfinite(cond[1]) else bool(cond[2])
+
+    out = {}
+    for s, d in summary.items():
+        b, bref = d.get("band_1.5_4", np.nan), gt.get("band_1.5_4", np.nan)
+        l1, l1d = d.get("spectral_l1", np.nan), ds.get("spectral_l1", np.nan)
+        hs, hsd = d.get("speed_hellinger", np.nan), ds.get("speed_hellinger", np.nan)
+        lc, lcg = d.get("limit_cycle", np.nan), gt.get("limit_cycle", np.nan)
+        pr, prg = d.get("pause_ratio", np.nan), gt.get("pause_ratio", np.nan)
+        sds = [d.get(f"sd_ratio_{a}", np.nan) for a in ("pitch", "yaw", "roll")]
+        sat = d.get("saturation", np.nan)
+        out[s] = {
+            "band": ok((b, bref, abs(b - bref) <= 0.05)),
+            "l1": ok((l1, l1d, l1 <= l1d + 0.1)),
+            "sd": None if not all(np.isfinite(sds)) else all(0.6 <= x <= 1.5 for x in sds),
+            "speed": ok((hs, hsd, hs <= hsd + 0.05)),
+            "lc": ok((lc, lcg, lc <= lcg + 0.1)),
+            "sat": None if not np.isfinite(sat) else bool(sat <= 0.02),
+            "pause": ok((pr, prg, abs(pr - prg) <= 0.3 * abs(prg))),
+        }
+    return out
+
+
+def _fmt_p(p: float) -> str:
+    if not np.isfinite(p):
+        return "–"
+    return "< 0.001" if p < 0.001 else f"{p:.3f}"
+
+
+def coupling_line(name: str, d: dict[str, float]) -> str:
+    """One line: is the condition tied to speech across the corpus (pooled FCCA excess and p)?"""
+    ex, p, n = d.get("fcca_excess_pooled", np.nan), d.get("fcca_p_pooled", np.nan), d.get("fcca_n_pooled", np.nan)
+    if not np.isfinite(ex):
+        return f"- **{name}**: no FCCA scores"
+    verdict = "tied to speech across the corpus" if (ex > 0 and p < 0.05) else "not shown to be tied to speech"
+    lx, lp = d.get("fcca_local_excess_pooled", np.nan), d.get("fcca_local_p_pooled", np.nan)
+    return (f"- **{name}**: pooled FCCA excess {ex:+.3f}, Stouffer p {_fmt_p(p)} over {n:.0f} recordings — {verdict}"
+            f" (local FCCA excess {lx:+.3f}, p {_fmt_p(lp)})")
+
+
+def _realism_md(result: EvaluationResult) -> str:
+    summ = realism_summary(result)
+    if not any(np.isfinite(d.get("spectral_l1", np.nan)) for d in summ.values()):
+        return ""
+    md = ["\n## Realism (issue 14 §1)\n",
+          "Medians over held-out recordings (`metrics.csv` has every recording). *1.5–4 Hz*, *<0.5 Hz*: share of "
+          "motion power (< 10 Hz, all axes) in the band; *L1*: distance of the four band shares to the ground "
+          "truth's; *SD ratio*: SD per axis over the ground truth's; *H speed / H accel*: Hellinger distance of the "
+          "speed / acceleration histograms to the ground truth's; *LC*: limit-cycle index (highest velocity "
+          "autocorrelation peak at 0.25–2 s); *sat*: share of frames within 1° of the range the model declares "
+          "(– = none declared); *pause*: mean speed in pauses ≥ 0.5 s over mean speed in speech; *drift*: SD of the "
+          "5 s running mean; *BC*: beat consistency (EMAGE, σ = 0.3 s); *diversity*: mean distance between "
+          f"{result.config.get('samples', '–')} samples for the same speech in units of the ground truth's SD "
+          "(– = deterministic or anchor).\n\n"]
+    order = [s for s in RULER if s in summ] + [s for s in summ if s not in RULER]
+    rows = []
+    for s in order:
+        d = summ[s]
+        rows.append([s, f"{d['n']:.0f}"] + [("–" if not np.isfinite(d.get(k, np.nan)) else f"{d[k]:.{dg}f}")
+                                           for k, _, dg in REALISM_COLUMNS])
+    md.append(_table(["Condition", "n"] + [h for _, h, _ in REALISM_COLUMNS], rows))
+    gt = summ.get(GROUND_TRUTH, {})
+    dname = "shifted" if "shifted" in summ else "desync"
+    ds = summ.get(dname, {})
+    md.append("\n**The ruler.** The ground truth (scored against itself) and the anchors desync and shaped noise "
+              "look real and are uncoupled from the speech by construction (*shifted* = the recording's own "
+              "motion circularly shifted by half its length; *desync* = another recording of the same speaker, or "
+              "the shift when the fold has none); still is the unreal extreme. ")
+    if gt:
+        md.append(f"Recorded heads here: 1.5–4 Hz share {gt.get('band_1.5_4', np.nan):.2f}, limit-cycle index "
+                  f"{gt.get('limit_cycle', np.nan):.2f}, pause/speech speed {gt.get('pause_ratio', np.nan):.2f}. ")
+    if ds:
+        md.append(f"{dname.capitalize()}: spectral L1 {ds.get('spectral_l1', np.nan):.2f}, speed Hellinger "
+                  f"{ds.get('speed_hellinger', np.nan):.2f} (the floor a real but uncoupled motion reaches).")
+    md.append(f"\n\n**Targets (issue 14)**: 1.5–4 Hz share within ±0.05 of the ground truth's; L1 ≤ {dname}'s + 0.1; "
+              f"every SD ratio 0.6–1.5; H speed ≤ {dname}'s + 0.05; LC ≤ the ground truth's + 0.1; saturation ≤ 2 %; "
+              "pause ratio within ±30 % of the ground truth's. ✓ met, ✗ not, – not measurable.\n\n")
+    tg = realism_targets(summ)
+    names = ("band", "l1", "sd", "speed", "lc", "sat", "pause")
+    trows = []
+    for s in order:
+        if s in RULER:
+            continue
+        t = tg[s]
+        met = sum(1 for k in names if t[k])
+        trows.append([s] + ["–" if t[k] is None else ("✓" if t[k] else "✗") for k in names]
+                     + [f"{met}/{sum(1 for k in names if t[k] is not None)}"])
+    if trows:
+        md.append(_table(["System", "1.5–4 Hz", "L1", "SD", "H speed", "LC", "sat", "pause", "met"], trows))
+    md.append("\n**Pooled speech coupling** (FCCA with the speech features, excess over the circular-shift chance "
+              "level averaged over held-out recordings; their p-values combined by Stouffer's method):\n\n")
+    md.append("".join(coupling_line(s, summ[s]) + "\n" for s in order))
+    return "\n".join(md)
+
+
+def realism_figures_for(result: EvaluationResult, out_dir) -> list[Path]:
+    """Per-axis spectra, speed histograms and the realism-vs-coupling scatters of the realism
+    measures (:mod:`.realism_figures`), if the result kept its motions."""
+    if not result.motions or GROUND_TRUTH not in result.motions:
+        return []
+    from ..types import Motion
+    from . import realism_figures as RF
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    recs = [r for r in result.recordings if r in result.motions[GROUND_TRUTH]]
+    conds = {c: [Motion(np.asarray(d[r], dtype=float), result.fps.get(r, 100.0)) for r in recs if r in d]
+             for c, d in result.motions.items()}
+    conds = {c: v for c, v in conds.items() if v}
+    figs = [RF.spectra_figure(conds, path=out / "realism_spectra.png"),
+            RF.speed_histogram_figure(conds, path=out / "realism_speed.png")]
+    summ = realism_summary(result)
+    rows = [{"condition": c, "recording": "ALL", "spectral_l1": d.get("spectral_l1", np.nan),
+             "speed_hellinger": d.get("speed_hellinger", np.nan), "fcca_excess": d.get("fcca_excess_pooled", np.nan),
+             "fcca_p_pooled": d.get("fcca_p_pooled", np.nan)} for c, d in summ.items()]
+    figs.append(RF.realism_coupling_scatter(rows, path=out / "realism_vs_coupling.png"))
+    figs.append(RF.realism_coupling_scatter(rows, x="speed_hellinger", path=out / "realism_vs_coupling_speed.png"))
+    return figs
+
+
 def render_report(result: EvaluationResult, *, title: str = "headmotion evaluation", figures: list[str] = ()) -> str:
     """The Markdown report (see the module docstring)."""
     cfg = result.config
@@ -235,6 +404,9 @@ def render_report(result: EvaluationResult, *, title: str = "headmotion evaluati
                      _m(_vals(result, s, "fcca_local_null_mean"))])
     md.append(_table(["Condition", "n", "FCCA", "chance", "chance 95%", "excess", "p<.05", "local FCCA", "local chance"],
                      rows))
+
+    # issue 14: realism
+    md.append(_realism_md(result))
 
     # paper Table 1
     md.append(_feature_table_md(result))
@@ -312,6 +484,7 @@ def write_report(result: EvaluationResult, out_dir, *, figures: bool = True, tit
         from .figures import evaluation_figures
 
         figs = evaluation_figures(result, out / "figures")
+        figs += realism_figures_for(result, out / "figures")
     rel = [f"figures/{p.name}" for p in figs]
     atomic_write_text(out / "report.md", render_report(result, title=title, figures=rel))
     cfg = dict(result.config)
@@ -321,4 +494,5 @@ def write_report(result: EvaluationResult, out_dir, *, figures: bool = True, tit
     return {"metrics": out / "metrics.csv", "report": out / "report.md", "figures": figs}
 
 
-__all__ = ["write_metrics_csv", "read_metrics_csv", "render_report", "feature_table_section", "write_report"]
+__all__ = ["write_metrics_csv", "read_metrics_csv", "render_report", "feature_table_section", "write_report",
+           "realism_summary", "realism_targets", "coupling_line", "realism_figures_for"]

@@ -30,6 +30,9 @@ Synthesis::
 ``gain`` / ``offset`` have one meaning for every system, :func:`headmotion.motion.control.apply_gain`
 about the training data's mean pose ``mean_pose_`` (pitch, yaw, roll in radians).
 
+A fitted system may declare the pose range it can reach by overriding :meth:`reachable_range`
+(``(3, 2)`` radians; default None) — the evaluation measures saturation against it.
+
 Capabilities are declared, not sniffed: ``capabilities`` is a frozenset of :data:`CAUSAL`
 (``stream()`` works with at most a short lookahead, and the stream equals ``predict``; such a
 system may also synthesise hour-long files block by block), :data:`STREAMING` (``stream()`` works,
@@ -218,6 +221,13 @@ class Synthesizer(ABC):
     def _legacy_mean_pose(self) -> np.ndarray:
         """The mean pose for a model file without one (older files); override per system."""
         return np.zeros(3)
+
+    def reachable_range(self) -> np.ndarray | None:
+        """The pose range the fitted model can reach, ``(3, 2)`` lower/upper (pitch, yaw, roll,
+        radians) — e.g. the clip limits of the template systems — or None when the system declares
+        none (the default).  Optional: the evaluation's *saturation* measure (share of frames within
+        1° of this range, issue 14 §1) uses it and reports nan for systems without one."""
+        return None
 
     # -- shared behaviour --------------------------------------------------------------------
     @property

@@ -328,6 +328,13 @@ class Le2012(Synthesizer):
     def _legacy_mean_pose(self) -> np.ndarray:
         return np.asarray(self.start_, dtype=np.float64)
 
+    def reachable_range(self) -> np.ndarray:
+        """The clip of the ascent: the training range widened by 10 % on each side (``(3, 2)``,
+        pitch, yaw, roll in radians)."""
+        self._check_fitted()
+        span = self.hi_ - self.lo_
+        return np.stack([self.lo_ - 0.1 * span, self.hi_ + 0.1 * span], axis=1)
+
     def _get_state(self):
         arrays = {"z_mu": self.z_mu_, "z_sd": self.z_sd_, "start": self.start_, "lo": self.lo_, "hi": self.hi_}
         for k, g in self.gmms_.items():

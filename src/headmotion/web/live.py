@@ -40,7 +40,7 @@ def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
     from ..live.frames import frame_records
     from ..live.inputs import Resampler
 
-    if not getattr(model, "can_stream", getattr(model, "causal", False)):
+    if not model.can_stream:
         raise ParameterError(f"view --live needs a model that streams (tws-basic, tws-hier, le2012, the DNN "
                              f"systems); "
                              f"{model_path or 'the model'} is {getattr(model, 'name', '?')!r}")

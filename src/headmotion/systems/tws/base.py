@@ -195,6 +195,14 @@ class TwsBase(Synthesizer):
         """Per-utterance state handed to ``_choose`` (none by default)."""
         return {}
 
+    def reachable_range(self) -> np.ndarray:
+        """The hard clip of :meth:`Limits.clip`: the training range widened by 10 % on each side
+        (``(3, 2)``, rotation-vector components ≈ pitch, yaw, roll in radians)."""
+        self._check_fitted()
+        lo, hi = np.asarray(self.limits_.lo, float), np.asarray(self.limits_.hi, float)
+        span = hi - lo
+        return np.stack([lo - 0.1 * span, hi + 0.1 * span], axis=1)
+
     # -- persistence --------------------------------------------------------------------------
     def _legacy_mean_pose(self) -> np.ndarray:
         return rotvec_to_pitch_yaw_roll(self.limits_.mean[None])[0]

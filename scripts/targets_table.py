@@ -1,0 +1,88 @@
+"""The issue-14 targets table from one or more ``headmotion evaluate`` report directories.
+
+One row per (evaluation, condition): the realism medians of :func:`headmotion.evaluation.report.
+realism_summary` with the targets of :func:`~headmotion.evaluation.report.realism_targets` marked
+(✓ met, ✗ not), the pooled FCCA excess with its Stouffer p, and the number of targets met.  With
+several evaluations of the same corpus (seeds), ``--mean-over`` adds one row per condition with the
+mean over them (p: Stouffer of the per-run pooled p-values is *not* valid for overlapping data, so
+the row shows the largest p).  Usage::
+
+    PYTHONPATH=src python scripts/targets_table.py LABEL=REPORT_DIR [LABEL=REPORT_DIR ...] [-o table.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from headmotion.evaluation.protocols import EvaluationResult
+from headmotion.evaluation.report import read_metrics_csv, realism_summary, realism_targets
+
+TARGETS = ("band", "l1", "sd", "speed", "lc", "sat", "pause")
+
+
+def load(report_dir: Path) -> EvaluationResult:
+    rows = read_metrics_csv(report_dir / "metrics.csv")
+    cfg = json.loads((report_dir / "config.json").read_text()) if (report_dir / "config.json").is_file() else {}
+    systems = list(dict.fromkeys(r["system"] for r in rows))
+    recs = sorted({r["recording"] for r in rows if r["recording"] != "ALL" and not r["recording"].startswith("speaker:")})
+    return EvaluationResult(rows=rows, config=cfg, systems=systems, recordings=recs)
+
+
+def mark(v: float, ok, digits: int = 2) -> str:
+    if not np.isfinite(v):
+        return "–"
+    return f"{v:.{digits}f}" + ("" if ok is None else (" ✓" if ok else " ✗"))
+
+
+def fmt_p(p: float) -> str:
+    return "–" if not np.isfinite(p) else ("<0.001" if p < 0.001 else f"{p:.3f}")
+
+
+def rows_for(label: str, summ: dict, targets: dict) -> list[str]:
+    gt = summ.get("ground-truth", {})
+    out = []
+    for s, d in summ.items():
+        t = targets[s]
+        sd = "/".join("–" if not np.isfinite(d.get(f"sd_ratio_{a}", np.nan)) else f"{d[f'sd_ratio_{a}']:.2f}"
+                      for a in ("pitch", "yaw", "roll"))
+        met = sum(1 for k in TARGETS if t[k])
+        n = sum(1 for k in TARGETS if t[k] is not None)
+        out.append(
+            f"| {label} | {s} | {mark(d.get('band_1.5_4', np.nan), t['band'])} ({gt.get('band_1.5_4', np.nan):.2f}) | "
+            f"{mark(d.get('spectral_l1', np.nan), t['l1'])} | {sd}{'' if t['sd'] is None else (' ✓' if t['sd'] else ' ✗')} | "
+            f"{mark(d.get('speed_hellinger', np.nan), t['speed'])} | "
+            f"{mark(d.get('limit_cycle', np.nan), t['lc'])} ({gt.get('limit_cycle', np.nan):.2f}) | "
+            f"{mark(100 * d.get('saturation', np.nan), t['sat'], 1)} | "
+            f"{mark(d.get('pause_ratio', np.nan), t['pause'])} ({gt.get('pause_ratio', np.nan):.2f}) | "
+            f"{mark(d.get('diversity', np.nan), None)} | {d.get('fcca_excess_pooled', np.nan):+.3f} | "
+            f"{fmt_p(d.get('fcca_p_pooled', np.nan))} | {met}/{n} |")
+    return out
+
+
+HEADER = ("| set | condition | 1.5–4 Hz (gt) | L1 | SD ratio p/y/r | H speed | LC (gt) | sat % | pause (gt) | "
+          "diversity | FCCA excess | p | targets |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", nargs="+", help="LABEL=REPORT_DIR")
+    ap.add_argument("-o", "--output", type=Path, default=None)
+    a = ap.parse_args(argv)
+    lines = [HEADER]
+    for spec in a.runs:
+        label, _, d = spec.partition("=")
+        summ = realism_summary(load(Path(d)))
+        lines += rows_for(label, summ, realism_targets(summ))
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if a.output:
+        a.output.write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
