@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from headmotion.cli.synth_cmds import default_model_path
+from headmotion.cli.synth_cmds import default_model_path, default_stream_model_path
 from headmotion.errors import AudioLoadingError
 from headmotion.io import load_audio
 from headmotion.io.audio_blocks import audio_duration, iter_audio_blocks
@@ -46,8 +46,9 @@ def test_block_reader_errors_name_the_file(tmp_path):
         list(iter_audio_blocks(bad, sample_rate=16000))
 
 
-def test_causal_model_block_by_block_equals_its_stream(examples_dir):
-    m = load_model(default_model_path())
+@pytest.mark.parametrize("path", [default_stream_model_path, default_model_path], ids=["tws-hier", "mfcc-dnn"])
+def test_model_block_by_block_equals_its_stream(examples_dir, path):
+    m = load_model(path())
     wav = examples_dir / "speech" / "speech_male.wav"
     a = predict_file_in_blocks(m, wav, seed=2, block_seconds=1.0)
     st = m.stream(seed=2)

@@ -168,8 +168,8 @@ def synth(
     from ..io.audio_blocks import audio_duration
     from ..systems.long_input import LONG_INPUT_SECONDS, predict_file_in_blocks
 
-    # hours of speech: a causal model's stream, block by block, in bounded memory (same frames)
-    long_input = m.causal and audio_duration(speech) > LONG_INPUT_SECONDS
+    # hours of speech: the model's stream, block by block, in bounded memory (the offline frames)
+    long_input = m.can_stream and audio_duration(speech) > LONG_INPUT_SECONDS
     audio = None if long_input else load_audio(speech)
 
     def predict(seed_k, gain=1.0, offset=0.0):

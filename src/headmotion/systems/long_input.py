@@ -1,7 +1,8 @@
 """Synthesis of long recordings in bounded memory (issue 18 item 5).
 
-The seeds are silent on hour-long inputs.  A causal system's stream gives the same frames as its
-offline ``predict`` (the contract in :mod:`headmotion.systems.base`; tested per system), so a
+The seeds are silent on hour-long inputs.  A system's stream gives the same frames as its offline
+``predict`` (exactly for the causal systems, within 1e-6 rad for the DNN systems that stream with
+lookahead; the contract in :mod:`headmotion.systems.base`, tested per system), so a
 long file is read block by block (:func:`headmotion.io.audio_blocks.iter_audio_blocks`) and
 pushed through ``model.stream``: features and synthesis then hold a few blocks of audio at a time
 and time grows linearly with the length.  Only the motion itself (3 floats per frame: 26 MB for
@@ -21,13 +22,13 @@ LONG_INPUT_SECONDS = 600.0
 
 def predict_file_in_blocks(model, path, *, seed=None, gain=1.0, offset=0.0, block_seconds: float = 30.0,
                            progress=None) -> Motion:
-    """``model.predict(load_audio(path))`` for a causal ``model`` without loading the whole file.
+    """``model.predict(load_audio(path))`` for a ``model`` that streams, without loading the whole file.
 
     ``progress(done_seconds)`` is called after each block."""
     from ..io.audio_blocks import iter_audio_blocks
 
-    if not model.causal:
-        raise ParameterError(f"system {model.name!r} is not causal: it cannot synthesise a file block by block")
+    if not model.can_stream:
+        raise ParameterError(f"system {model.name!r} does not stream: it cannot synthesise a file block by block")
     st = model.stream(seed=seed, gain=gain, offset=offset)
     parts, seconds = [], 0.0
     for block in iter_audio_blocks(path, sample_rate=model.sample_rate, block_seconds=block_seconds):
