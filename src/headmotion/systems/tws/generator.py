@@ -134,6 +134,8 @@ class Generator:
         """Drop the features and segments no later change point or frame can need (streaming:
         memory and time per chunk stay bounded however long the stream runs)."""
         first = min(self.settled if self.detector is not None else self.rendered, int(self.next_change.min()))
+        if first - self.F.off < 512:
+            return
         self.F.forget(first - self.memory - 1)
         # segments that end before the next frame to render (the last one per axis stays)
         for j in range(3):
@@ -141,7 +143,7 @@ class Generator:
             k = 0
             while k < len(segs) - 1 and segs[k + 1][0] <= self.rendered:
                 k += 1
-            if k > 64:
+            if k > 8:
                 del segs[:k]
 
     def run(self) -> int:
@@ -172,19 +174,23 @@ class Generator:
 
     def render(self, a: int, b: int) -> np.ndarray:
         """Frames [a, b) of all axes, (b-a, 3)."""
-        out = np.empty((max(b - a, 0), 3))
         if b <= a:
-            return out
+            return np.empty((0, 3))
         tt = np.arange(a, b, dtype=np.float64)
+        rows = np.empty((b - a, 3, 4))      # (start, n, s, c) of the segment holding each frame
         for j in range(3):
-            arr = np.asarray(self.segs[j], dtype=np.float64)
-            starts, ns, ss, cs = arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3]
-            k = np.searchsorted(starts, tt, side="right") - 1
-            k = np.clip(k, 0, len(arr) - 1)
-            ph = np.clip((tt - starts[k]) / ns[k], 0.0, 1.0)
-            out[:, j] = cs[k] + ss[k] * template_shape(ph)
-        return out
-
+            segs = self.segs[j]
+            i = len(segs) - 1          # only the segments from the one holding frame a on
+            while i > 0 and segs[i][0] > a:
+                i -= 1
+            arr = np.asarray(segs[i:], dtype=np.float64)
+            if len(arr) == 1:
+                rows[:, j] = arr[0]
+            else:
+                k = np.searchsorted(arr[:, 0], tt, side="right") - 1
+                rows[:, j] = arr[np.maximum(k, 0)]
+        ph = np.minimum(np.maximum((tt[:, None] - rows[..., 0]) / rows[..., 1], 0.0), 1.0)
+        return rows[..., 3] + rows[..., 2] * template_shape(ph)
 
     def render_settled(self, a: int, b: int) -> np.ndarray:
         """Frames [a, b) after settling in pauses; calls must cover the utterance in order
