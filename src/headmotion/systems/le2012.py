@@ -389,6 +389,12 @@ class Le2012(Synthesizer):
         rv = pitch_yaw_roll_to_rotvec(out[:, 0], out[:, 1], out[:, 2])
         return Motion(rv, self.fps_, meta={"system": self.name})
 
+    def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0):
+        """:meth:`Synthesizer.stream`, with the reason when this model's features cannot stream."""
+        if getattr(self, "fitted_", False) and self._config().name not in LIVE_FEATURES:
+            self._stream(seed=seed)  # raises with the reason
+        return super().stream(seed=seed, gain=gain, offset=offset)
+
     def _stream(self, *, seed: int | None) -> "Le2012Stream":
         cfg = self._config()
         if cfg.name not in LIVE_FEATURES:
