@@ -472,10 +472,14 @@ class Le2012Stream:
             # rows: the two frames before (history), then the new frames
             out = np.empty((n - k + 2, 3))
             out[:2] = hist
-            pad = lambda a: np.concatenate([np.zeros((2,) + a.shape[1:]), a])  # noqa: E731
-            stacked = (stacked[0], np.ascontiguousarray(pad(stacked[1])), np.ascontiguousarray(pad(stacked[2])),
-                       stacked[3])
-            cond = {key: (pad(v[0]), pad(v[1]), v[2]) for key, v in cond.items()}
+            def pad(a):
+                z = np.zeros((len(a) + 2,) + a.shape[1:])
+                z[2:] = a
+                return z
+
+            stacked = (stacked[0], pad(stacked[1]), pad(stacked[2]), stacked[3])
+            if not m.compiled:  # the numpy reference reads the per-GMM rows
+                cond = {key: (pad(v[0]), pad(v[1]), v[2]) for key, v in cond.items()}
             m._ascend(out, cond, stacked, self.pull, self.pose, pad(jitter[k:]))
             x[k:] = out[2:]
             hist = out[-2:]
