@@ -113,7 +113,70 @@ def bench_synth(res: Results, quick: bool, cache: dict):
                         f"{own * 1000:.0f} ms = predict {t * 1000:.0f} - features {tf * 1000:.0f}"))
 
 
+def _paced_latency(stream, audio, secs: float, fps: float) -> dict:
+    """End-to-end latency of ``stream``: ``secs`` of ``audio`` written to a wav, paced in real time
+    by the live file source, through :class:`LiveSession` (frame time to output line)."""
+    import soundfile as sf
+
+    from headmotion.live.inputs import FileSource
+    from headmotion.live.session import LiveSession
+
+    with tempfile.TemporaryDirectory() as tmp:
+        wav = Path(tmp) / "speech.wav"
+        sf.write(wav, audio.samples[: int(secs * audio.sample_rate)], audio.sample_rate)
+        src = FileSource(wav, out_rate=16000, realtime=True)
+        return LiveSession(src, stream, [], fps=fps).run(max_seconds=secs + 30)["latency"]
+
+
+def _chunk_costs(stream, x, chunk: int):
+    """Wall and thread-CPU milliseconds of every ``push`` of ``chunk`` samples."""
+    wall, cpu = [], []
+    for a in range(0, len(x), chunk):
+        t0, c0 = time.perf_counter(), time.thread_time()
+        stream.push(x[a:a + chunk])
+        cpu.append(time.thread_time() - c0)
+        wall.append(time.perf_counter() - t0)
+    stream.flush()
+    return 1000 * np.array(wall), 1000 * np.array(cpu)
+
+
+def bench_causal_streams(res: Results, quick: bool, cache: dict):
+    """Issue 16 item 1: every causal system with its live features (the defaults of new models):
+    algorithmic latency, compute per 10 ms chunk, end-to-end latency paced in real time."""
+    from headmotion.systems import create
+
+    audio = speech_audio(20.0 if quick else 60.0, seed=2)
+    chunk = audio.sample_rate // 100  # 10 ms
+    corpus = planted(2.0)
+    secs = 5.0 if quick else 15.0
+    for name in ("tws-basic", "tws-hier", "le2012"):
+        s = cache.get(f"{name}-live")
+        if s is None:
+            import warnings
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                s = create(name).fit(corpus)
+            cache[f"{name}-live"] = s
+        feats = s._config().name if hasattr(s, "_config") else "?"
+        s.stream(seed=0).push(audio.samples[:chunk])  # warm-up (numba, imports)
+        wall, cpu = _chunk_costs(s.stream(seed=0), audio.samples, chunk)
+        lat_alg = s.stream(seed=0).latency_ms
+        res.add(Row("4 stream", f"{name} ({feats}): algorithmic latency", lat_alg, "ms", "<= 100 ms",
+                    lat_alg <= 100, "features' lookahead; the generator holds nothing back"))
+        res.add(Row("4 stream", f"{name} ({feats}): mean compute per 10 ms chunk", float(wall.mean()), "ms",
+                    "<= 0.5 ms", wall.mean() <= 0.5,
+                    f"median {np.median(wall):.3f}, p99 {np.percentile(wall, 99):.2f} ms over {len(wall)} chunks; "
+                    f"thread CPU mean {cpu.mean():.3f} ms (without preemption); load {os.getloadavg()[0]:.1f}"))
+        lat = _paced_latency(s.stream(seed=0), audio, secs, float(s.frame_rate))
+        res.add(Row("4 stream", f"{name} ({feats}), {secs:.0f} s paced in real time: end-to-end latency median",
+                    lat["median_ms"], "ms", "<= 100 ms", lat["median_ms"] is not None and lat["median_ms"] <= 100,
+                    f"p95 {lat['p95_ms']:.0f} ms, max {lat['max_ms']:.0f} ms over {lat['frames']} frames; "
+                    f"frame time to emission (10 ms chunks)"))
+
+
 def bench_stream(res: Results, quick: bool, cache: dict):
+    bench_causal_streams(res, quick, cache)
     s = cache.get("tws-hier") or make_system("tws-hier", quick).fit(planted(2.0))
     audio = speech_audio(20.0 if quick else 60.0, seed=2)
     chunk = audio.sample_rate // 100  # 10 ms

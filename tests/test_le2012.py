@@ -21,7 +21,9 @@ def corpus():
 
 @pytest.mark.parametrize("joint", [False, True])
 def test_le2012_fits_predicts_and_round_trips(corpus, joint, tmp_path):
-    m = create("le2012", joint=joint, n_components=4, max_train_frames=3000).fit(corpus.subset([0, 1]))
+    # the paper's features (whole-clip prosody); the live default is tested in test_stream_causal.py
+    m = create("le2012", features="prosody", joint=joint, n_components=4,
+               max_train_frames=3000).fit(corpus.subset([0, 1]))
     assert len(m.gmms_) == (1 if joint else 5)
     audio = corpus[2].audio.slice_seconds(0, 4.0)
     out = m.predict(audio)

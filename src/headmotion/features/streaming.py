@@ -79,12 +79,13 @@ correlates with itself at only 0.66–0.95); ``energy`` correlates at 0.95–0.9
 baseline's ``prosody`` set: pitch from the same YIN (semitones re 27.5 Hz, or Hz) and openSMILE's
 ``cIntensity`` loudness, unsmoothed as offline, so only the F0 window is ahead: 24.2 ms.
 
-Using it in a system (phase 2): train and predict with ``FeatureConfig("f0e-live", fps)``; in
-``stream()``, feed the model-rate samples to ``StreamingF0e(sample_rate=16000, fps=fps,
-**config.params)`` and cast its frames to float32 as :func:`headmotion.features.extract` does.
-Streamed and offline features are then bit-identical when the audio is at 16 kHz; at another
-rate ``extract`` resamples the whole file and the stream resamples on the fly, so they differ by
-the resampler (soxr) alone.
+Used by the systems (issue 16 phase 2): tws-basic / tws-hier train and predict with ``f0e-live``
+and le2012 with ``prosody-live`` by default; their streams push the model-rate samples through
+:class:`headmotion.systems.tws.generator.LiveFeatures` (this extractor at 16 kHz, frames cast to
+float32 as :func:`headmotion.features.extract` does), so streamed and offline features are
+bit-identical when the audio is at 16 kHz (the models' ``sample_rate``); at another rate
+``extract`` resamples the whole file and the live input resamples on the fly, so they differ by the
+resampler (soxr) alone.
 """
 
 from __future__ import annotations

@@ -27,10 +27,21 @@ parameter whose "off" value gives the literal system (``pull_tau_s=None, start_s
   ``numpy.random.default_rng(seed)``, so the ascent ends in different local maxima for different
   seeds; the same seed gives the same motion.
 * ``idle`` (default 0.4): pauses — :func:`headmotion.motion.pauses.settle_in_pauses` in its
-  *causal* mode (the synthesis is causal, so a pause is recognised once it has lasted 0.5 s),
-  speech mask from :func:`headmotion.features.vad.speaking_mask`.  The VAD's thresholds use the
-  whole clip's energy distribution, so a stream would need a causal VAD as well; le2012 has no
-  stream today.
+  *causal* mode (the synthesis is causal, so a pause is recognised once it has lasted 0.5 s).
+  Speech flags: with the live feature set, the adaptive causal energy detector of
+  :mod:`headmotion.systems.tws.speech` (the one implementation template warping uses) on the
+  loudness column converted back to dB; older model files (``prosody``) keep
+  :func:`headmotion.features.vad.speaking_mask`, whose thresholds use the whole clip.
+
+Streaming (issue 16): new models use the ``prosody-live`` feature set
+(:class:`headmotion.features.streaming.StreamingProsody`: YIN pitch + cIntensity loudness,
+computed by the same code offline and on a stream, final 24.2 ms after a frame's start at 100 fps).
+The ascent is causal (frame ``t`` needs features up to ``t`` and the two previous frames), the
+seeded start noise is drawn frame by frame from one generator (chunked draws equal one draw), and
+the pause settling is a causal recursion, so :meth:`Le2012.stream` gives offline ``predict``'s
+frames with a latency of the features alone (``latency_ms`` = 24.2 ms).  Model files with the
+whole-clip ``prosody`` set load and predict as before but cannot stream (their ``capabilities``
+lack "causal"; retrain with ``features="prosody-live"``).
 
 Defaults chosen on held-out data (``scripts/p2dnn_measure.py le2012``; ZEGGS 4 folds / video
 corpus 2 speaker-disjoint folds, 2 seeds): the pull alone stops the wandering (ZEGGS saturation
@@ -54,12 +65,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
+from ..features import ANALYSIS_RATE
 from ..models.gmm import GMMRegression
 from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
-from .base import Synthesizer
+from .base import CAUSAL, Synthesizer
 from .tws.features import make_feature_config
+from .tws.generator import LIVE_FEATURES, LiveFeatures
+
+
+_LOG2PI = float(np.log(2.0 * np.pi))
 
 
 def _fit_gmm(Z: np.ndarray, n_dims_z: int, n_components: int, random_state) -> GMMRegression:
@@ -93,7 +109,8 @@ class Le2012(Synthesizer):
 
     Parameters
     ----------
-    features : str, default "prosody" (pitch + loudness)
+    features : str, default "prosody-live" (pitch + loudness computed frame by frame, streamable;
+        "prosody" is the whole-clip openSMILE-like set of older model files)
     fps : float or None
     n_components : int, components per GMM (10)
     joint : bool, the "fair" joint variant of eq 5.15
@@ -114,7 +131,9 @@ class Le2012(Synthesizer):
 
     name = "le2012"
 
-    def __init__(self, features="prosody", *, fps: float | None = None, n_components: int = 10,
+    capabilities = frozenset({CAUSAL})
+
+    def __init__(self, features="prosody-live", *, fps: float | None = None, n_components: int = 10,
                  joint: bool = False, n_steps: int = 12, step: float = 0.05,
                  max_train_frames: int = 10000, random_state: int = 0, seed: int | None = 0,
                  compiled: bool = True, pull_tau_s: float | None = 2.0, start_sd: float = 0.5,
@@ -163,8 +182,10 @@ class Le2012(Synthesizer):
         if not recs:
             raise ParameterError("cannot train le2012 on an empty corpus")
         self.fps_ = float(self.fps) if self.fps else float(recs[0].motion.fps)
-        self.sample_rate_ = int(recs[0].audio.sample_rate)
         cfg = self._config()
+        self._set_capabilities(cfg)
+        # a live feature set analyses 16 kHz: that is the rate the stream's push expects
+        self.sample_rate_ = ANALYSIS_RATE if cfg.name in LIVE_FEATURES else int(recs[0].audio.sample_rate)
         ang, feats, rvs = [], [], []
         for i, r in enumerate(recs):
             m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
@@ -210,16 +231,27 @@ class Le2012(Synthesizer):
 
     # -- synthesis ----------------------------------------------------------------------------
     def _conditionals(self, Fs: np.ndarray):
-        """Condition every GMM on the speech features of every frame (vectorised over T) with
-        :meth:`GMMRegression.condition`.
+        """Condition every GMM on the speech features of every frame (vectorised over T and the
+        components; eq 2.5–2.8 as :meth:`GMMRegression.condition`, whose per-component loop costs
+        ~3 ms per call — too much for a 10 ms stream chunk).
 
         Returns per GMM: log weights (T, M) = ``log p(f_t, m) - 0.5 log |C_m|`` (so that
         ``logw - 0.5 (z - cm)' P (z - cm)`` is the log density up to a constant), conditional means
         (T, M, Dz) and conditional precisions P (M, Dz, Dz)."""
+        cache = getattr(self, "_cond_prep", None)
+        if cache is None or cache[0] is not self.gmms_:
+            prep = {}
+            for key, g in self.gmms_.items():
+                log_det = 2.0 * np.log(np.diagonal(g._chol_c, axis1=1, axis2=2)).sum(axis=1)
+                prep[key] = (g._log_w + g._ldx - 0.5 * log_det, g._mx, g._Px, g._A, g._my, np.linalg.inv(g._cov_c))
+            cache = self._cond_prep = (self.gmms_, prep)
+        X = np.asarray(Fs, dtype=np.float64)
         out = {}
-        for key, g in self.gmms_.items():
-            c = g.condition(Fs)
-            out[key] = (c.log_joint - 0.5 * c.log_det[None], c.means, c.precisions)
+        for key, (c0, mx, Px, A, my, P) in cache[1].items():
+            d = X[:, None, :] - mx[None]                                  # (T, M, dx)
+            y = np.einsum("nmi,mij->nmj", d, Px)
+            lw = c0[None] - 0.5 * (X.shape[1] * _LOG2PI + np.einsum("nmj,nmj->nm", y, y))
+            out[key] = (lw, my[None] + np.einsum("myx,nmx->nmy", A, d), P)
         return out
 
     @staticmethod
@@ -279,6 +311,56 @@ class Le2012(Synthesizer):
             jitter = float(self.start_sd) * float(self.z_mu_[3]) * rng.standard_normal((T, 3))
         return pull, np.asarray(self.start_, dtype=np.float64), jitter
 
+    def _set_capabilities(self, cfg) -> None:
+        """Streamable only with a live feature set (an instance attribute overrides the class's)."""
+        self.capabilities = frozenset({CAUSAL}) if cfg.name in LIVE_FEATURES else frozenset()
+
+    def _settle(self) -> bool:
+        return self.idle is not None and float(self.idle) < 1.0
+
+    def _loudness_db(self, F_raw: np.ndarray) -> np.ndarray:
+        """The raw ``loudness`` column ``(I / 1e-6) ** exponent`` back to the intensity in dB."""
+        cfg = self._config()
+        ex = float(dict(cfg.params).get("exponent", 0.3))
+        loud = np.maximum(np.asarray(F_raw, dtype=np.float64)[:, 1], 1e-30)
+        return np.maximum(10.0 / ex * np.log10(loud) - 60.0, -100.0)
+
+    def _speech_tracker(self):
+        from .tws.speech import SpeechDetector
+
+        return SpeechDetector(col=0, mu=0.0, sd=1.0, db_per_unit=1.0, fps=float(self.fps_)).start()
+
+    def _cond_rows(self, F_raw: np.ndarray):
+        """Per-frame conditional mixtures of raw (float32-cast) feature rows, stacked for the
+        kernels: ``("joint", lw, cm, P)`` or ``("independent", LW, CM, PR)``."""
+        F = np.asarray(self.normalizer_.transform(np.asarray(F_raw, dtype=np.float64)), dtype=np.float64)
+        Fs = (F - self.z_mu_[5:]) / self.z_sd_[5:]
+        cond = self._conditionals(Fs)
+        if self.joint:
+            lw, cm, P = cond["joint"]
+            return cond, ("joint", np.ascontiguousarray(lw), np.ascontiguousarray(cm), np.ascontiguousarray(P))
+        keys = ["angle0", "angle1", "angle2", "vel", "acc"]
+        LW = np.ascontiguousarray(np.stack([cond[k][0] for k in keys], axis=1))
+        CM = np.ascontiguousarray(np.stack([cond[k][1][..., 0] for k in keys], axis=1))
+        PR = np.ascontiguousarray(np.stack([cond[k][2][:, 0, 0] for k in keys], axis=0))
+        return cond, ("independent", LW, CM, PR)
+
+    def _ascend(self, out, cond, stacked, pull, pose, jitter) -> None:
+        """Fill ``out[2:]`` given ``out[0:2]`` (the ascent, compiled or the numpy reference)."""
+        mu, sd = self.z_mu_, self.z_sd_
+        span = self.hi_ - self.lo_
+        lo, hi = self.lo_ - 0.1 * span, self.hi_ + 0.1 * span
+        if self.compiled:
+            from ._le2012_kernel import ascent_independent, ascent_joint
+
+            args = (np.ascontiguousarray(mu, dtype=np.float64), np.ascontiguousarray(sd, dtype=np.float64),
+                    np.ascontiguousarray(lo, dtype=np.float64), np.ascontiguousarray(hi, dtype=np.float64),
+                    float(self.step), int(self.n_steps), float(pull), np.ascontiguousarray(pose),
+                    np.ascontiguousarray(jitter))
+            (ascent_joint if stacked[0] == "joint" else ascent_independent)(out, *stacked[1:], *args)
+        else:
+            self._ascent_reference(out, cond, mu, sd, lo, hi, pull, pose, jitter if self.start_sd else None)
+
     def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
         """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``); see the
         module docstring for the pull, the seeded start and pauses."""
@@ -287,42 +369,38 @@ class Le2012(Synthesizer):
         T = _n(len(audio.samples), audio.sample_rate, self.fps_)
         if T == 0:
             return Motion(np.zeros((0, 3)), self.fps_)
-        F = np.asarray(self.normalizer_.transform(np.asarray(self._config().extract(audio, n_frames=T).values,
-                                                                   dtype=np.float64)), dtype=np.float64)
-        Fs = (F - self.z_mu_[5:]) / self.z_sd_[5:]
-        cond = self._conditionals(Fs)
-        mu, sd = self.z_mu_, self.z_sd_
+        cfg = self._config()
+        F_raw = np.asarray(cfg.extract(audio, n_frames=T).values, dtype=np.float64)
+        cond, stacked = self._cond_rows(F_raw)
         out = np.empty((T, 3))
         out[0] = out[min(1, T - 1)] = self.start_
-        span = self.hi_ - self.lo_
-        lo, hi = self.lo_ - 0.1 * span, self.hi_ + 0.1 * span
         pull, pose, jitter = self._start_terms(T, seed)
-        if self.compiled:
-            from ._le2012_kernel import ascent_independent, ascent_joint
-
-            args = (np.ascontiguousarray(mu, dtype=np.float64), np.ascontiguousarray(sd, dtype=np.float64),
-                    np.ascontiguousarray(lo, dtype=np.float64), np.ascontiguousarray(hi, dtype=np.float64),
-                    float(self.step), int(self.n_steps), float(pull), np.ascontiguousarray(pose),
-                    np.ascontiguousarray(jitter))
-            if self.joint:
-                lw, cm, P = cond["joint"]
-                ascent_joint(out, np.ascontiguousarray(lw), np.ascontiguousarray(cm), np.ascontiguousarray(P), *args)
-            else:
-                keys = ["angle0", "angle1", "angle2", "vel", "acc"]
-                LW = np.ascontiguousarray(np.stack([cond[k][0] for k in keys], axis=1))
-                CM = np.ascontiguousarray(np.stack([cond[k][1][..., 0] for k in keys], axis=1))
-                PR = np.ascontiguousarray(np.stack([cond[k][2][:, 0, 0] for k in keys], axis=0))
-                ascent_independent(out, LW, CM, PR, *args)
-        else:
-            self._ascent_reference(out, cond, mu, sd, lo, hi, pull, pose, jitter if self.start_sd else None)
-        if self.idle is not None and float(self.idle) < 1.0 and T >= 2:
-            from ..features.vad import speaking_mask
+        self._ascend(out, cond, stacked, pull, pose, jitter)
+        if self._settle() and T >= 2:
             from ..motion.pauses import settle_in_pauses
 
-            mask = np.asarray(speaking_mask(audio, fps=self.fps_, n_frames=T), dtype=bool)
+            if cfg.name in LIVE_FEATURES:
+                mask = self._speech_tracker().push_db(self._loudness_db(F_raw))
+            else:
+                from ..features.vad import speaking_mask
+
+                mask = np.asarray(speaking_mask(audio, fps=self.fps_, n_frames=T), dtype=bool)
             out = settle_in_pauses(out, mask, fps=self.fps_, idle=float(self.idle), mean_pose=pose, causal=True)
         rv = pitch_yaw_roll_to_rotvec(out[:, 0], out[:, 1], out[:, 2])
         return Motion(rv, self.fps_, meta={"system": self.name})
+
+    def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0):
+        """:meth:`Synthesizer.stream`, with the reason when this model's features cannot stream."""
+        if getattr(self, "fitted_", False) and self._config().name not in LIVE_FEATURES:
+            self._stream(seed=seed)  # raises with the reason
+        return super().stream(seed=seed, gain=gain, offset=offset)
+
+    def _stream(self, *, seed: int | None) -> "Le2012Stream":
+        cfg = self._config()
+        if cfg.name not in LIVE_FEATURES:
+            raise ParameterError(f"this le2012 model was trained with the whole-clip {cfg.name!r} features and "
+                                 "cannot stream; retrain it with features='prosody-live'")
+        return Le2012Stream(self, seed=seed)
 
     # -- persistence --------------------------------------------------------------------------
     def _legacy_mean_pose(self) -> np.ndarray:
@@ -358,6 +436,72 @@ class Le2012(Synthesizer):
         self.gmms_ = {k: _as_regression(arrays[f"{k}_w"], arrays[f"{k}_mu"], arrays[f"{k}_cov"], 5 if k == "joint" else 1)
                       for k in config["gmms"]}
         self.normalizer_ = Normalizer.from_arrays(arrays, "norm_")
+        self._set_capabilities(self._config())
 
 
-__all__ = ["Le2012"]
+class Le2012Stream:
+    """:meth:`Le2012.stream`: push float samples at the model's ``sample_rate``; every frame is
+    final once its ``prosody-live`` features are (``latency_ms``, 24.2 ms at 100 fps), and the
+    frames equal offline ``predict``'s (module docstring).  State: the feature extractor, the last
+    two frames, the noise generator, the speech tracker and the pause settler — bounded."""
+
+    def __init__(self, model: Le2012, *, seed: int | None):
+        from ..motion.pauses import CausalPauseWeight, PauseSettler
+
+        self.m = model
+        self.fps = model.fps_
+        self.feats = LiveFeatures(model._config(), model.sample_rate_)
+        self.latency_ms = self.feats.latency_ms
+        s = model.seed if seed is None else seed
+        self.rng = np.random.default_rng(None if s is None else int(s))
+        self.pull, self.pose, _ = model._start_terms(0, seed)
+        self.scale = float(model.start_sd) * float(model.z_mu_[3])
+        self.t = 0                        # frames produced so far
+        self.last = np.zeros((0, 3))      # the last (up to) two frames, before settling
+        self.settle = model._settle()
+        if self.settle:
+            self.tracker = model._speech_tracker()
+            self.weigher = CausalPauseWeight(fps=self.fps)
+            self.settler = PauseSettler(fps=self.fps, idle=float(model.idle), mean_pose=self.pose)
+
+    def _frames(self, F_raw: np.ndarray) -> Motion:
+        n = len(F_raw)
+        if n == 0:
+            return Motion(np.zeros((0, 3)), self.fps)
+        m = self.m
+        jitter = self.scale * self.rng.standard_normal((n, 3)) if m.start_sd else np.zeros((n, 3))
+        k = min(n, max(0, 2 - self.t))    # the utterance's first two frames are the start pose
+        x = np.empty((n, 3))
+        x[:k] = m.start_
+        hist = np.vstack([self.last, x[:k]])[-2:]
+        if n > k:
+            cond, stacked = m._cond_rows(F_raw[k:])
+            # rows: the two frames before (history), then the new frames
+            out = np.empty((n - k + 2, 3))
+            out[:2] = hist
+            def pad(a):
+                z = np.zeros((len(a) + 2,) + a.shape[1:])
+                z[2:] = a
+                return z
+
+            stacked = (stacked[0], pad(stacked[1]), pad(stacked[2]), stacked[3])
+            if not m.compiled:  # the numpy reference reads the per-GMM rows
+                cond = {key: (pad(v[0]), pad(v[1]), v[2]) for key, v in cond.items()}
+            m._ascend(out, cond, stacked, self.pull, self.pose, pad(jitter[k:]))
+            x[k:] = out[2:]
+            hist = out[-2:]
+        self.last = np.array(hist, dtype=np.float64)
+        self.t += n
+        if self.settle:
+            w = self.weigher.push(self.tracker.push_db(m._loudness_db(F_raw)))
+            x = self.settler.push(x, w)
+        return Motion(pitch_yaw_roll_to_rotvec(x[:, 0], x[:, 1], x[:, 2]), self.fps)
+
+    def push(self, samples) -> Motion:
+        return self._frames(self.feats.push(np.asarray(samples, dtype=np.float32).ravel()))
+
+    def flush(self) -> Motion:
+        return self._frames(self.feats.flush())
+
+
+__all__ = ["Le2012", "Le2012Stream"]

@@ -18,6 +18,10 @@ Product defaults and the thesis's literal behaviour (issue 14; measured in
 * ``soft_limit=True`` — the pull back towards the mean pose of :mod:`.limits`; False = hard clip only;
 * ``log_params`` — model (and sample) the duration and amplitude in log space (heavy-tailed like the
   recordings' segments) instead of linearly as the thesis does;
+* ``features="f0e-live"`` (issue 16) — F0 + energy computed frame by frame
+  (:mod:`headmotion.features.streaming`), the same code offline and on a stream, so a stream is
+  final 64 ms after a frame's start and equals offline synthesis; model files with ``"f0e"``
+  keep working (blocked stream, 0.7 s latency; :class:`.generator.TwsStream`);
 * ``idle=0.4`` — in pauses the head's speed is scaled by ``idle``
   (:mod:`headmotion.motion.pauses`, causal mode; the ZEGGS mocap's pause/speech speed ratio is
   0.39); 1 = no settling (the thesis).  Model files written before these parameters load with
@@ -30,13 +34,14 @@ import numpy as np
 
 from ...align import n_frames as _n_frames
 from ...errors import ParameterError
+from ...features import ANALYSIS_RATE
 from ...motion.control import mean_pose_of
 from ...motion.segmentation import min_segment_frames
 from ...rotations import rotvec_to_pitch_yaw_roll
 from ...types import Audio, Motion
 from ..base import CAUSAL, Synthesizer, check_stochastic
 from .features import extract_blocked, make_feature_config
-from .generator import Generator, TwsStream
+from .generator import LIVE_FEATURES, Generator, TwsStream
 from .limits import Limits
 from .speech import SpeechDetector
 from .vectors import collect
@@ -109,9 +114,10 @@ class TwsBase(Synthesizer):
         tr = self._config().extract(audio, n_frames=T)
         return np.asarray(self.normalizer_.transform(np.asarray(tr.values, dtype=np.float64)), dtype=np.float64)
 
-    def _features_blocks(self, audio: Audio, T: int, *, start_block: int = 0, stop_frame: int | None = None):
+    def _features_blocks(self, audio: Audio, T: int, *, start_block: int = 0, stop_frame: int | None = None,
+                         sample_offset: int = 0):
         F = extract_blocked(audio, self._config(), T, block=self.feature_block, context=self.feature_context,
-                            start_block=start_block, stop_frame=stop_frame)
+                            start_block=start_block, stop_frame=stop_frame, sample_offset=sample_offset)
         if F.size == 0:
             return np.zeros((0, self.n_features_))
         return np.asarray(self.normalizer_.transform(F), dtype=np.float64)
@@ -126,8 +132,10 @@ class TwsBase(Synthesizer):
             raise ParameterError("cannot train on an empty corpus")
         fps_set = sorted({float(r.motion.fps) for r in recs})
         self.fps_ = float(self.fps) if self.fps else fps_set[0]
-        self.sample_rate_ = int(recs[0].audio.sample_rate)
         self.feature_config_ = make_feature_config(self.features, self.fps_)
+        # a live feature set analyses 16 kHz: that is the rate the stream's push expects
+        self.sample_rate_ = (ANALYSIS_RATE if self.feature_config_.name in LIVE_FEATURES
+                             else int(recs[0].audio.sample_rate))
         total = len(recs) + 2
         from ...features.vad import speaking_mask
 
@@ -177,14 +185,16 @@ class TwsBase(Synthesizer):
     # -- synthesis ----------------------------------------------------------------------------
     def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
         """Generation over the whole utterance; features over the whole utterance (as in
-        training) or, with ``blocked=True``, block by block exactly as :meth:`stream` computes
-        them, so the output equals the streamed output sample for sample."""
+        training).  With a live feature set (``f0e-live``, the default) these are the very values
+        the stream computes, so the output equals the streamed output; with a whole-utterance set
+        (``f0e``, older model files) ``blocked=True`` computes them block by block as the stream does."""
         T = _n_frames(len(audio.samples), audio.sample_rate, self.fps_)
         if T == 0:
             return Motion(np.zeros((0, 3)), self.fps_, meta={"system": self.name})
         seed = self.seed if seed is None else seed
         gen = Generator(self, rng=np.random.default_rng(seed), fps=self.fps_)
-        gen.push_features(self._features_blocks(audio, T) if self.blocked else self._features_full(audio, T))
+        blocked = self.blocked and self._config().name not in LIVE_FEATURES
+        gen.push_features(self._features_blocks(audio, T) if blocked else self._features_full(audio, T))
         gen.run()
         return Motion(gen.render_settled(0, T), self.fps_, meta={"system": self.name, "seed": seed})
 

@@ -40,7 +40,8 @@ class TwsBasic(TwsBase):
 
     Parameters
     ----------
-    features : str or FeatureConfig, default "f0e"
+    features : str or FeatureConfig, default "f0e-live" (the streaming F0 + energy set, 64 ms
+        feature latency; model files with "f0e" keep their blocked stream, see :mod:`.generator`)
     fps : float or None (the corpus frame rate)
     n_components : int, GMM components per speed class (fewer when a class has little data)
     method : "ml", "mmse" or "sample" — how (d, a) is taken from the conditional distribution
@@ -60,7 +61,7 @@ class TwsBasic(TwsBase):
 
     name = "tws-basic"
 
-    def __init__(self, features="f0e", *, fps: float | None = None, n_components: int = 4,
+    def __init__(self, features="f0e-live", *, fps: float | None = None, n_components: int = 4,
                  method: str = "mmse", stochastic: str = "params", min_swing_deg: float = 0.5,
                  soft_limit: bool = True, idle: float = 0.4, log_params: bool = False,
                  feature_block: int = 50, feature_context: int = 20, seed: int | None = 0,

@@ -22,11 +22,13 @@ def make_feature_config(features, fps: float):
 
 
 def extract_blocked(audio: Audio, config, n_frames: int, *, block: int, context: int,
-                    start_block: int = 0, stop_frame: int | None = None) -> np.ndarray:
+                    start_block: int = 0, stop_frame: int | None = None, sample_offset: int = 0) -> np.ndarray:
     """Features ``(T, D)`` computed block by block (``block`` frames, ``context`` frames of audio on
     each side), so streamed and offline synthesis see identical features.
 
-    Frames ``[start_block*block, stop_frame)`` are returned; ``n_frames`` is the total length."""
+    Frames ``[start_block*block, stop_frame)`` are returned; ``n_frames`` is the total length.
+    ``audio`` may start at sample ``sample_offset`` of the utterance (a stream that dropped the
+    audio it has consumed); frame and sample positions stay those of the whole utterance."""
     fps = float(config.fps)
     sr = audio.sample_rate
     stop = n_frames if stop_frame is None else stop_frame
@@ -37,8 +39,10 @@ def extract_blocked(audio: Audio, config, n_frames: int, *, block: int, context:
         f1 = min(f0 + block, n_frames)
         a0 = max(0, f0 - context)
         a1 = min(n_frames, f1 + context)
-        s0 = int(round(a0 * sr / fps))
-        s1 = min(len(audio.samples), int(round(a1 * sr / fps)))
+        s0 = int(round(a0 * sr / fps)) - sample_offset
+        s1 = min(len(audio.samples), int(round(a1 * sr / fps)) - sample_offset)
+        if s0 < 0:
+            raise ValueError(f"extract_blocked: sample {s0 + sample_offset} was dropped (audio starts at {sample_offset})")
         seg = Audio(audio.samples[s0:s1], sr)
         tr = config.extract(seg, n_frames=a1 - a0)
         out.append(np.asarray(tr.values, dtype=np.float64)[f0 - a0:f1 - a0])

@@ -23,6 +23,70 @@ from ...types import Audio, Motion
 from .limits import Limits
 
 
+class FeatureFrames:
+    """The generator's feature matrix: rows indexed by absolute frame number, storage grown
+    geometrically (amortised O(1) per frame) and the oldest rows forgettable, so a long stream holds
+    a bounded number of frames.  Indexing (an int, a slice or an index array) is absolute;
+    ``len()`` is the number of frames pushed so far."""
+
+    def __init__(self, dim: int):
+        self.buf = np.zeros((256, dim))
+        self.off = 0       # absolute frame of buf[0]
+        self.n = 0         # rows used in buf
+
+    def __len__(self) -> int:
+        return self.off + self.n
+
+    @property
+    def stored(self) -> int:
+        """Rows held in memory (for tests of bounded memory)."""
+        return self.buf.shape[0]
+
+    def extend(self, rows: np.ndarray) -> None:
+        rows = np.asarray(rows, dtype=np.float64)
+        k = len(rows)
+        if k == 0:
+            return
+        if self.n + k > self.buf.shape[0]:
+            new = np.zeros((max(2 * self.buf.shape[0], self.n + k), self.buf.shape[1]))
+            new[:self.n] = self.buf[:self.n]
+            self.buf = new
+        self.buf[self.n:self.n + k] = rows
+        self.n += k
+
+    def forget(self, before: int) -> None:
+        """Drop the frames before ``before`` (absolute); storage shrinks back when mostly empty."""
+        k = min(before - self.off, self.n)
+        if k < 256:
+            return
+        keep = self.buf[k:self.n]
+        cap = self.buf.shape[0]
+        if self.n - k < cap // 4 and cap > 1024:
+            cap = max(1024, 2 * (self.n - k))
+        new = np.zeros((cap, self.buf.shape[1]))
+        new[:self.n - k] = keep
+        self.buf, self.off, self.n = new, self.off + k, self.n - k
+
+    def _rel(self, idx):
+        if isinstance(idx, slice):
+            start, stop, step = idx.indices(len(self))
+            if start < self.off:
+                raise IndexError(f"feature frame {start} was forgotten (oldest kept: {self.off})")
+            return slice(start - self.off, max(stop, start) - self.off, step)
+        if isinstance(idx, (int, np.integer)):
+            i = int(idx) + (len(self) if idx < 0 else 0)
+            if not self.off <= i < len(self):
+                raise IndexError(f"feature frame {int(idx)} not held (frames {self.off}..{len(self) - 1})")
+            return i - self.off
+        idx = np.asarray(idx)
+        if idx.size and (idx.min() < self.off or idx.max() >= len(self)):
+            raise IndexError(f"feature frames {idx.min()}..{idx.max()} not held (frames {self.off}..{len(self) - 1})")
+        return idx - self.off
+
+    def __getitem__(self, idx):
+        return self.buf[:self.n][self._rel(idx)]
+
+
 class Generator:
     """Causal template-warping synthesis over a growing feature matrix.
 
@@ -36,7 +100,10 @@ class Generator:
         lim: Limits = system.limits_
         self.segs = [[] for _ in range(3)]  # (start_frame, n_frames, s, c)
         self.next_change = np.zeros(3, dtype=np.int64)
-        self.F = np.zeros((0, system.n_features_))
+        self.F = FeatureFrames(system.n_features_)
+        #: feature frames before a change point that ``_choose`` may read (hier: its HMM window)
+        self.memory = int(getattr(system, "feature_memory", 0))
+        self.n_segs = [1, 1, 1]  # segments ever made per axis (the template alternates with it)
         self.rendered = 0
         self.ctx = system._init_generation()
         self.soft = bool(getattr(system, "soft_limit", False))
@@ -61,8 +128,23 @@ class Generator:
         return st, n, s, c
 
     def push_features(self, F_new: np.ndarray) -> None:
-        if len(F_new):
-            self.F = np.vstack([self.F, F_new]) if len(self.F) else np.asarray(F_new, dtype=np.float64)
+        self.F.extend(F_new)
+
+    def forget(self) -> None:
+        """Drop the features and segments no later change point or frame can need (streaming:
+        memory and time per chunk stay bounded however long the stream runs)."""
+        first = min(self.settled if self.detector is not None else self.rendered, int(self.next_change.min()))
+        if first - self.F.off < 512:
+            return
+        self.F.forget(first - self.memory - 1)
+        # segments that end before the next frame to render (the last one per axis stays)
+        for j in range(3):
+            segs = self.segs[j]
+            k = 0
+            while k < len(segs) - 1 and segs[k + 1][0] <= self.rendered:
+                k += 1
+            if k > 8:
+                del segs[:k]
 
     def run(self) -> int:
         """Process change points whose speech is available; return the number of final frames."""
@@ -74,7 +156,7 @@ class Generator:
                 break
             st, n, s, c = self.segs[j][-1]
             c_new = c + s
-            template = 1 if s > 0 or (s == 0 and len(self.segs[j]) % 2 == 0) else 0
+            template = 1 if s > 0 or (s == 0 and self.n_segs[j] % 2 == 0) else 0
             sign = 1.0 if template == 0 else -1.0
             others = []
             for i in range(3):
@@ -86,29 +168,35 @@ class Generator:
             d, a = self.sys._choose(j, template, state, self.F, t, self.rng)
             n_new, s_new = self.sys.limits_.clip(j, d, a, c_new, sign, self.fps, soft=self.soft)
             self.segs[j].append((t, n_new, s_new, c_new))
+            self.n_segs[j] += 1
             self.next_change[j] = t + n_new
         return int(self.next_change.min())
 
     def render(self, a: int, b: int) -> np.ndarray:
         """Frames [a, b) of all axes, (b-a, 3)."""
-        out = np.empty((max(b - a, 0), 3))
         if b <= a:
-            return out
+            return np.empty((0, 3))
         tt = np.arange(a, b, dtype=np.float64)
+        rows = np.empty((b - a, 3, 4))      # (start, n, s, c) of the segment holding each frame
         for j in range(3):
-            arr = np.asarray(self.segs[j], dtype=np.float64)
-            starts, ns, ss, cs = arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3]
-            k = np.searchsorted(starts, tt, side="right") - 1
-            k = np.clip(k, 0, len(arr) - 1)
-            ph = np.clip((tt - starts[k]) / ns[k], 0.0, 1.0)
-            out[:, j] = cs[k] + ss[k] * template_shape(ph)
-        return out
-
+            segs = self.segs[j]
+            i = len(segs) - 1          # only the segments from the one holding frame a on
+            while i > 0 and segs[i][0] > a:
+                i -= 1
+            arr = np.asarray(segs[i:], dtype=np.float64)
+            if len(arr) == 1:
+                rows[:, j] = arr[0]
+            else:
+                k = np.searchsorted(arr[:, 0], tt, side="right") - 1
+                rows[:, j] = arr[np.maximum(k, 0)]
+        ph = np.minimum(np.maximum((tt[:, None] - rows[..., 0]) / rows[..., 1], 0.0), 1.0)
+        return rows[..., 3] + rows[..., 2] * template_shape(ph)
 
     def render_settled(self, a: int, b: int) -> np.ndarray:
         """Frames [a, b) after settling in pauses; calls must cover the utterance in order
         (``a`` = the previous call's ``b``) and the features of frames < b must be pushed."""
         x = self.render(a, b)
+        self.rendered = max(self.rendered, b)
         if self.detector is None or b <= a:
             return x
         if a != self.settled:
@@ -118,27 +206,97 @@ class Generator:
         return self.settler.push(x, w)
 
 
-class TwsStream:
-    """Streaming synthesis: push 16-bit-scaled float samples (any chunk size), get final frames.
+#: feature sets computed incrementally by :mod:`headmotion.features.streaming` (frame by frame)
+LIVE_FEATURES = ("f0e-live", "prosody-live")
 
-    Latency: a feature block (``feature_block`` frames) plus its right context must be complete
-    before its change points can be processed, so the algorithmic latency is
-    ``(feature_block + feature_context) / fps`` seconds at most (0.7 s with the defaults)."""
+
+def live_extractor(config):
+    """The incremental extractor of a live feature set (16 kHz input, the set's parameters)."""
+    from ...features import ANALYSIS_RATE
+    from ...features.streaming import StreamingF0e, StreamingProsody
+
+    cls = StreamingF0e if config.name == "f0e-live" else StreamingProsody
+    return cls(sample_rate=ANALYSIS_RATE, fps=float(config.fps), **dict(config.params))
+
+
+class LiveFeatures:
+    """A live feature set on a stream: samples at ``sample_rate`` in (resampled on the stream to
+    16 kHz by soxr when needed), final feature frames out, cast to float32 as
+    :func:`headmotion.features.extract` does, so they equal the offline features of the same
+    16 kHz audio bit for bit."""
+
+    def __init__(self, config, sample_rate: int):
+        from ...features import ANALYSIS_RATE
+
+        self.ex = live_extractor(config)
+        self.rs = None
+        if int(sample_rate) != ANALYSIS_RATE:
+            import soxr
+
+            self.rs = soxr.ResampleStream(int(sample_rate), ANALYSIS_RATE, 1, dtype="float64")
+
+    @property
+    def latency_ms(self) -> float:
+        return self.ex.latency_ms
+
+    def push(self, x: np.ndarray) -> np.ndarray:
+        if self.rs is not None:
+            x = self.rs.resample_chunk(np.asarray(x, dtype=np.float64))
+        return self.ex.push(x).astype(np.float32).astype(np.float64)
+
+    def flush(self) -> np.ndarray:
+        parts = []
+        if self.rs is not None:
+            parts.append(self.ex.push(self.rs.resample_chunk(np.zeros(0), last=True)))
+        parts.append(self.ex.flush())
+        return np.vstack(parts).astype(np.float32).astype(np.float64)
+
+
+class TwsStream:
+    """Streaming synthesis: push float samples at the model's ``sample_rate`` (any chunk size),
+    get the frames that became final.
+
+    Live feature sets (``f0e-live``, the default of new models): the features come from
+    :class:`headmotion.features.streaming.StreamingF0e` pushed with every chunk, and the generator
+    is causal (a change point at frame ``t`` reads features up to ``t``; frames before the earliest
+    pending change point are final), so the algorithmic latency is the features' own: 64.2 ms at
+    100 fps (``latency_ms``; the generator holds nothing back).  The output equals offline
+    ``predict`` of the same 16 kHz audio exactly (same feature values, same generator, same random
+    draws).
+
+    Model files with a whole-utterance feature set (``f0e``, written before issue 16) keep the
+    blocked extraction: a block of ``feature_block`` frames plus ``feature_context`` frames of right
+    context must be in before its change points are processed, so the latency is ``(feature_block
+    + feature_context) / fps`` (0.7 s with the defaults); their offline ``predict`` equals the
+    stream with ``blocked=True``.
+
+    Memory and time per chunk are bounded over any length: consumed audio is dropped, the
+    generator keeps only the feature frames and segments it can still read (:meth:`Generator.forget`)
+    and renders only the new frames."""
 
     def __init__(self, system, *, seed: int | None):
         self.sys = system
         self.fps = system.fps_
         self.sr = system.sample_rate_
         self.gen = Generator(system, rng=np.random.default_rng(seed), fps=self.fps)
+        self.emitted = 0
+        cfg = system._config()
+        self.live = cfg.name in LIVE_FEATURES
+        if self.live:
+            self.feats = LiveFeatures(cfg, self.sr)
+            self.latency_ms = self.feats.latency_ms
+            self.normalizer = system.normalizer_
+            return
         self.buf = np.zeros(0, dtype=np.float32)
+        self.buf0 = 0                      # absolute sample index of buf[0]
         self.block = system.feature_block
         self.ctx = system.feature_context
         self.next_block = 0
-        self.emitted = 0
         self.latency_ms = 1000.0 * (self.block + self.ctx) / self.fps
 
+    # -- blocked (whole-utterance feature sets) -------------------------------------------------
     def _frames_in_buffer(self) -> int:
-        return _n_frames(len(self.buf), self.sr, self.fps)
+        return _n_frames(self.buf0 + len(self.buf), self.sr, self.fps)
 
     def _extract_ready(self, final: bool) -> None:
         T = self._frames_in_buffer()
@@ -150,28 +308,47 @@ class TwsStream:
             if not final and f1 + self.ctx > T - 1:
                 break
             F = self.sys._features_blocks(Audio(self.buf, self.sr), T if final else f1 + self.ctx,
-                                          start_block=self.next_block, stop_frame=min(f1, T))
+                                          start_block=self.next_block, stop_frame=min(f1, T),
+                                          sample_offset=self.buf0)
             self.gen.push_features(F)
             self.next_block += 1
+        # drop the audio no later block reads (its left context starts here)
+        first = int(round(max(0, self.next_block * self.block - self.ctx) * self.sr / self.fps))
+        if first - self.buf0 > 4 * self.sr:
+            self.buf = self.buf[first - self.buf0:].copy()
+            self.buf0 = first
 
+    # -- the interface ----------------------------------------------------------------------------
     def push(self, samples) -> Motion:
         x = np.asarray(samples, dtype=np.float32).ravel()
-        self.buf = np.concatenate([self.buf, x])
-        self._extract_ready(final=False)
+        if self.live:
+            self._push_features(self.feats.push(x))
+        else:
+            self.buf = np.concatenate([self.buf, x]) if len(self.buf) else x.copy()
+            self._extract_ready(final=False)
         ready = self.gen.run()
         return self._emit(min(ready, len(self.gen.F)))
 
     def flush(self) -> Motion:
-        self._extract_ready(final=True)
-        T = self._frames_in_buffer()
+        if self.live:
+            self._push_features(self.feats.flush())
+            T = len(self.gen.F)
+        else:
+            self._extract_ready(final=True)
+            T = self._frames_in_buffer()
         self.gen.run()
         return self._emit(T)
+
+    def _push_features(self, F: np.ndarray) -> None:
+        if len(F):
+            self.gen.push_features(np.asarray(self.normalizer.transform(F), dtype=np.float64))
 
     def _emit(self, upto: int) -> Motion:
         a, b = self.emitted, max(self.emitted, upto)
         rv = self.gen.render_settled(a, b)
         self.emitted = b
+        self.gen.forget()
         return Motion(rv, self.fps)
 
 
-__all__ = ["Generator", "TwsStream"]
+__all__ = ["Generator", "FeatureFrames", "TwsStream", "LiveFeatures", "LIVE_FEATURES", "live_extractor"]

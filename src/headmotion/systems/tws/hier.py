@@ -112,7 +112,7 @@ class TwsHier(TwsBase):
 
     Parameters
     ----------
-    features : str or FeatureConfig, default "f0e"
+    features : str or FeatureConfig, default "f0e-live" (see :class:`~headmotion.systems.tws.basic.TwsBasic`)
     fps : float or None
     n_clusters : int or None — clusters per axis and template; None chooses by G-means
     n_states : int, states of the cluster HMMs and the language model (5)
@@ -131,9 +131,11 @@ class TwsHier(TwsBase):
     """
 
     name = "tws-hier"
+    #: feature frames before a change point that ``_choose`` reads (HMM window and context)
+    feature_memory = MAX_HMM_FRAMES + CONTEXT
     _with_frames = True
 
-    def __init__(self, features="f0e", *, fps: float | None = None, n_clusters: int | None = 4,
+    def __init__(self, features="f0e-live", *, fps: float | None = None, n_clusters: int | None = 4,
                  n_states: int = 5, hmm_iter: int = 10, lm_weight: float = 1.0, method: str = "ml",
                  stochastic: str = "params", min_swing_deg: float = 0.5,
                  soft_limit: bool = True, idle: float = 0.4, log_params: bool = False, feature_block: int = 50,
@@ -312,15 +314,23 @@ class TwsHier(TwsBase):
         return bank.segment_loglik(bank.frame_loglik(Fseg) if frame_ll is None else frame_ll, o)
 
     def _frame_ll(self, g, j, tau, F, lo, hi):
-        """Per-frame HMM emission terms of F[lo:hi], cached per utterance (computed as F grows)."""
+        """Per-frame HMM emission terms of F[lo:hi], cached per utterance (computed as F grows;
+        frames before ``lo`` are dropped: ``lo`` never decreases for a given axis and template, so
+        the cache stays bounded on a long stream)."""
         key = (j, tau)
         cache = g.setdefault("frame_ll", {})
-        have = cache.get(key)
-        n = 0 if have is None else len(have)
-        if n < len(F):
-            new = self.templates_[j][tau].bank.frame_loglik(F[n:])
-            cache[key] = new if have is None else np.concatenate([have, new])
-        return cache[key][lo:hi]
+        start, have = cache.get(key, (lo, None))
+        end = start + (0 if have is None else len(have))
+        if end < lo:   # nothing cached is still needed
+            start, have, end = lo, None, lo
+        if end < len(F):
+            new = self.templates_[j][tau].bank.frame_loglik(F[end:])
+            have = new if have is None else np.concatenate([have, new])
+        if lo - start > 256:
+            have = have[lo - start:]
+            start = lo
+        cache[key] = (start, have)
+        return have[lo - start:hi - start]
 
     def _lm_scores(self, j, tau, alpha, first):
         lmm = self.lms_[j]

@@ -96,18 +96,29 @@ class SpeechTracker:
     def __init__(self, det: SpeechDetector):
         self.det = det
         self.W = max(2, int(round(det.window_s * det.fps)))
-        self.e = np.zeros(0)       # the utterance's energies so far (dB)
+        self.e = np.zeros(0)       # the energies (dB) of the last W frames at most
+        self.e_off = 0             # the absolute frame index of e[0]
+        self.n = 0                 # frames pushed so far
         self.stats = (np.nan, np.nan)  # (floor, level) of the latest update
 
     def _window(self, u: int) -> np.ndarray:
-        return self.e[max(0, u - self.W + 1): u + 1][::-1][:: self.stride]
+        return self.e[max(0, u - self.W + 1) - self.e_off: u + 1 - self.e_off][::-1][:: self.stride]
 
     def push(self, F: np.ndarray) -> np.ndarray:
+        """Flags of the next feature frames (normalised rows of the system's features)."""
         if len(F) == 0:
             return np.zeros(0, dtype=bool)
-        e = self.det.energy_db(F)
-        t0 = len(self.e)
+        return self.push_db(self.det.energy_db(F))
+
+    def push_db(self, e: np.ndarray) -> np.ndarray:
+        """Flags of the next frames given their energies in dB (for systems whose features have no
+        ``energy`` column, e.g. le2012's loudness converted to dB)."""
+        e = np.asarray(e, dtype=np.float64).ravel()
+        if len(e) == 0:
+            return np.zeros(0, dtype=bool)
+        t0 = self.n
         self.e = np.concatenate([self.e, e])
+        self.n += len(e)
         n = len(e)
         K = self.update_frames
         floor = np.empty(n)
@@ -126,7 +137,7 @@ class SpeechTracker:
                 st[k] = np.percentile(self._window(int(u)), (10, 95))
             if len(full):
                 idx = full[:, None] - np.arange(0, self.W, self.stride)[None, :]
-                st[len(part):] = np.percentile(self.e[idx], (10, 95), axis=1).T
+                st[len(part):] = np.percentile(self.e[idx - self.e_off], (10, 95), axis=1).T
         i0 = max(0, K - 1 - t0)
         if i0 < n:
             tt = np.arange(t0 + i0, t0 + n)
@@ -137,6 +148,11 @@ class SpeechTracker:
             floor[i0:], level[i0:] = got[:, 0], got[:, 1]
         if len(ups):
             self.stats = (float(st[-1, 0]), float(st[-1, 1]))
+        # forget what no later window can reach (memory and time per push stay bounded)
+        drop = len(self.e) - self.W
+        if drop > 0:
+            self.e = self.e[drop:]
+            self.e_off += drop
         rng = level - floor
         thr = floor + np.maximum(self.det.min_snr_db, 0.25 * rng)
         return np.where(rng < self.det.min_snr_db, e > self.det.silence_db, e > thr)
