@@ -236,9 +236,12 @@ def main(argv=None) -> int:
         f"| {r.id} | {r.speaker} | {d:.1f} | {SOURCES[source_of(r.id)][0]} (`{source_of(r.id)}/`) | "
         f"{SOURCES[source_of(r.id)][1]} |\n" for r, d in zip(recs, secs))
     settings = {k: v for k, v in model.get_params().items()}
-    md = [f"# Model card: the default model (`{a.output.name}`)\n",
-          "`headmotion synth speech.wav -o head.bvh` without `-m` uses this model; "
-          "`headmotion info --model default` prints this card.\n",
+    streaming = "stream" in a.output.name
+    md = [f"# Model card: the {'streaming ' if streaming else ''}default model (`{a.output.name}`)\n",
+          ("`headmotion stream` and `headmotion view --live` without `-m` use this model; "
+           "`headmotion info --model stream` prints this card.\n") if streaming else
+          ("`headmotion synth speech.wav -o head.bvh` without `-m` uses this model; "
+           "`headmotion info --model default` prints this card.\n"),
           f"* **System**: `{a.system}`; settings: `{json.dumps(settings, default=str)}`.",
           f"* **Output**: {model.frame_rate:g} frames/s; sampling is seeded (`--seed`, `--samples K`).",
           f"* **Training data**: {len(recs)} recordings, {len({r.speaker for r in recs})} speakers, "
