@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import socket
-import threading
 import time
 from pathlib import Path
 
@@ -107,31 +105,11 @@ def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
 def running_live_server(model, *, host: str = "127.0.0.1", port: int = 0, seed: int = 0,
                         model_path: str | None = None):
     """Run the live server in a background thread; yields its base URL."""
-    import uvicorn
+    from .server import running_app
 
     app = create_live_app(model, seed=seed, model_path=model_path)
-    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        sock.bind((host, int(port)))
-    except OSError as exc:
-        sock.close()
-        raise ParameterError(f"cannot listen on {host}:{port}: {exc.strerror or exc} "
-                             "(is another program using the port? use --port)") from None
-    actual = sock.getsockname()[1]
-    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="off", ws="websockets-sansio"))
-    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
-    thread.start()
-    try:
-        for _ in range(200):
-            if server.started:
-                break
-            time.sleep(0.025)
-        yield f"http://{host}:{actual}/"
-    finally:
-        server.should_exit = True
-        thread.join(timeout=5)
-        sock.close()
+    with running_app(app, host=host, port=port, ws="websockets-sansio") as url:
+        yield url
 
 
 def serve_live(model, *, host: str = "127.0.0.1", port: int = 8765, seed: int = 0, model_path=None,

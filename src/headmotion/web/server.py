@@ -107,34 +107,43 @@ def create_app(motions, *, labels=None, audio_path: str | None = None, mask: boo
 def running_server(motions, *, labels=None, audio=None, host: str = "127.0.0.1", port: int = 0,
                    mask: bool = True, style: str = "textured"):
     """Run the viewer server in a background thread; yields its base URL (for tests/notebooks)."""
-    import uvicorn
-
     with tempfile.TemporaryDirectory(prefix="headmotion-view-") as tmpdir:
         app = create_app(motions, labels=labels, audio_path=_write_wav(audio, tmpdir), mask=mask, style=style)
-        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            sock.bind((host, int(port)))
-        except OSError as exc:
-            sock.close()
-            raise ParameterError(f"cannot listen on {host}:{port}: {exc}") from None
-        actual = sock.getsockname()[1]
-        config = uvicorn.Config(app, log_level="warning", lifespan="off")
-        server = uvicorn.Server(config)
-        thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
-        thread.start()
-        try:
-            import time
+        with running_app(app, host=host, port=port) as url:
+            yield url
 
-            for _ in range(200):
-                if server.started:
-                    break
-                time.sleep(0.025)
-            yield f"http://{host}:{actual}/"
-        finally:
-            server.should_exit = True
-            thread.join(timeout=5)
-            sock.close()
+
+@contextlib.contextmanager
+def running_app(app, *, host: str = "127.0.0.1", port: int = 0, **uvicorn_options):
+    """Serve an ASGI ``app`` with uvicorn in a background thread; yields its base URL.  The port is
+    bound here first, so a port in use is a clear :class:`ParameterError` (``port=0``: any free
+    port).  Shared by the viewer and the live page (:mod:`headmotion.web.live`)."""
+    import time
+
+    import uvicorn
+
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, int(port)))
+    except OSError as exc:
+        sock.close()
+        raise ParameterError(f"cannot listen on {host}:{port}: {exc.strerror or exc} "
+                             "(is another program using the port? use --port)") from None
+    actual = sock.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="off", **uvicorn_options))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        for _ in range(200):
+            if server.started:
+                break
+            time.sleep(0.025)
+        yield f"http://{host}:{actual}/"
+    finally:
+        server.should_exit = True
+        thread.join(timeout=5)
+        sock.close()
 
 
 def serve(motions, *, labels=None, audio=None, host: str = "127.0.0.1", port: int = 8765,
