@@ -1,5 +1,10 @@
 """Prototype fixes for the template-warping systems on real data (issue 14 diagnosis; not shipped).
 
+Kept as the record of the diagnosis: it patches the module layout before the system contract
+refactor (``systems/tws_common.py``), so it runs on commit 80da627 (``git worktree add /tmp/diag
+80da627``), not on today's code, where these fixes are the tws systems' own parameters
+(``min_swing_deg``, ``soft_limit``, ``idle``, ``stochastic``; ``scripts/tws_realism.py``).
+
 Monkeypatches headmotion.systems.tws_common (segmentation with a minimum swing, soft limits) and
 post-processes with headmotion.motion.pauses.  Usage (from the repository root, PYTHONPATH=src):
 
