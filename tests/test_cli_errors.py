@@ -123,7 +123,7 @@ USAGE = [
     ("synth unknown option", ["synth", "speech.wav", "--bogus"], "No such option"),
     ("synth --seed abc", ["synth", "speech.wav", "--seed", "abc"], "--seed"),
     ("unknown command", ["nope"], "No such command"),
-    ("info without a file", ["info"], "needs a file"),
+    ("info without a file", ["info"], "Missing argument"),
     ("convert without output", ["convert", "a.bvh"], "Missing argument"),
     ("train without arguments", ["train"], "Missing"),
     ("listen serve without config", ["listen", "serve"], "Missing argument"),

@@ -116,6 +116,7 @@ def _model_card(model: str, as_json: bool) -> None:
 
 @app.command("info")
 def info(
+    ctx: typer.Context,
     file: Optional[Path] = typer.Argument(None, help="a motion file (bvh, csv, json, npz, c3d) or an audio/video file"),
     as_json: bool = typer.Option(False, "--json", help="print the information as JSON"),
     model: Optional[str] = typer.Option(None, "--model",
@@ -126,8 +127,8 @@ def info(
     if model is not None:
         _model_card(model, as_json)
         return
-    if file is None:
-        raise ParameterError("info needs a file, or --model default|MODEL.hmz")
+    if file is None:  # click's usage message, as for any missing argument
+        ctx.fail("Missing argument 'FILE' (or give --model default|stream|MODEL.hmz).")
     if file.suffix.lower() == ".hmz":
         _model_info(file, as_json)
         return
