@@ -177,21 +177,27 @@ def _clean_json(x):
 
 
 @contextlib.contextmanager
-def _torch_context(seed: int, n_threads: int | None):
-    """Seeded, deterministic torch for the duration of the block (restores the caller's state)."""
+def _torch_context(seed: int, n_threads: int | None, *, deterministic: bool = True):
+    """Seeded torch for the duration of the block (restores the caller's state).
+
+    ``deterministic`` also switches on torch's deterministic algorithms — for training.  Inference
+    (eval mode, no dropout, CPU linear layers) is deterministic without it, and switching it on
+    imports torch's compiler stack (~2.6 s on the first call of a process), so predict passes False."""
     import torch
 
     prev_threads = torch.get_num_threads()
-    prev_det = torch.are_deterministic_algorithms_enabled()
+    prev_det = torch.are_deterministic_algorithms_enabled() if deterministic else None
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(int(seed))
-        torch.use_deterministic_algorithms(True, warn_only=True)
+        if deterministic:
+            torch.use_deterministic_algorithms(True, warn_only=True)
         if n_threads:
             torch.set_num_threads(int(n_threads))
         try:
             yield
         finally:
-            torch.use_deterministic_algorithms(prev_det)
+            if deterministic:
+                torch.use_deterministic_algorithms(prev_det)
             if n_threads:
                 torch.set_num_threads(prev_threads)
 
@@ -612,7 +618,7 @@ class _DnnSystem(Synthesizer):
             raise ParameterError(
                 f"this {self.name} model works at {float(self.model_fps):g} frames/s; the feature track is at {fps:g}")
         self._validate_params()
-        with _torch_context(0, getattr(self, "n_threads", None)):
+        with _torch_context(0, getattr(self, "n_threads", None), deterministic=False):
             rv = self._predict_values(values, seed=seed)
         return Motion(rv, float(self.model_fps), meta={"system": self.name})
 
@@ -623,7 +629,7 @@ class _DnnSystem(Synthesizer):
         mfps = float(self.model_fps)
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
-        with _torch_context(0, getattr(self, "n_threads", None)):
+        with _torch_context(0, getattr(self, "n_threads", None), deterministic=False):
             y = self._network_values(feats)
         stages = DnnPostStages(self, seed)
         energy = None
@@ -664,7 +670,7 @@ class _DnnSystem(Synthesizer):
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
         self._check_features(feats, "the feature track")
-        with _torch_context(0, getattr(self, "n_threads", None)):
+        with _torch_context(0, getattr(self, "n_threads", None), deterministic=False):
             z = self._embed_values(np.asarray(self.feature_norm_.transform(feats), dtype=np.float32))
         names = tuple(f"e{i:02d}" for i in range(z.shape[1]))
         track = FeatureTrack(z, mfps, names)
