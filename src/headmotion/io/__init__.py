@@ -1,4 +1,4 @@
-"""Reading and writing audio and motion files (the I/O edge of DESIGN.md's data flow).
+"""Reading and writing audio and motion files (the I/O edge of docs/design.md's data flow).
 
 * :func:`load_audio` / :func:`save_audio` — :mod:`headmotion.io.audio` (soundfile, PyAV, soxr).
 * :func:`load_motion` / :func:`save_motion` — :mod:`headmotion.io.motion`, which dispatches on the

@@ -1,4 +1,4 @@
-"""Load and save head motion in any supported format (DESIGN.md "Data flows one way"; thesis
+"""Load and save head motion in any supported format (docs/design.md "Data flows one way"; thesis
 §2.2.3, §3.4).
 
 :func:`load_motion` picks the reader from ``format=`` or the extension; a ``.csv`` is sniffed

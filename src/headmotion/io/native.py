@@ -1,4 +1,4 @@
-"""The project's own motion files: CSV, JSON and NPZ (DESIGN.md "Core types"; thesis §2.2.3).
+"""The project's own motion files: CSV, JSON and NPZ (docs/design.md "Core types"; thesis §2.2.3).
 
 All three hold rotation vectors in radians in our axis convention (:mod:`headmotion.rotations`:
 +x speaker's left, +y up, +z forward; columns ``rx, ry, rz`` ≈ pitch, yaw, roll), the frame rate,

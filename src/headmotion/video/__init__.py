@@ -1,4 +1,4 @@
-"""Head motion from ordinary talking video (SPEC.md §8: "train on your own data, from mocap or from
+"""Head motion from ordinary talking video (docs/spec.md §8: "train on your own data, from mocap or from
 an ordinary talking video (head pose estimated from the face)").
 
 * :mod:`.decode` — frames with timestamps and the audio track (PyAV).

@@ -1,4 +1,4 @@
-"""Build a headmotion corpus from talking-face videos (SPEC.md §8; thesis §3.4 for the data
+"""Build a headmotion corpus from talking-face videos (docs/spec.md §8; thesis §3.4 for the data
 preparation it mirrors: rigid head rotation relative to a rest pose, audio aligned to the motion,
 short dropouts filled, 16 kHz audio).
 

@@ -1,6 +1,6 @@
 """Decode talking-face video: frames with their timestamps, and the audio track on the same clock.
 
-Implements the decoding step of "a training corpus from ordinary talking video" (SPEC.md §8,
+Implements the decoding step of "a training corpus from ordinary talking video" (docs/spec.md §8,
 "train on your own data ... from an ordinary talking video"; the thesis §3.4 requirement that the
 audio be aligned to the motion).  Library: PyAV (FFmpeg bindings), chosen over OpenCV's
 ``VideoCapture`` because it gives exact presentation timestamps (needed for variable and

@@ -1,5 +1,5 @@
 """Face landmarks per video frame with mediapipe FaceMesh (the tracking step of the video → pose
-path; SPEC.md §8 "head pose estimated from the face").
+path; docs/spec.md §8 "head pose estimated from the face").
 
 Library: mediapipe 0.10.14's legacy ``solutions.face_mesh`` (468 landmarks, x and y normalised
 by the image width and height, z a relative depth on the scale of x).  It is pinned because it is

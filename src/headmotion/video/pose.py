@@ -1,6 +1,6 @@
 """Head rotation from face landmarks: a rigid fit against the video's own reference shape.
 
-Implements the pose step of "head pose from the face" (SPEC.md §8) with the rigid-body method the
+Implements the pose step of "head pose from the face" (docs/spec.md §8) with the rigid-body method the
 thesis uses for motion-capture markers (§3.4: rotation by SVD after Söderkvist & Wedin / Kabsch,
 expressed relative to a rest pose; paper §4.1 likewise).  Here the "markers" are FaceMesh
 landmarks that do not move with speech — nose, nose bridge, forehead, eye corners, cheekbones and

@@ -1,6 +1,6 @@
 """Quality control of head pose from video: confidence, gaps, shot cuts, low-pass, summary.
 
-Part of "head pose from the face" (SPEC.md §8).  The thesis (§3.4) fills short marker dropouts in
+Part of "head pose from the face" (docs/spec.md §8).  The thesis (§3.4) fills short marker dropouts in
 motion capture and resets the mean pose per take; for video the equivalents are frames without a
 (usable) face, which are marked missing and interpolated when the gap is short, and shot cuts,
 where the recording is split because the pose before and after is not the same continuous motion.
