@@ -31,7 +31,7 @@ from headmotion.types import Motion
 
 pytestmark = pytest.mark.timeout(120)
 SR = 16000
-MODEL = Path(__file__).resolve().parents[1] / "src" / "headmotion" / "data" / "default_model.hmz"
+MODEL = Path(__file__).resolve().parents[1] / "src" / "headmotion" / "data" / "default_stream_model.hmz"
 
 
 class FakeStream:
@@ -380,7 +380,7 @@ def test_failing_output_is_dropped_and_the_others_continue():
 
 
 # -- the one call the stream command makes -------------------------------------------------------
-def test_stream_live_pcm_on_stdin_with_the_default_model():
+def test_stream_live_pcm_on_stdin_with_the_streaming_default_model():
     from headmotion.live.session import stream_live
     from headmotion.systems.base import load_model
 
