@@ -174,6 +174,18 @@ def print_table(rows, title):
         log(f"| {r['condition']} | " + " | ".join(cells) + " |")
 
 
+
+def write_rows_csv(rows, path) -> None:
+    """The table's rows as CSV (set, condition, recording first, then the measures by name)."""
+    import csv
+
+    keys = sorted({k for r in rows for k in r}, key=lambda k: (k not in ("set", "condition", "recording"), k))
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)
+    log(f"wrote {path}")
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--corpus", default=str(HOME / "corpus/talking_video"))
@@ -272,14 +284,7 @@ def main():
         print_table(rows, f"{tag}: systems trained on the other folds, driven by held-out speech")
 
     if a.csv:
-        import csv
-
-        keys = sorted({k for r in all_rows for k in r}, key=lambda k: (k not in ("set", "condition", "recording"), k))
-        with open(a.csv, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=keys)
-            w.writeheader()
-            w.writerows(all_rows)
-        log(f"wrote {a.csv}")
+        write_rows_csv(all_rows, a.csv)
     if a.figures:
         from headmotion.evaluation import realism_figures as RF
 

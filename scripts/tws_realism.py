@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from realism_report import (HOME, at_rate, limits_of, log, print_table, rows_for, speaker_folds,  # noqa: E402
+from realism_report import (HOME, at_rate, limits_of, log, print_table, rows_for, speaker_folds, write_rows_csv,  # noqa: E402
                             video_corpus, zeggs_folds)
 
 from headmotion.corpus import Corpus  # noqa: E402
@@ -100,14 +100,7 @@ def main():
         all_rows += [{"set": tag, **r} for r in rows]
         print_table(rows, f"{tag}: held-out speech")
     if a.csv:
-        import csv
-
-        keys = sorted({k for r in all_rows for k in r}, key=lambda k: (k not in ("set", "condition", "recording"), k))
-        with open(a.csv, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=keys)
-            w.writeheader()
-            w.writerows(all_rows)
-        log(f"wrote {a.csv}")
+        write_rows_csv(all_rows, a.csv)
 
 
 if __name__ == "__main__":

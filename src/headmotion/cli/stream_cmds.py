@@ -64,8 +64,6 @@ def stream(
 
         model = default_stream_model_path()
     m = load_cli_model(model)
-    if not m.can_stream:
-        raise ParameterError(f"system {m.name!r} cannot stream (neither causal nor streaming)")
     stream_live(m, input=input, sample_rate=sample_rate, realtime=realtime, device=device, chunk_ms=chunk_ms,
                 json_stream=None if no_json else sys.stdout, vmc=vmc, websocket=websocket, neck_share=neck_share,
                 seed=seed, stream_kwargs={"gain": g, "offset": o},

@@ -30,6 +30,8 @@ Libraries considered: sounddevice (PortAudio; maintained, numpy buffers) rather 
 
 from __future__ import annotations
 
+import abc
+
 import queue
 import sys
 import threading
@@ -68,7 +70,7 @@ class Resampler:
         return self._rs.resample_chunk(x, last=last)
 
 
-class AudioSource:
+class AudioSource(abc.ABC):
     """Base of the sources: iterate for chunks at ``out_rate``; ``close()`` stops early."""
 
     out_rate: int
@@ -76,10 +78,11 @@ class AudioSource:
     paced: bool = False
     name: str = "audio"
 
+    @abc.abstractmethod
     def __iter__(self) -> Iterator[np.ndarray]:
-        raise NotImplementedError
+        """The chunks (float32, mono, at ``out_rate``) until the input ends or ``close()``."""
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 (an optional hook: a source with nothing to release keeps it)
         pass
 
 
@@ -126,7 +129,7 @@ class PcmSource(AudioSource):
         if tail.size:
             yield tail
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 (an optional hook: a source with nothing to release keeps it)
         self._closed = True
 
 
@@ -173,7 +176,7 @@ class FileSource(AudioSource):
                     self.sleep(wait)
             yield self.resampler(seg, last=i + self.chunk >= len(x))
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 (an optional hook: a source with nothing to release keeps it)
         self._closed = True
 
 
@@ -304,7 +307,7 @@ class MicSource(AudioSource):
         if self.overflows:
             self.on_message(f"{self.name}: dropped {self.overflows} audio blocks because processing fell behind")
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 (an optional hook: a source with nothing to release keeps it)
         self._stop.set()
 
 

@@ -115,19 +115,11 @@ def running_live_server(model, *, host: str = "127.0.0.1", port: int = 0, seed: 
 def serve_live(model, *, host: str = "127.0.0.1", port: int = 8765, seed: int = 0, model_path=None,
                open_browser: bool = True, announce=print):
     """Serve the live page until interrupted (``headmotion view --live``)."""
+    from .server import wait_until_interrupted
+
     with running_live_server(model, host=host, port=port, seed=seed,
                              model_path=None if model_path is None else str(Path(model_path))) as url:
-        announce(url)
-        if open_browser:
-            import webbrowser
-
-            with contextlib.suppress(Exception):
-                webbrowser.open(url)
-        try:
-            while True:
-                time.sleep(0.5)
-        except KeyboardInterrupt:
-            pass
+        wait_until_interrupted(url, open_browser=open_browser, announce=announce)
 
 
 __all__ = ["create_live_app", "running_live_server", "serve_live"]

@@ -146,24 +146,29 @@ def running_app(app, *, host: str = "127.0.0.1", port: int = 0, **uvicorn_option
         sock.close()
 
 
+def wait_until_interrupted(url: str, *, open_browser: bool = True, announce=print) -> None:
+    """Announce ``url``, open it in the browser if asked, and block until Ctrl-C (the end of
+    ``headmotion view`` and ``headmotion view --live``)."""
+    import time
+    import webbrowser
+
+    announce(url)
+    if open_browser:
+        with contextlib.suppress(Exception):
+            webbrowser.open(url)
+    try:
+        while True:
+            time.sleep(0.5)
+    except KeyboardInterrupt:
+        pass
+
+
 def serve(motions, *, labels=None, audio=None, host: str = "127.0.0.1", port: int = 8765,
           mask: bool = True, style: str = "textured", open_browser: bool = True, announce=print):
     """Serve the viewer until interrupted (``headmotion view``)."""
-    import time
-
     with running_server(motions, labels=labels, audio=audio, host=host, port=port, mask=mask,
                         style=style) as url:
-        announce(url)
-        if open_browser:
-            import webbrowser
-
-            with contextlib.suppress(Exception):
-                webbrowser.open(url)
-        try:
-            while True:
-                time.sleep(0.5)
-        except KeyboardInterrupt:
-            pass
+        wait_until_interrupted(url, open_browser=open_browser, announce=announce)
 
 
-__all__ = ["create_app", "running_server", "serve", "motion_payload", "STATIC"]
+__all__ = ["create_app", "running_app", "running_server", "serve", "wait_until_interrupted", "motion_payload", "STATIC"]
