@@ -56,7 +56,7 @@ def fitted():
 
 def test_variance_restore_makes_the_training_sd_ratio_one(fitted):
     corpus, m = fitted
-    m.set_params(variance_restore=True, drift_share=0.0, idle=None)
+    m.set_params(variance_restore=True, restore_bands=False, speed_shaping=False, drift_share=0.0, idle=None)
     assert np.all(m.gv_ > 1.0) and np.all(m.gv_ < dnn_post.GV_CAP)  # the MMSE net is too quiet
     preds, truth = [], []
     for r in corpus:
@@ -75,6 +75,38 @@ def test_variance_restore_makes_the_training_sd_ratio_one(fitted):
     for q, p in zip(quiet, preds):
         c = np.cumsum(q, axis=0) / np.arange(1, len(q) + 1)[:, None]
         np.testing.assert_allclose(p, c + m.gv_ * (q - c), atol=1e-9)
+
+
+def test_band_restoration_gives_the_training_motion_its_band_variances(fitted):
+    corpus, m = fitted
+    assert m.band_gains_.shape == (len(dnn_post.BAND_EDGES_HZ) + 1, 3)
+    train = [r for r in corpus if m.splits_[r.id] == "train"]
+    truth = [m.motion_norm_.transform(m._prepare(r, m.feature_config_).motion) for r in train]
+    err = {}
+    for restore in (False, True):
+        m.set_params(variance_restore=restore, restore_bands=True, speed_shaping=False, drift_share=0.0, idle=None)
+        preds = [m.motion_norm_.transform(m.predict(r.audio).rotvec) for r in train]
+        ratio = dnn_post.band_variance(preds, fps=100.0) / dnn_post.band_variance(truth, fps=100.0)
+        err[restore] = np.median(np.abs(np.log(ratio)))
+    # the gains were measured on the training parts about each part's mean and are applied about
+    # the running mean of whole recordings: close to 1, far closer than the quiet network
+    assert err[True] < 0.2 < err[False]
+
+
+def test_speed_shaping_gives_the_training_speed_distribution(fitted):
+    from headmotion.evaluation.realism import hellinger_values
+
+    corpus, m = fitted
+    train = [r for r in corpus if m.splits_[r.id] == "train"]
+    truth = [m._prepare(r, m.feature_config_).motion for r in train]
+    lag = m.shaping_lag
+    h = {}
+    for shaping in (False, True):
+        m.set_params(variance_restore=True, restore_bands=True, speed_shaping=shaping, drift_share=0.15, idle=None)
+        preds = [m.predict(r.audio, seed=k).rotvec for k, r in enumerate(train)]
+        h[shaping] = hellinger_values(np.concatenate([dnn_post.speeds(t, lag) for t in truth]),
+                                      np.concatenate([dnn_post.speeds(q, lag) for q in preds]))
+    assert h[True] < h[False]
 
 
 def test_paper_params_reproduce_the_paper_pipeline_exactly(fitted):

@@ -92,6 +92,11 @@ def test_realism_columns_per_recording_and_condition(res, corpus):
     # diversity: 3 random phases differ; the deterministic anchors have none
     assert np.all(res.values("wobble", "diversity") > 0.3)
     assert len(res.values("still", "diversity")) == 0
+    # GENEA-style pooled histograms: the shift keeps every speed but the wrap-around frame; the
+    # wobble's constant-amplitude sine has a speed histogram of its own
+    assert res.values("shifted", "speed_hellinger_pooled")[0] < 0.05
+    assert res.values("still", "speed_hellinger_pooled")[0] > 0.9  # every frame in the lowest bin
+    assert res.values("wobble", "speed_hellinger_pooled")[0] > 0.3
     # pooled coupling rows, one per condition
     p = [r for r in res.rows if r["recording"] == "ALL" and r["metric"] == "fcca_p_pooled"]
     assert {r["system"] for r in p} == {"ground-truth", "energy", "wobble", "desync", "shifted", "still"}

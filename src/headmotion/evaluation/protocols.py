@@ -483,6 +483,27 @@ def _samples(task: FoldTask, model, name: str, rec, first: np.ndarray) -> list[n
     return out
 
 
+def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references: dict[str, Motion]) -> list[dict]:
+    """Per condition, recording ``ALL``: Hellinger distance of the speed and acceleration
+    histograms pooled over every held-out recording (``speed_hellinger_pooled``,
+    ``accel_hellinger_pooled``) — the GENEA numerical evaluations' form, one histogram per
+    condition over the whole test set — next to the per-recording medians."""
+    from . import realism as R
+
+    out = []
+    for cond, d in motions.items():
+        rids = [rid for rid in d if rid in references]
+        if not rids:
+            continue
+        vals = {}
+        for name, fn in (("speed", R.speed), ("accel", R.acceleration)):
+            ref = np.concatenate([fn(references[r]) for r in rids])
+            cand = np.concatenate([fn(Motion(np.asarray(d[r], dtype=float), float(references[r].fps))) for r in rids])
+            vals[f"{name}_hellinger_pooled"] = R.hellinger_values(ref, cand)
+        out += _rows(cond, "ALL", vals)
+    return out
+
+
 def pooled_rows(rows: list[dict], systems: Sequence[str]) -> list[dict]:
     """Per system, recording ``ALL``: mean FCCA / local-FCCA excess over the held-out recordings and
     the Stouffer-combined p-value of their circular-shift tests."""
@@ -718,6 +739,8 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         rows += _fig48_rows(gt)
     rows += pooled_rows(rows, [GROUND_TRUTH] + [n for n, _ in specs])
     recs = [rid for rid in corpus.ids if rid in gt]
+    if motions:
+        rows += pooled_histogram_rows(motions, {r.id: r.motion for r in corpus if r.id in gt})
     fps = gt[trajectory_recording][3] if trajectory_recording in gt else 100.0
     timings["total_wall"] = time.perf_counter() - t_start
     fs_names = [feature_set_name(f) for f in feature_sets]
@@ -734,4 +757,4 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
 
 
 __all__ = ["evaluate", "EvaluationResult", "FoldTask", "make_folds", "run_fold", "score_recording", "GROUND_TRUTH",
-           "speaker_groups", "pooled_rows"]
+           "speaker_groups", "pooled_rows", "pooled_histogram_rows"]

@@ -147,7 +147,6 @@ from ..errors import ParameterError
 from ..motion.control import mean_pose_of
 from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, FeatureTrack, Motion
-from ..motion.pauses import DEFAULT_IDLE
 from . import dnn_post
 from .base import EMBEDDING, STREAMING, Synthesizer
 from .dnn_stream import DnnPostStages, DnnStream, frame_energy_db
@@ -159,7 +158,12 @@ DEFAULT_DRIFT_SHARE = 0.15
 #: its time constant (s)
 DEFAULT_DRIFT_TAU_S = 4.0
 #: parameters that switch every addition to the paper off (the paper's protocols use them)
-PAPER_PARAMS = {"variance_restore": False, "drift_share": 0.0, "idle": None}
+PAPER_PARAMS = {"variance_restore": False, "drift_share": 0.0, "idle": None, "speed_shaping": False}
+#: the speed shaper's window (s) and follow time (s) (:class:`~headmotion.systems.dnn_post.SpeedShaper`)
+SHAPING_LAG_S = 0.04
+SHAPING_FOLLOW_S = 0.25
+#: product default idle level in pauses for the DNN systems
+DNN_IDLE = 0.45
 
 
 def _clean_json(x):
@@ -234,8 +238,9 @@ class _DnnSystem(Synthesizer):
                  cca_batch_size: int = 1000, cca_reg: float = 1e-3, learning_rate: float = 2e-4,
                  max_epochs: int = 30, ae_max_epochs: int = 60, pretrain_epochs: int = 3, patience: int = 4,
                  valid_fraction: float = 0.15, holdout_test: bool = True, random_state: int = 0,
-                 n_threads: int | None = 1, variance_restore: bool = True, drift_share: float = DEFAULT_DRIFT_SHARE,
-                 drift_tau_s: float = DEFAULT_DRIFT_TAU_S, idle: float | None = DEFAULT_IDLE, seed: int | None = 0):
+                 n_threads: int | None = 1, variance_restore: bool = True, restore_bands: bool = True,
+                 drift_share: float = DEFAULT_DRIFT_SHARE, drift_tau_s: float = DEFAULT_DRIFT_TAU_S,
+                 speed_shaping: bool = True, idle: float | None = DNN_IDLE, seed: int | None = 0):
         self.features = features
         self.feature_params = feature_params
         self.alpha = alpha
@@ -264,8 +269,10 @@ class _DnnSystem(Synthesizer):
         self.random_state = random_state
         self.n_threads = n_threads
         self.variance_restore = variance_restore
+        self.restore_bands = restore_bands
         self.drift_share = drift_share
         self.drift_tau_s = drift_tau_s
+        self.speed_shaping = speed_shaping
         self.idle = idle
         self.seed = seed
 
@@ -326,9 +333,10 @@ class _DnnSystem(Synthesizer):
         if self.ae_activation not in ("relu", "tanh", "sigmoid"):
             raise ParameterError(
                 f"the 'ae_activation' parameter of {self.name} must be 'relu', 'tanh' or 'sigmoid'; got {self.ae_activation!r}")
-        if not isinstance(self.variance_restore, (bool, np.bool_)):
-            raise ParameterError(
-                f"the 'variance_restore' parameter of {self.name} must be True or False; got {self.variance_restore!r}")
+        for n in ("variance_restore", "restore_bands", "speed_shaping"):
+            if not isinstance(getattr(self, n), (bool, np.bool_)):
+                raise ParameterError(
+                    f"the {n!r} parameter of {self.name} must be True or False; got {getattr(self, n)!r}")
         v = self.drift_share
         if isinstance(v, bool) or not (isinstance(v, (int, float)) and 0 <= v < 1):
             raise ParameterError(f"the 'drift_share' parameter of {self.name} must be a number in [0, 1); got {v!r}")
@@ -437,6 +445,9 @@ class _DnnSystem(Synthesizer):
             raw = [self._network_output(p.r, reg, pf) for p in train]
         self.motion_sd_ = dnn_post.within_sd([p.y for p in train])
         self.gv_ = dnn_post.gv_ratio(raw, [p.y for p in train])
+        self.band_gains_ = dnn_post.band_gains(raw, [p.y for p in train], fps=float(self.model_fps))
+        self.motion_norm_ = mot_norm
+        self.speed_map_ = self._fit_speed_map(raw, [p.y for p in train])
         self.feature_config_ = config
         self.input_dim_ = int(train[0].feats.shape[1])
         self.feature_norm_ = feat_norm
@@ -590,19 +601,30 @@ class _DnnSystem(Synthesizer):
             x = np.asarray(self.embedding_norm_.transform(self._embed_values(x)), dtype=np.float32)
         return self._network_output(x, self.regressor_, self.postfilter_)
 
+    def _fit_speed_map(self, raw, targets) -> np.ndarray:
+        """The speed shaper's quantile map: the post stage's output (variance restoration and
+        drift as the parameters say, recording k drawn with seed k; no pauses) on the training
+        recordings against their motion, both as rotation vectors at the model rate."""
+        pred, targ = [], []
+        lag = self.shaping_lag
+        for k, (y, t) in enumerate(zip(raw, targets)):
+            z = DnnPostStages.make_post(self, k).push(np.asarray(y, dtype=np.float64))
+            pred.append(np.asarray(self.motion_norm_.inverse_transform(z), dtype=np.float64))
+            targ.append(np.asarray(self.motion_norm_.inverse_transform(t), dtype=np.float64))
+        return dnn_post.speed_map(pred, targ, lag=lag)
+
+    @property
+    def shaping_lag(self) -> int:
+        """The speed shaper's window in frames (:data:`SHAPING_LAG_S` at the model rate)."""
+        return max(1, int(round(SHAPING_LAG_S * float(self.model_fps))))
+
     def _predict_values(self, feats: np.ndarray, *, seed: int | None = None, post: bool = True) -> np.ndarray:
         """Model-rate features ``(T, D)`` → rotation vectors ``(T, 3)`` at the model rate; with
         ``post``, variance restoration and posture drift as the parameters say (no pauses)."""
         y = self._network_values(feats)
         if post:
-            y = self._post(y, seed)
+            return DnnPostStages(self, seed).push(np.asarray(y, dtype=np.float64), None)
         return np.asarray(self.motion_norm_.inverse_transform(y), dtype=np.float64)
-
-    def _post(self, y: np.ndarray, seed: int | None) -> np.ndarray:
-        """Variance restoration and posture drift about the running mean
-        (:class:`~headmotion.systems.dnn_post.CausalPost`) on normalised network output (the
-        values unchanged when both are off)."""
-        return DnnPostStages(self, seed).post.push(y)
 
     def predict_features(self, features: FeatureTrack, *, seed: int | None = None) -> Motion:
         """Head motion from an already extracted feature track at the model frame rate
@@ -710,6 +732,10 @@ class _DnnSystem(Synthesizer):
         arrays.update(self.motion_norm_.to_arrays("motion_norm"))
         arrays["gv"] = np.asarray(self.gv_, dtype=np.float64)
         arrays["motion_sd"] = np.asarray(self.motion_sd_, dtype=np.float64)
+        if self.band_gains_ is not None:
+            arrays["band_gains"] = np.asarray(self.band_gains_, dtype=np.float64)
+        if self.speed_map_ is not None:
+            arrays["speed_map"] = np.asarray(self.speed_map_, dtype=np.float64)
         if self.embedding_norm_ is not None:
             arrays.update(self.embedding_norm_.to_arrays("embedding_norm"))
         if self.autoencoder_ is not None:
@@ -731,6 +757,8 @@ class _DnnSystem(Synthesizer):
         defaults = {k: p.default for k, p in inspect.signature(type(self).__init__).parameters.items()}
         if "variance_restore" not in params:  # files written before these options: the paper's output
             params.update(PAPER_PARAMS)
+        if "speed_shaping" not in params:  # files written before the band restoration and the shaper
+            params.update(restore_bands=False, speed_shaping=False)
         for k in self._param_names():
             v = params.get(k, defaults[k])
             setattr(self, k, tuple(v) if k.endswith("hidden") and v is not None else v)
@@ -746,6 +774,8 @@ class _DnnSystem(Synthesizer):
         self.motion_norm_ = Normalizer.from_arrays(arrays, "motion_norm")
         self.gv_ = np.asarray(arrays["gv"], dtype=np.float64) if "gv" in arrays else np.ones(3)
         self.motion_sd_ = np.asarray(arrays["motion_sd"], dtype=np.float64) if "motion_sd" in arrays else np.ones(3)
+        self.band_gains_ = np.asarray(arrays["band_gains"], dtype=np.float64) if "band_gains" in arrays else None
+        self.speed_map_ = np.asarray(arrays["speed_map"], dtype=np.float64) if "speed_map" in arrays else None
         self.embedding_norm_ = None
         self.autoencoder_ = None
         in_dim = self.input_dim_
@@ -820,4 +850,5 @@ class WavDnnSystem(_DnnSystem):
 
 
 __all__ = ["CccaeSystem", "AeDnnSystem", "MfccDnnSystem", "FbankDnnSystem", "F0eDnnSystem", "WavDnnSystem",
-           "MODEL_FPS", "PAPER_PARAMS", "DEFAULT_DRIFT_SHARE", "DEFAULT_DRIFT_TAU_S"]
+           "MODEL_FPS", "PAPER_PARAMS", "DEFAULT_DRIFT_SHARE", "DEFAULT_DRIFT_TAU_S", "DNN_IDLE",
+           "SHAPING_LAG_S", "SHAPING_FOLLOW_S"]

@@ -119,14 +119,14 @@ class DnnPostStages:
         from .tws.speech import SpeechDetector
 
         fps = float(system.model_fps)
-        rng = None
-        share = float(system.drift_share)
-        if share > 0:
-            s = system.seed if seed is None else seed
-            rng = np.random.default_rng(None if s is None else int(s))
         self.system = system
-        self.post = dnn_post.CausalPost(gv=system.gv_ if system.variance_restore else None, share=share,
-                                        sd=system.motion_sd_, fps=fps, tau_s=float(system.drift_tau_s), rng=rng)
+        self.post = self.make_post(system, seed)
+        table = getattr(system, "speed_map_", None)
+        self.shaper = None
+        if system.speed_shaping and table is not None:
+            from .dnn import SHAPING_FOLLOW_S
+
+            self.shaper = dnn_post.SpeedShaper(table, fps=fps, follow_s=SHAPING_FOLLOW_S, lag=system.shaping_lag)
         idle = system.idle
         self.settle = idle is not None and float(idle) < 1.0
         if self.settle:
@@ -136,14 +136,36 @@ class DnnPostStages:
             self.settler = PauseSettler(fps=fps, idle=float(idle),
                                         mean_pose=np.asarray(system.motion_norm_.mean_, dtype=np.float64))
 
+    @staticmethod
+    def make_post(system, seed: int | None):
+        """The variance-restoring and drift stage of ``system`` (:class:`~headmotion.systems.
+        dnn_post.CausalPost`): per-band gains when ``restore_bands`` and the model has them, else
+        the global ratio; drift seeded with ``seed`` (default: the system's ``seed``)."""
+        from . import dnn_post
+
+        rng = None
+        share = float(system.drift_share)
+        if share > 0:
+            s = system.seed if seed is None else seed
+            rng = np.random.default_rng(None if s is None else int(s))
+        bands = getattr(system, "band_gains_", None)
+        use_bands = bool(system.variance_restore and system.restore_bands and bands is not None)
+        return dnn_post.CausalPost(gv=system.gv_ if system.variance_restore and not use_bands else None,
+                                   band_gains=bands if use_bands else None, share=share, sd=system.motion_sd_,
+                                   fps=float(system.model_fps), tau_s=float(system.drift_tau_s), rng=rng)
+
     @property
     def needs_energy(self) -> bool:
         return self.settle
 
     def push(self, y: np.ndarray, energy_db: np.ndarray | None) -> np.ndarray:
+        """Normalised network output ``(n, 3)`` → rotation vectors; pauses only when
+        ``energy_db`` is given."""
         z = self.post.push(y)
         rv = np.asarray(self.system.motion_norm_.inverse_transform(z), dtype=np.float64)
-        if self.settle and len(rv):
+        if self.shaper is not None and len(rv):
+            rv = self.shaper.push(rv)
+        if self.settle and energy_db is not None and len(rv):
             flags = self.tracker.push(np.asarray(energy_db, dtype=np.float64)[:, None])
             rv = self.settler.push(rv, self.weight.push(flags))
         return rv

@@ -1,0 +1,213 @@
+"""Post-stage sweep for the default system (mfcc-dnn) on held-out speakers of the video corpus
+(issue 14, third session): the network is trained once per fold (3 speaker-disjoint folds, the
+same folds as ``headmotion evaluate --protocol speakers --speaker-folds 3 --seed 0``), its raw
+normalised output cached, and post stages are compared on the same output, 4 synthesis seeds.
+
+    PYTHONPATH=src nice python scripts/diagnosis_i14/dnn_band_sweep.py [--variants a,b] [--seeds 4]
+
+Prints one line per variant: band shares, L1, SD ratios, H speed (per recording median and
+pooled over the corpus, GENEA-style), LC, pause ratio, diversity, pooled FCCA p per seed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pickle
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from realism_report import at_rate, context, rows_for  # noqa: E402
+
+from headmotion.corpus import Corpus  # noqa: E402
+from headmotion.evaluation import realism as R  # noqa: E402
+from headmotion.evaluation.protocols import make_folds  # noqa: E402
+from headmotion.systems import create, load_model  # noqa: E402
+from headmotion.systems import dnn_post  # noqa: E402
+from headmotion.systems.dnn_stream import DnnPostStages  # noqa: E402
+from headmotion.types import Motion  # noqa: E402
+
+HOME = Path.home() / ".cache/headmotion/i14_band"
+
+
+def corpus():
+    c = Corpus.load(Path.home() / ".cache/headmotion/corpus/talking_video")
+    c = c.subset([i for i, r in enumerate(c) if not r.id.startswith("mead_lrs3")])
+    return c.subset([i for i, r in enumerate(c) if r.duration >= 4.0])
+
+
+def fold_data():
+    """Per fold: model path, train (raw y, motion y) and test (recording, raw y, energy)."""
+    f = HOME / "folds.pkl"
+    if f.exists():
+        return pickle.loads(f.read_bytes())
+    from headmotion.systems.dnn import _n_frames
+    from headmotion.systems.dnn_stream import frame_energy_db
+    from headmotion.io.audio import resample
+
+    HOME.mkdir(parents=True, exist_ok=True)
+    out = []
+    for k, (name, train, test, _) in enumerate(make_folds(corpus(), "speakers", seed=0, speaker_folds=3)):
+        mp = HOME / f"fold{k}.hmz"
+        if mp.exists():
+            model = load_model(mp)
+        else:
+            t = time.time()
+            model = create("mfcc-dnn").fit(train)
+            model.save(mp)
+            print(f"fold {k} ({name}) fitted in {time.time() - t:.0f} s", flush=True)
+
+        def raw(audio):
+            T = _n_frames(len(audio.samples), audio.sample_rate, 100.0)
+            return np.asarray(model._network_values(model._extract(audio, T)), dtype=np.float64), T
+
+        tr = []
+        for r in train:
+            y, T = raw(r.audio)
+            m = r.motion.resample(100.0) if abs(r.motion.fps - 100) > 1e-9 else r.motion
+            rv = np.asarray(m.rotvec)[:T]
+            if len(rv) < T:
+                rv = np.vstack([rv, np.repeat(rv[-1:], T - len(rv), 0)])
+            tr.append((y, np.asarray(model.motion_norm_.transform(rv), dtype=np.float64)))
+        te = []
+        for r in test:
+            y, T = raw(r.audio)
+            x = r.audio.samples
+            if r.audio.sample_rate != int(model.sample_rate_):
+                x = resample(x, r.audio.sample_rate, int(model.sample_rate_))
+            e = frame_energy_db(x, sample_rate=int(model.sample_rate_), fps=100.0, n_frames=T)
+            te.append((r.id, y, e))
+        out.append({"model": str(mp), "train": tr, "test": te})
+    f.write_bytes(pickle.dumps(out))
+    return out
+
+
+# -- variants -------------------------------------------------------------------------------------
+def current(model, fold, share=0.15, tau=4.0):
+    return dict(kind="gv", share=share, tau=tau)
+
+
+def synth(model, y, e, seed, spec, bank=None, table=None):
+    """Post stages of ``spec`` on normalised raw output ``y`` → rotvec at 100 fps."""
+    stages = DnnPostStages(model, seed)
+    share, tau = spec.get("share", 0.15), spec.get("tau", 4.0)
+    rng = np.random.default_rng(seed) if share > 0 else None
+    if spec["kind"] == "gv":
+        stages.post = dnn_post.CausalPost(gv=model.gv_, share=share, sd=model.motion_sd_, fps=100.0, tau_s=tau,
+                                          rng=rng)
+    else:
+        stages.post = dnn_post.CausalPost(band_gains=bank, share=share, sd=model.motion_sd_, fps=100.0,
+                                          tau_s=tau, rng=rng)
+    if spec.get("idle") is not None:
+        stages.settler.idle = spec["idle"]
+    if table is None:
+        return stages.push(y, e)
+    z = stages.post.push(y)
+    rv = np.asarray(model.motion_norm_.inverse_transform(z), dtype=np.float64)
+    rv = dnn_post.SpeedShaper(table, fps=100.0, follow_s=spec.get("follow", 0.5), lag=spec.get("lag", 1),
+                              power=spec.get("power", 1.0)).push(rv)
+    flags = stages.tracker.push(np.asarray(e, dtype=np.float64)[:, None])
+    return stages.settler.push(rv, stages.weight.push(flags))
+
+
+def shaping_table(model, fd, spec, bank):
+    """Speed map from the post output on the training recordings (no pauses) to their motion."""
+    pred, targ = [], []
+    for k, (y, m) in enumerate(fd["train"]):
+        sp = {**spec, "shape": False}
+        st = DnnPostStages(model, k)
+        share = sp.get("share", 0.15)
+        rng = np.random.default_rng(k) if share > 0 else None
+        if sp["kind"] == "gv":
+            post = dnn_post.CausalPost(gv=model.gv_, share=share, sd=model.motion_sd_, fps=100.0,
+                                       tau_s=sp.get("tau", 4.0), rng=rng)
+        else:
+            post = dnn_post.CausalPost(band_gains=bank, share=share, sd=model.motion_sd_, fps=100.0,
+                                       tau_s=sp.get("tau", 4.0), rng=rng)
+        del st
+        pred.append(np.asarray(model.motion_norm_.inverse_transform(post.push(y)), dtype=np.float64))
+        targ.append(np.asarray(model.motion_norm_.inverse_transform(m), dtype=np.float64))
+    return dnn_post.speed_map(pred, targ, lag=spec.get("lag", 1))
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--variants", default="cur")
+    ap.add_argument("--seeds", type=int, default=4)
+    ap.add_argument("--shifts", type=int, default=100)
+    a = ap.parse_args()
+    folds = fold_data()
+    recs = {r.id: r for r in corpus()}
+    ctx: dict = {}
+    specs = {
+        "cur": dict(kind="gv", share=0.15, tau=4.0),
+        "gv0": dict(kind="gv", share=0.0),
+        "band": dict(kind="band", share=0.15, tau=4.0),
+        "band0": dict(kind="band", share=0.0),
+        "bshape": dict(kind="band", share=0.15, tau=4.0, shape=True),
+        "bshape1": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=1.0),
+        "bshape25": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25),
+        "bsl4": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=4),
+        "bsl4p2": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=4, power=2.0),
+        "bsl8": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=8),
+        "bsl4f5": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.5, lag=4),
+        "bsl4r0": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=4, reserve=0.0),
+        "bsl4t8": dict(kind="band", share=0.15, tau=8.0, shape=True, follow=0.25, lag=4),
+        "bsl4s2": dict(kind="band", share=0.2, tau=4.0, shape=True, follow=0.25, lag=4),
+        "bsl6": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=6),
+        "r0i5": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=4, reserve=0.0, idle=0.5),
+        "r0i6": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=4, reserve=0.0, idle=0.6),
+        "r0l6i5": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=6, reserve=0.0, idle=0.5),
+        "r0s2i5": dict(kind="band", share=0.2, tau=4.0, shape=True, follow=0.25, lag=4, reserve=0.0, idle=0.5),
+        "r0i45": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=4, reserve=0.0, idle=0.45),
+        "q_f15": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.15, lag=4, reserve=0.0, idle=0.45),
+        "q_p13": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=4, reserve=0.0, idle=0.45, power=1.3),
+        "q_l3": dict(kind="band", share=0.15, tau=4.0, shape=True, follow=0.25, lag=3, reserve=0.0, idle=0.45),
+        "gshape": dict(kind="gv", share=0.15, tau=4.0, shape=True),
+        "band25": dict(kind="band", share=0.25, tau=4.0),
+        "band25_2": dict(kind="band", share=0.25, tau=2.0),
+        "band_cap3": dict(kind="band", share=0.15, tau=4.0, cap=3.0),
+        "band_cap10": dict(kind="band", share=0.15, tau=4.0, cap=10.0),
+    }
+    for v in a.variants.split(","):
+        spec = specs[v]
+        t0 = time.time()
+        ids, refs, first, samples = [], [], [], []
+        for fd in folds:
+            model = load_model(fd["model"])
+            bank = None
+            if spec["kind"] == "band":
+                bank = dnn_post.band_gains([y for y, _ in fd["train"]], [m for _, m in fd["train"]],
+                                           fps=100.0, share=spec.get("reserve", spec.get("share", 0.0)), cap=spec.get("cap", dnn_post.BAND_CAP))
+            table = shaping_table(model, fd, spec, bank) if spec.get("shape") else None
+            for rid, y, e in fd["test"]:
+                r = recs[rid]
+                outs = [at_rate(Motion(synth(model, y, e, s, spec, bank, table), 100.0), r.motion.fps, len(r.motion))
+                        for s in range(a.seeds)]
+                ids.append(rid)
+                refs.append(r)
+                first.append(outs[0])
+                samples.append(outs)
+        rows = rows_for(v, refs, first, ctx, samples=samples if a.seeds > 1 else None, n_shifts=a.shifts)
+        s = rows[-1]
+        # pooled speed Hellinger (GENEA: histograms over the whole test set)
+        sp_r = np.concatenate([R.speed(r.motion) for r in refs])
+        sp_c = np.concatenate([R.speed(Motion(m, r.motion.fps)) for m, r in zip(first, refs)])
+        hp = R.hellinger_values(sp_r, sp_c)
+        ps = []
+        for sd in range(1, a.seeds):
+            rr = rows_for(v, refs, [x[sd] for x in samples], ctx, n_shifts=a.shifts)
+            ps.append(rr[-1]["fcca_p_pooled"])
+        print(f"{v:10s} 1.5-4={s['band_1.5_4']:.3f} <0.5={s['band_0_0.5']:.2f} L1={s['spectral_l1']:.2f} "
+              f"SD={s['sd_ratio_pitch']:.2f}/{s['sd_ratio_yaw']:.2f}/{s['sd_ratio_roll']:.2f} "
+              f"Hs={s['speed_hellinger']:.2f} Hpool={hp:.3f} LC={s['limit_cycle']:.2f} pause={s['pause_ratio']:.2f} "
+              f"div={s.get('diversity', float('nan')):.2f} FCCAx={s['fcca_excess']:+.3f} "
+              f"p={s['fcca_p_pooled']:.3f} " + " ".join(f"{p:.3f}" for p in ps)
+              + f" lccax={s['lcca_excess']:+.3f} p={s['lcca_p_pooled']:.3f}  ({time.time() - t0:.0f} s)", flush=True)
+
+
+if __name__ == "__main__":
+    main()

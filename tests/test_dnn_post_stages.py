@@ -1,0 +1,74 @@
+"""Known answers for the DNN post stages that need no network (issue 14, third session): the causal
+band split, the per-band gains, the speed map and the speed shaper."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from headmotion.systems import dnn_post
+
+FPS = 100.0
+
+
+def sine(f_hz: float, seconds: float = 60.0, amp: float = 1.0) -> np.ndarray:
+    t = np.arange(int(seconds * FPS)) / FPS
+    return amp * np.sin(2 * np.pi * f_hz * t)[:, None] * np.ones(3)
+
+
+def test_band_split_sums_to_its_input_and_is_chunking_invariant():
+    x = np.random.default_rng(0).standard_normal((1500, 3))
+    whole = dnn_post.BandSplit(fps=FPS, dims=3).push(x)
+    np.testing.assert_allclose(whole.sum(axis=1), x, atol=1e-12)
+    split = dnn_post.BandSplit(fps=FPS, dims=3)
+    parts = np.concatenate([split.push(x[a:b]) for a, b in ((0, 1), (1, 137), (137, 1500))])
+    np.testing.assert_array_equal(parts, whole)
+
+
+@pytest.mark.parametrize("f_hz, band, share", [(0.1, 0, 0.9), (0.7, 1, 0.55), (1.8, 2, 0.55), (7.0, 3, 0.9)])
+def test_a_sinusoid_lands_mostly_in_its_band(f_hz, band, share):
+    # causal complementary bands are soft (a low-pass's phase lag leaks into the rest): a
+    # sinusoid inside a band puts most, not all, of its power there
+    bands = dnn_post.BandSplit(fps=FPS, dims=3).push(sine(f_hz))[1000:]
+    power = (bands ** 2).mean(axis=(0, 2))
+    assert power.argmax() == band
+    assert power[band] / power.sum() > share
+
+
+def test_band_gains_of_a_scaled_copy_and_the_drift_reserve():
+    rng = np.random.default_rng(1)
+    pred = [rng.standard_normal((2000, 3)) for _ in range(3)]
+    g = dnn_post.band_gains(pred, [2.0 * p + 3.0 for p in pred], fps=FPS)
+    np.testing.assert_allclose(g, 2.0, rtol=1e-9)
+    np.testing.assert_allclose(dnn_post.band_gains(pred, pred, fps=FPS), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(dnn_post.band_gains([1e-4 * p for p in pred], pred, fps=FPS), dnn_post.BAND_CAP)
+    reserved = dnn_post.band_gains(pred, pred, fps=FPS, share=0.5)
+    assert np.all(reserved[0] < 1.0) and np.allclose(reserved[1:], 1.0)
+
+
+def test_causal_post_with_unit_band_gains_is_the_identity_about_the_running_mean():
+    y = np.random.default_rng(2).standard_normal((800, 3)) + 4.0
+    out = dnn_post.CausalPost(band_gains=np.ones((4, 3)), fps=FPS).push(y)
+    np.testing.assert_allclose(out, y, atol=1e-12)
+
+
+def test_speed_map_of_one_set_is_the_identity_and_speeds_over_a_lag():
+    x = np.cumsum(np.random.default_rng(3).standard_normal((3000, 3)), axis=0)
+    t = dnn_post.speed_map([x], [x])
+    np.testing.assert_allclose(t[0], t[1], atol=1e-9)
+    line = np.arange(10.0)[:, None] * np.array([[3.0, 4.0, 0.0]])  # speed 5 per frame
+    np.testing.assert_allclose(dnn_post.speeds(line, 4)[4:], 5.0)
+
+
+def test_speed_shaper_identity_halving_and_chunking():
+    x = sine(2.0, 20.0, amp=0.1)
+    ident = np.stack([np.linspace(0, 1, 11)] * 2)
+    np.testing.assert_allclose(dnn_post.SpeedShaper(ident, fps=FPS).push(x), x, atol=1e-12)
+    half = np.stack([np.linspace(0, 1, 11), 0.5 * np.linspace(0, 1, 11)])
+    sh = dnn_post.SpeedShaper(half, fps=FPS, follow_s=2.0, lag=4)
+    out = sh.push(x)
+    # every increment halved, a slow leak back onto the path: the 2 Hz swing is about half as large
+    assert out[500:].std() / x[500:].std() == pytest.approx(0.5, abs=0.06)
+    sh2 = dnn_post.SpeedShaper(half, fps=FPS, follow_s=2.0, lag=4)
+    parts = np.concatenate([sh2.push(x[a:b]) for a, b in ((0, 2), (2, 333), (333, len(x)))])
+    np.testing.assert_array_equal(parts, out)
