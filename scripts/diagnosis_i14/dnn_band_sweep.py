@@ -133,6 +133,41 @@ def shaping_table(model, fd, spec, bank):
     return dnn_post.speed_map(pred, targ, lag=spec.get("lag", 1))
 
 
+def product(tag, recs, ctx, a):
+    """The product code end to end: fold models fitted by this checkout (``prod:zero`` random_state 0,
+    ``prod:eval`` the training seeds ``headmotion evaluate --seed 0`` uses), ``predict`` per seed."""
+    from headmotion.evaluation.protocols import _sub_seed
+
+    t0 = time.time()
+    which = tag.split(":")[1]
+    refs, first, samples = [], [], []
+    for k, (name, train, test, _) in enumerate(make_folds(corpus(), "speakers", seed=0, speaker_folds=3)):
+        rs = 0 if which == "zero" else _sub_seed(0, name, "mfcc-dnn")
+        model = create("mfcc-dnn", random_state=rs).fit(train)
+        for r in test:
+            outs = [at_rate(model.predict(r.audio, seed=s), r.motion.fps, len(r.motion)) for s in range(a.seeds)]
+            refs.append(recs[r.id])
+            first.append(outs[0])
+            samples.append(outs)
+    report(tag, refs, first, samples, ctx, a, t0)
+
+
+def report(v, refs, first, samples, ctx, a, t0):
+    rows = rows_for(v, refs, first, ctx, samples=samples if a.seeds > 1 else None, n_shifts=a.shifts)
+    s = rows[-1]
+    sp_r = np.concatenate([R.speed(r.motion) for r in refs])
+    sp_c = np.concatenate([R.speed(Motion(m, r.motion.fps)) for m, r in zip(first, refs)])
+    hp = R.hellinger_values(sp_r, sp_c)
+    ps = [rows_for(v, refs, [x[sd] for x in samples], ctx, n_shifts=a.shifts)[-1]["fcca_p_pooled"]
+          for sd in range(1, a.seeds)]
+    print(f"{v:10s} 1.5-4={s['band_1.5_4']:.3f} <0.5={s['band_0_0.5']:.2f} L1={s['spectral_l1']:.2f} "
+          f"SD={s['sd_ratio_pitch']:.2f}/{s['sd_ratio_yaw']:.2f}/{s['sd_ratio_roll']:.2f} "
+          f"Hs={s['speed_hellinger']:.2f} Hpool={hp:.3f} LC={s['limit_cycle']:.2f} pause={s['pause_ratio']:.2f} "
+          f"div={s.get('diversity', float('nan')):.2f} FCCAx={s['fcca_excess']:+.3f} "
+          f"p={s['fcca_p_pooled']:.3f} " + " ".join(f"{p:.3f}" for p in ps)
+          + f" lccax={s['lcca_excess']:+.3f} p={s['lcca_p_pooled']:.3f}  ({time.time() - t0:.0f} s)", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--variants", default="cur")
@@ -173,6 +208,9 @@ def main():
         "band_cap10": dict(kind="band", share=0.15, tau=4.0, cap=10.0),
     }
     for v in a.variants.split(","):
+        if v.startswith("prod"):
+            product(v, recs, ctx, a)
+            continue
         spec = specs[v]
         t0 = time.time()
         ids, refs, first, samples = [], [], [], []

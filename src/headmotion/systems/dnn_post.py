@@ -135,28 +135,35 @@ class BandSplit:
         return out
 
 
-def band_variance(arrays, *, fps: float) -> np.ndarray:
+def _starts(arrays, starts) -> list[int]:
+    return [0] * len(arrays) if starts is None else [int(s) for s in starts]
+
+
+def band_variance(arrays, *, fps: float, starts=None) -> np.ndarray:
     """Variance per band and axis ``(B, D)`` of a list of ``(T, D)`` arrays, each split about its
-    own mean by a fresh :class:`BandSplit` (pooled over all frames)."""
-    arrs = [np.asarray(a, dtype=np.float64) for a in arrays if len(a)]
-    if not arrs:
-        raise ValueError("band_variance needs at least one non-empty array")
-    D = arrs[0].shape[1]
+    own mean by a fresh :class:`BandSplit`, pooled over the frames from ``starts[i]`` on (default:
+    all frames; the split runs over the whole array either way)."""
+    pairs = [(np.asarray(a, dtype=np.float64), s) for a, s in zip(arrays, _starts(arrays, starts))]
+    pairs = [(a, s) for a, s in pairs if len(a) > s]
+    if not pairs:
+        raise ValueError("band_variance needs at least one array with frames to count")
+    D = pairs[0][0].shape[1]
     ss, n = 0.0, 0
-    for a in arrs:
-        bands = BandSplit(fps=fps, dims=D).push(a - a.mean(axis=0))
+    for a, s in pairs:
+        bands = BandSplit(fps=fps, dims=D).push(a - a.mean(axis=0))[s:]
         ss = ss + (bands ** 2).sum(axis=0)
-        n += len(a)
+        n += len(bands)
     return ss / n
 
 
-def band_gains(predicted, target, *, fps: float, share: float = 0.0, cap: float = BAND_CAP) -> np.ndarray:
-    """Per-band, per-axis gains ``(B, D)`` that give the network output (``predicted``, training
-    recordings) the modulation spectrum of the training motion (``target``):
-    ``sqrt(var_target / var_predicted)`` per band, at most ``cap``.  With posture drift of
-    ``share`` (an OU process whose power lies almost entirely in the lowest band), the lowest band's
-    target is reduced by the drift's variance (to no less than a tenth of itself)."""
-    vp, vt = band_variance(predicted, fps=fps), band_variance(target, fps=fps)
+def band_gains(predicted, target, *, fps: float, share: float = 0.0, cap: float = BAND_CAP,
+               starts=None) -> np.ndarray:
+    """Per-band, per-axis gains ``(B, D)`` that give the network output (``predicted``) the
+    modulation spectrum of the motion (``target``): ``sqrt(var_target / var_predicted)`` per band
+    (:func:`band_variance`, over the frames from ``starts`` on), at most ``cap``.  With posture
+    drift of ``share`` (an OU process whose power lies almost entirely in the lowest band), the
+    lowest band's target is reduced by the drift's variance (to no less than a tenth of itself)."""
+    vp, vt = band_variance(predicted, fps=fps, starts=starts), band_variance(target, fps=fps, starts=starts)
     if share > 0:
         total = within_sd(target) ** 2
         vt = vt.copy()
@@ -180,12 +187,15 @@ def speeds(rv: np.ndarray, lag: int = 1) -> np.ndarray:
     return np.linalg.norm(rv - prev, axis=1) / lag
 
 
-def speed_map(predicted, target, *, lag: int = 1, quantiles=SPEED_QUANTILES) -> np.ndarray:
+def speed_map(predicted, target, *, lag: int = 1, quantiles=SPEED_QUANTILES, starts=None) -> np.ndarray:
     """``(2, Q)`` table mapping the predicted motion's speed quantiles (row 0) to the target
     motion's (row 1), pooled over the lists of ``(T, D)`` arrays (quantile mapping); speeds over
-    ``lag`` frames (:func:`speeds`)."""
-    sp = np.concatenate([speeds(a, lag)[lag:] for a in predicted if len(a) > lag])
-    st = np.concatenate([speeds(a, lag)[lag:] for a in target if len(a) > lag])
+    ``lag`` frames (:func:`speeds`), counted from frame ``max(lag, starts[i])`` on."""
+    st0 = _starts(predicted, starts)
+    sp = np.concatenate([speeds(a, lag)[max(lag, s):] for a, s in zip(predicted, st0)])
+    st = np.concatenate([speeds(a, lag)[max(lag, s):] for a, s in zip(target, st0)])
+    if len(sp) < 2 or len(st) < 2:
+        raise ValueError("speed_map needs at least two speeds on each side")
     qp, qt = np.quantile(sp, quantiles), np.quantile(st, quantiles)
     qp = np.maximum.accumulate(qp + 1e-12 * np.arange(len(qp)))       # strictly increasing for interp
     return np.stack([qp, qt])
