@@ -108,6 +108,12 @@ def _threads(n: int | None):
             torch.set_num_threads(prev)
 
 
+#: pull (1/s) towards the training mean pose inside pauses for the product post stage (with the
+#: speed shaper): the restored slow band can leave the head far out when speech stops (the ZEGGS
+#: take ends at −31° yaw without it, −10° after 3.5 s of silence with 0.3 /s)
+PAUSE_PULL = 0.3
+
+
 class DnnPostStages:
     """Everything after the network, causal and with state: running-mean variance restoration and
     drift, then the speech detector, pause weight and settling.  ``push(y, energy_db)`` takes
@@ -133,7 +139,7 @@ class DnnPostStages:
             det = SpeechDetector(col=0, mu=0.0, sd=1.0, db_per_unit=1.0, fps=fps)
             self.tracker = det.start()
             self.weight = CausalPauseWeight(fps=fps)
-            self.settler = PauseSettler(fps=fps, idle=float(idle),
+            self.settler = PauseSettler(fps=fps, idle=float(idle), pull=PAUSE_PULL if system.speed_shaping else 0.0,
                                         mean_pose=np.asarray(system.motion_norm_.mean_, dtype=np.float64))
 
     @staticmethod
