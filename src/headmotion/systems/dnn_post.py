@@ -25,6 +25,17 @@ an MMSE regressor averages over the many head movements that fit the same speech
 All arrays here are in the model's normalised motion space (rotation-vector components, which for
 head rotations of a few degrees are pitch, yaw and roll to within a fraction of a percent).
 
+* **Modulation-spectrum restoration** (third session; the idea of the modulation-spectrum
+  post-filter of statistical parametric speech synthesis — Takamichi et al. 2016 — in a causal,
+  band-wise form): :class:`BandSplit` splits the deviations into the realism measure's bands and
+  :func:`band_gains` gives each band of each axis its own training ratio, so the slow posture band
+  is restored more than the syllable-rate band (a global ratio scales both alike, which left the
+  default with too much 1.5–4 Hz and too little < 0.5 Hz motion).
+* **Speed shaping** (third session): :class:`SpeedShaper` re-times the trajectory through the
+  quantile map of its speeds onto the training heads' (:func:`speed_map`): recorded heads hold
+  still and then move fast (speed quantiles 5/50/95 % of the video corpus: 3.6 / 16 / 56 °/s), a
+  regressor's output moves evenly (5.2 / 19 / 45 °/s after variance restoration).
+
 Causal centre (issue 16): for the DNN systems' product output (and their stream), the centre
 about which both steps scale is the **running mean** of the network output so far,
 ``c_t = mean(y_0 … y_t)`` (:class:`CausalPost`), not the utterance mean: it needs no future
