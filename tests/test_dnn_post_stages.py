@@ -56,6 +56,9 @@ def test_speed_map_of_one_set_is_the_identity_and_speeds_over_a_lag():
     x = np.cumsum(np.random.default_rng(3).standard_normal((3000, 3)), axis=0)
     t = dnn_post.speed_map([x], [x])
     np.testing.assert_allclose(t[0], t[1], atol=1e-9)
+    fast = dnn_post.speed_map([x], [3.0 * x], max_gain=None)
+    np.testing.assert_allclose(fast[1], 3.0 * fast[0], rtol=1e-6)
+    np.testing.assert_allclose(dnn_post.speed_map([x], [3.0 * x])[1], dnn_post.SPEED_MAX_GAIN * fast[0], rtol=1e-6)
     line = np.arange(10.0)[:, None] * np.array([[3.0, 4.0, 0.0]])  # speed 5 per frame
     np.testing.assert_allclose(dnn_post.speeds(line, 4)[4:], 5.0)
 

@@ -198,10 +198,18 @@ def speeds(rv: np.ndarray, lag: int = 1) -> np.ndarray:
     return np.linalg.norm(rv - prev, axis=1) / lag
 
 
-def speed_map(predicted, target, *, lag: int = 1, quantiles=SPEED_QUANTILES, starts=None) -> np.ndarray:
+#: largest speed-up of the speed map: a network's output on new speech has sharper transitions
+#: than on its training frames, and mapping them up as well gives speeds no recorded head reaches
+#: (held-out speakers: speed 99th percentile 175 °/s against 92 °/s recorded; 88 °/s with 1.2)
+SPEED_MAX_GAIN = 1.2
+
+
+def speed_map(predicted, target, *, lag: int = 1, quantiles=SPEED_QUANTILES, starts=None,
+              max_gain: float | None = SPEED_MAX_GAIN) -> np.ndarray:
     """``(2, Q)`` table mapping the predicted motion's speed quantiles (row 0) to the target
     motion's (row 1), pooled over the lists of ``(T, D)`` arrays (quantile mapping); speeds over
-    ``lag`` frames (:func:`speeds`), counted from frame ``max(lag, starts[i])`` on."""
+    ``lag`` frames (:func:`speeds`), counted from frame ``max(lag, starts[i])`` on; a speed is
+    mapped to at most ``max_gain`` times itself (None: no bound)."""
     st0 = _starts(predicted, starts)
     sp = np.concatenate([speeds(a, lag)[max(lag, s):] for a, s in zip(predicted, st0)])
     st = np.concatenate([speeds(a, lag)[max(lag, s):] for a, s in zip(target, st0)])
@@ -209,6 +217,8 @@ def speed_map(predicted, target, *, lag: int = 1, quantiles=SPEED_QUANTILES, sta
         raise ValueError("speed_map needs at least two speeds on each side")
     qp, qt = np.quantile(sp, quantiles), np.quantile(st, quantiles)
     qp = np.maximum.accumulate(qp + 1e-12 * np.arange(len(qp)))       # strictly increasing for interp
+    if max_gain is not None:
+        qt = np.minimum(qt, float(max_gain) * qp)
     return np.stack([qp, qt])
 
 
@@ -312,4 +322,4 @@ class CausalPost:
         return out
 
 
-__all__ = ["CausalPost", "SpeedShaper", "speed_map", "speeds", "SPEED_QUANTILES", "BandSplit", "band_variance", "band_gains", "BAND_EDGES_HZ", "BAND_CAP", "GV_CAP", "within_sd", "gv_ratio", "restore_variance", "ou_process", "add_drift"]
+__all__ = ["CausalPost", "SpeedShaper", "speed_map", "speeds", "SPEED_QUANTILES", "SPEED_MAX_GAIN", "BandSplit", "band_variance", "band_gains", "BAND_EDGES_HZ", "BAND_CAP", "GV_CAP", "within_sd", "gv_ratio", "restore_variance", "ou_process", "add_drift"]
