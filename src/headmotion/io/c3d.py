@@ -159,10 +159,22 @@ def _check_parameter_chain(buf: bytes, endian: str, path: Path) -> None:
             if q + 2 + ndim + abs(kind) * count > nxt:
                 raise FormatError(f"parameter record at byte {pos} declares {abs(kind) * count} bytes of data "
                                   f"that do not fit before the next record", path=path)
+            _check_description(buf, q + 2 + ndim + abs(kind) * count, nxt, pos, path)
+        elif off != 0:  # a group: its description must fit before the next record
+            _check_description(buf, off_at + 2, nxt, pos, path)
         if off == 0:
             return
         pos = nxt
     raise FormatError("the parameter section has no end record", path=path)
+
+
+def _check_description(buf: bytes, at: int, nxt: int, pos: int, path: Path) -> None:
+    """A record's description (a length byte, then that many characters) must end before the
+    next record (ezc3d reads past the record otherwise — a segmentation fault found by fuzzing)."""
+    if at + 1 > nxt or at + 1 + buf[at] > nxt:
+        n = buf[at] if at < len(buf) else 0
+        raise FormatError(f"the record at byte {pos} of the parameter section has a description of {n} "
+                          f"bytes that does not fit before the next record (byte {nxt})", path=path)
 
 
 def _get(labels, pts, names, what, path):
