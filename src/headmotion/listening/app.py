@@ -64,7 +64,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from .config import TestConfig
 from .db import ANSWER_COLUMNS, Conflict, Database, Full, NotFound, RateLimited
-from .plan import make_plan, public_trial, unblind_id
+from .plan import make_plan, unblind_id
+from .trials_api import TrialEndpoints
+from .trials_api import bad as _bad
 
 STATIC = Path(__file__).resolve().parent / "static"
 VIEWER_STATIC = Path(__file__).resolve().parents[1] / "web" / "static"
@@ -81,15 +83,6 @@ class ConsentBody(BaseModel):
 class DemographicsBody(BaseModel):
     model_config = ConfigDict(extra="forbid")
     answers: dict[str, str | int | float | None] = Field(default_factory=dict)
-
-
-class AnswerBody(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    trial_index: int
-    rating: int | None = None                     # MOS with reference (1..points)
-    ratings: dict[str, float] | None = None       # MUSHRA: slot letter -> 0..100
-    choice: str | None = None                     # A/B: left|right; attention: option
-    response_ms: float | None = Field(default=None, ge=0, le=24 * 3600 * 1000)
 
 
 CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
@@ -229,10 +222,6 @@ class SessionBody(BaseModel):
     token: str = Field(max_length=512)
 
 
-def _bad(msg: str, code: int = 422):
-    raise HTTPException(status_code=code, detail=msg)
-
-
 def create_app(cfg: TestConfig, *, database_url: str | None = None,
                admin_token: str | None = None, allowed_hosts=None, served_host: str | None = None,
                max_body: int = MAX_BODY, durable: bool = True):
@@ -360,24 +349,6 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
         except NotFound:
             raise HTTPException(status_code=404, detail="unknown participant") from None
 
-    @app.get("/api/p/{token}/state")
-    def state(token: str):
-        try:
-            p = db.progress_of(token)
-        except NotFound:
-            raise HTTPException(status_code=404, detail="unknown participant") from None
-        out: dict[str, Any] = {"stage": p["stage"],
-                               "progress": {"done": p["next_trial"], "total": p["n_trials"]}}
-        if p["stage"] == "trials" and p["next_trial"] < p["n_trials"]:
-            try:
-                out["trial"] = public_trial(p["plan"][p["next_trial"]], cfg, secret=secret,
-                                            participant=p["id"])
-            except KeyError:
-                raise HTTPException(status_code=409, detail=(
-                    "this participant's trials name stimuli that are no longer in the test "
-                    "configuration (was it edited after the test started?)")) from None
-        return out
-
     @app.post("/api/p/{token}/demographics")
     def demographics(token: str, body: DemographicsBody):
         _participant(token)
@@ -398,24 +369,6 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
             raise HTTPException(status_code=404, detail="unknown participant") from None
         except Conflict as exc:
             raise HTTPException(status_code=409, detail=str(exc)) from None
-
-    @app.post("/api/p/{token}/answer")
-    def answer(token: str, body: AnswerBody):
-        try:
-            _pid, plan = db.plan(token)
-        except NotFound:
-            raise HTTPException(status_code=404, detail="unknown participant") from None
-        if not 0 <= body.trial_index < len(plan):
-            _bad(f"trial_index must be in [0, {len(plan) - 1}]; got {body.trial_index}")
-        trial = plan[body.trial_index]
-        rows = _answer_rows(cfg, trial, body)
-        try:
-            res = db.submit(token, body.trial_index, rows)
-        except NotFound:
-            raise HTTPException(status_code=404, detail="unknown participant") from None
-        except Conflict as exc:
-            raise HTTPException(status_code=409, detail=str(exc)) from None
-        return res
 
     # -- stimuli ---------------------------------------------------------------------------
     @app.get("/stimuli/{alias}/{kind}")
@@ -498,7 +451,9 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
                         headers={"Content-Disposition":
                                  f'attachment; filename="{cfg.name}-results.csv"'})
 
-    guarded = Guard(app, allowed_hosts=hosts, max_body=max_body)
+    # the state and answer requests of every trial skip FastAPI (see trials_api)
+    trials = TrialEndpoints(app, cfg=cfg, db=db, secret=secret)
+    guarded = Guard(trials, allowed_hosts=hosts, max_body=max_body)
     guarded.state = app.state
     return guarded
 
@@ -553,46 +508,6 @@ def _check_demographics(cfg: TestConfig, given: dict[str, Any]) -> dict[str, Any
             v = str(v)[:500]
         clean[q.name] = v
     return clean
-
-
-def _answer_rows(cfg: TestConfig, trial: dict, body: AnswerBody) -> list[dict[str, Any]]:
-    """Validate an answer against its trial and turn it into rows; 422 on anything wrong."""
-    base = {"phase": trial["phase"], "kind": trial["kind"], "item": trial["item"],
-            "speaker": trial.get("speaker", ""), "grp": trial.get("group", ""),
-            "response_ms": body.response_ms}
-    kind = trial["kind"]
-    given = {k for k in ("rating", "ratings", "choice") if getattr(body, k) is not None}
-    want = {"mos": "rating", "mushra": "ratings", "ab": "choice", "attention": "choice"}[kind]
-    if given != {want}:
-        _bad(f"a {kind} trial needs exactly '{want}'; got {sorted(given) or 'nothing'}")
-    if kind == "mos":
-        r = body.rating
-        if not 1 <= r <= cfg.scale_points:
-            _bad(f"rating must be an integer in [1, {cfg.scale_points}]; got {r}")
-        s = trial["slots"][0]
-        return [{**base, "slot": s["label"], "condition": s["condition"], "value": float(r)}]
-    if kind == "mushra":
-        slots = {s["label"]: s for s in trial["slots"]}
-        if set(body.ratings) != set(slots):
-            _bad(f"ratings must give exactly the slots {sorted(slots)}; got {sorted(body.ratings)}")
-        rows = []
-        for label, v in body.ratings.items():
-            if not (math.isfinite(v) and 0 <= v <= 100):
-                _bad(f"rating of {label} must be in [0, 100]; got {v}")
-            rows.append({**base, "slot": label, "condition": slots[label]["condition"],
-                         "value": float(v)})
-        return rows
-    if kind == "ab":
-        slots = {s["label"]: s for s in trial["slots"]}
-        if body.choice not in slots:
-            _bad(f"choice must be 'left' or 'right'; got {body.choice!r}")
-        other = next(s for lab, s in slots.items() if lab != body.choice)
-        return [{**base, "slot": body.choice, "condition": slots[body.choice]["condition"],
-                 "value": 1.0, "other": other["condition"]}]
-    if body.choice not in trial["options"]:
-        _bad(f"choice must be one of {trial['options']}; got {body.choice!r}")
-    return [{**base, "slot": "choice", "condition": body.choice,
-             "value": 1.0 if body.choice == trial["answer"] else 0.0, "other": trial["answer"]}]
 
 
 def _motion_json(path: Path) -> dict[str, Any]:
