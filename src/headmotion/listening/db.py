@@ -243,31 +243,49 @@ class Database:
         ``window_s`` seconds.  The rows are written first and counted after, in one transaction
         (SQLite: the write holds the database's write lock; PostgreSQL: an advisory lock), so the
         limits hold across worker processes."""
+        kw = dict(user_agent=user_agent, stage=stage, addr=addr, max_participants=max_participants,
+                  per_address=per_address, window_s=window_s)
+        if self._writer is not None:
+            got = self._writer.run_sync(_sqlite_register_job(plan_for, **kw))
+        else:
+            got = self._create_participant(plan_for, **kw)
+        return self._registered(got)
+
+    async def create_participant_async(self, plan_for: Callable[[int], list[dict]],
+                                       **kw) -> dict[str, Any]:
+        """:meth:`create_participant` for a request handler on the event loop."""
+        if self._writer is not None:
+            return self._registered(await self._writer.run(_sqlite_register_job(plan_for, **kw)))
+        return await asyncio.to_thread(self.create_participant, plan_for, **kw)
+
+    def _registered(self, got: tuple[int, str, str, list[dict]]) -> dict[str, Any]:
+        pid, token, stage, plan = got
+        self._plans[token] = (pid, plan)
+        return {"id": pid, "token": token, "stage": stage}
+
+    def _create_participant(self, plan_for, *, user_agent, stage, addr, max_participants,
+                            per_address, window_s) -> tuple[int, str, str, list[dict]]:
+        """PostgreSQL: one transaction under an advisory lock."""
         token = secrets.token_urlsafe(24)
         now = time.time()
         with self._lock, self.engine.begin() as c:
-            if not self.is_sqlite:
-                c.execute(sa.text("SELECT pg_advisory_xact_lock(1836346224)"))
+            c.execute(sa.text("SELECT pg_advisory_xact_lock(1836346224)"))
             c.execute(sa.insert(registrations).values(addr=addr[:64], created_at=now))
             res = c.execute(sa.insert(participants).values(
                 token=token, created_at=now, stage=stage, demographics="{}",
                 next_trial=0, n_trials=0, plan="[]", user_agent=user_agent[:500]))
             pid = int(res.inserted_primary_key[0])
+            n_all = n_addr = None
             if max_participants is not None:
-                n = c.execute(sa.select(sa.func.count()).select_from(participants)).scalar_one()
-                if n > max_participants:
-                    raise Full(f"the test is full ({max_participants} participants)")
+                n_all = c.execute(sa.select(sa.func.count()).select_from(participants)).scalar_one()
             if per_address is not None and addr:
-                n = c.execute(sa.select(sa.func.count()).select_from(registrations).where(
+                n_addr = c.execute(sa.select(sa.func.count()).select_from(registrations).where(
                     registrations.c.addr == addr[:64], registrations.c.created_at > now - window_s)).scalar_one()
-                if n > per_address:
-                    raise RateLimited(f"more than {per_address} registrations from one address in "
-                                      f"{window_s:g} s")
+            check_limits(n_all, n_addr, max_participants, per_address, window_s)
             plan = plan_for(pid)
             c.execute(sa.update(participants).where(participants.c.id == pid).values(
                 plan=json.dumps(plan), n_trials=len(plan)))
-        self._plans[token] = (pid, plan)
-        return {"id": pid, "token": token, "stage": stage}
+        return pid, token, stage, plan
 
     def plan(self, token: str) -> tuple[int, list[dict]]:
         """``(participant id, trial plan)``; the plan never changes once made, so it is kept in
@@ -277,6 +295,13 @@ class Database:
             p = self.participant(token)
             got = self._plans[token] = (p["id"], p["plan"])
         return got
+
+    async def plan_async(self, token: str) -> tuple[int, list[dict]]:
+        """:meth:`plan` for a request handler on the event loop (a cache miss on PostgreSQL
+        reads in a thread)."""
+        if self.is_sqlite or token in self._plans:
+            return self.plan(token)
+        return await asyncio.to_thread(self.plan, token)
 
     def participant(self, token: str) -> dict[str, Any]:
         if not isinstance(token, str) or not token or len(token) > 64:
@@ -320,17 +345,29 @@ class Database:
 
     def set_stage(self, token: str, *, expect: str, stage: str,
                   demographics: dict | None = None) -> None:
+        """Move a participant from stage ``expect`` to ``stage`` (:class:`Conflict` if it is
+        elsewhere), storing its questionnaire answers if given."""
+        if self._writer is not None:
+            return self._writer.run_sync(_sqlite_stage_job(token, expect, stage, demographics))
         with self._lock, self.engine.begin() as c:
             row = c.execute(sa.select(participants.c.stage).where(
                 participants.c.token == token).with_for_update()).first()
             if row is None:
                 raise NotFound(token)
-            if row.stage != expect:
-                raise Conflict(f"participant is at stage {row.stage!r}, not {expect!r}")
+            check_stage(row.stage, expect)
             values: dict[str, Any] = {"stage": stage}
             if demographics is not None:
                 values["demographics"] = json.dumps(demographics)
             c.execute(sa.update(participants).where(participants.c.token == token).values(**values))
+        return None
+
+    async def set_stage_async(self, token: str, *, expect: str, stage: str,
+                              demographics: dict | None = None) -> None:
+        """:meth:`set_stage` for a request handler on the event loop."""
+        if self._writer is not None:
+            return await self._writer.run(_sqlite_stage_job(token, expect, stage, demographics))
+        return await asyncio.to_thread(self.set_stage, token, expect=expect, stage=stage,
+                                       demographics=demographics)
 
     # -- answers ---------------------------------------------------------------------------
     def submit(self, token: str, trial_index: int, rows: list[dict[str, Any]]) -> dict[str, Any]:
@@ -411,6 +448,22 @@ class Database:
             return int(c.execute(sa.select(sa.func.count()).select_from(answers)).scalar_one())
 
 
+def check_stage(current: str, expect: str) -> None:
+    if current != expect:
+        raise Conflict(f"participant is at stage {current!r}, not {expect!r}")
+
+
+def check_limits(n_all: int | None, n_addr: int | None, max_participants: int | None,
+                 per_address: int | None, window_s: float) -> None:
+    """After the new participant's rows are written: :class:`Full` when there are more than
+    ``max_participants``, :class:`RateLimited` when its address registered more than
+    ``per_address`` in the window (``None`` counts are not checked)."""
+    if max_participants is not None and n_all is not None and n_all > max_participants:
+        raise Full(f"the test is full ({max_participants} participants)")
+    if per_address is not None and n_addr is not None and n_addr > per_address:
+        raise RateLimited(f"more than {per_address} registrations from one address in {window_s:g} s")
+
+
 def check_answer(stage: str, next_trial: int, n_trials: int, trial_index: int,
                  rows: list[dict[str, Any]], stored) -> dict[str, Any] | None:
     """The rules for storing an answer, given the participant's stored state.
@@ -466,6 +519,49 @@ def _sqlite_submit_job(token: str, trial_index: int, rows: list[dict[str, Any]])
         conn.execute("UPDATE participants SET next_trial = ?, stage = ?, finished_at = ? WHERE id = ?",
                      (nxt, "done" if done else "trials", now if done else None, pid))
         return {"stored": len(rows), "duplicate": False, "next_trial": nxt, "done": done}
+
+    return job
+
+
+def _sqlite_register_job(plan_for, *, user_agent="", stage="demographics", addr="",
+                        max_participants=None, per_address=None, window_s=3600.0):
+    """Registration as a job for the SQLite writer (its transaction holds the write lock, so the
+    counts include every other process's registrations)."""
+
+    def job(conn) -> tuple[int, str, str, list[dict]]:
+        token = secrets.token_urlsafe(24)
+        now = time.time()
+        conn.execute("INSERT INTO registrations (addr, created_at) VALUES (?, ?)", (addr[:64], now))
+        cur = conn.execute(
+            "INSERT INTO participants (token, created_at, stage, demographics, next_trial, n_trials, "
+            "plan, user_agent) VALUES (?, ?, ?, '{}', 0, 0, '[]', ?)", (token, now, stage, user_agent[:500]))
+        pid = int(cur.lastrowid)
+        n_all = n_addr = None
+        if max_participants is not None:
+            n_all = conn.execute("SELECT count(*) FROM participants").fetchone()[0]
+        if per_address is not None and addr:
+            n_addr = conn.execute("SELECT count(*) FROM registrations WHERE addr = ? AND created_at > ?",
+                                  (addr[:64], now - window_s)).fetchone()[0]
+        check_limits(n_all, n_addr, max_participants, per_address, window_s)
+        plan = plan_for(pid)
+        conn.execute("UPDATE participants SET plan = ?, n_trials = ? WHERE id = ?",
+                     (json.dumps(plan), len(plan), pid))
+        return pid, token, stage, plan
+
+    return job
+
+
+def _sqlite_stage_job(token: str, expect: str, stage: str, demographics: dict | None):
+    def job(conn) -> None:
+        row = conn.execute("SELECT stage FROM participants WHERE token = ?", (token,)).fetchone()
+        if row is None:
+            raise NotFound(token)
+        check_stage(row[0], expect)
+        if demographics is None:
+            conn.execute("UPDATE participants SET stage = ? WHERE token = ?", (stage, token))
+        else:
+            conn.execute("UPDATE participants SET stage = ?, demographics = ? WHERE token = ?",
+                         (stage, json.dumps(demographics), token))
 
     return job
 

@@ -173,7 +173,7 @@ class TrialEndpoints:
         ``{"stored", "duplicate", "next_trial", "done"}`` once it is committed."""
         body = AnswerBody.model_validate_json(raw)
         try:
-            _pid, plan = self.db.plan(token)
+            _pid, plan = await self.db.plan_async(token)
         except NotFound:
             bad("unknown participant", 404)
         if not 0 <= body.trial_index < len(plan):
