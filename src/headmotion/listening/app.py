@@ -95,6 +95,9 @@ SECURITY_HEADERS = [
     (b"referrer-policy", b"no-referrer"),
     (b"cross-origin-opener-policy", b"same-origin"),
 ]
+_REPLACED = frozenset(name for name, _ in SECURITY_HEADERS)  # the app's own values are replaced
+_API_HEADERS = [*SECURITY_HEADERS, (b"cache-control", b"no-store")]
+_API_REPLACED = frozenset(name for name, _ in _API_HEADERS)
 MAX_BODY = 64 * 1024
 SESSION_COOKIE = "hm_admin"
 CSRF_COOKIE = "hm_csrf"
@@ -195,10 +198,9 @@ class Guard:
                 return
             if msg["type"] == "http.response.start":
                 started = True
-                hs = [h for h in msg.get("headers", []) if h[0].lower() not in dict(SECURITY_HEADERS)]
-                hs += SECURITY_HEADERS
-                if api:
-                    hs = [h for h in hs if h[0].lower() != b"cache-control"] + [(b"cache-control", b"no-store")]
+                drop = _API_REPLACED if api else _REPLACED
+                hs = [h for h in msg.get("headers", ()) if h[0].lower() not in drop]
+                hs += _API_HEADERS if api else SECURITY_HEADERS
                 msg = {**msg, "headers": hs}
             await send(msg)
 
