@@ -215,7 +215,7 @@ class _Conn(asyncio.Protocol):
 
 
 async def participant(url: str, pnum: int, *, think_s: float, sent: dict, latencies: list, errors: list,
-                      registered: dict):
+                      registered: dict, started: set | None = None):
     """One simulated participant on its own keep-alive connection, as a browser tab: register,
     demographics, start, then *state → answer → wait think_s* until done.  Acknowledged answers go
     to ``sent``; a dropped connection (the server killed) ends the participant quietly."""
@@ -237,6 +237,8 @@ async def participant(url: str, pnum: int, *, think_s: float, sent: dict, latenc
         if status != 200:
             errors.append((pnum, "start", status, body[:200]))
             return
+        if started is not None:
+            started.add(pnum)
         while True:
             status, body = await conn.request("GET", f"/api/p/{token}/state")
             if status != 200:
@@ -263,7 +265,7 @@ async def participant(url: str, pnum: int, *, think_s: float, sent: dict, latenc
 
 
 async def run_panel(url: str, n: int, *, think_s: float = 0.05, sent=None, latencies=None, errors=None,
-                    registered=None, ramp_s: float = 1.0):
+                    registered=None, ramp_s: float = 1.0, started=None):
     sent = {} if sent is None else sent
     latencies = [] if latencies is None else latencies
     errors = [] if errors is None else errors
@@ -272,7 +274,7 @@ async def run_panel(url: str, n: int, *, think_s: float = 0.05, sent=None, laten
     async def one(p):
         await asyncio.sleep(ramp_s * p / max(n, 1))  # participants arrive over ramp_s seconds
         await participant(url, p, think_s=think_s, sent=sent, latencies=latencies, errors=errors,
-                          registered=registered)
+                          registered=registered, started=started)
 
     await asyncio.gather(*(one(p) for p in range(n)))
     return sent, latencies, errors, registered
@@ -290,23 +292,44 @@ def _run(coro):
 
 
 def load(url: str, n: int, *, think_s: float = 0.05, server: ServerProc | None = None) -> dict:
-    """Run ``n`` participants to the end; figures and what was acknowledged.  With ``server``,
-    also the server's CPU seconds per answer (state GET + answer POST, registration included):
-    a figure that does not depend on what else the machine is doing.  ``client_cpu_ms_per_answer``
-    is this process's own CPU over the same run (the load client shares the machine's cores)."""
+    """Run ``n`` participants to the end; figures and what was acknowledged.
+
+    With ``server``, also the server's CPU time (all its processes) per answer — a figure that
+    does not depend on what else the machine is doing: ``server_cpu_ms_per_answer`` over the whole
+    run (registration, demographics and start included) and ``steady_cpu_ms_per_answer`` from the
+    moment the last participant has started (state reads and answers only).
+    ``client_cpu_ms_per_answer`` is this process's own CPU over the run (the load client shares
+    the machine's cores)."""
     import numpy as np
+
+    sent: dict = {}
+    lat: list = []
+    errors: list = []
+    registered: dict = {}
+    started: set = set()
+    mark: dict = {}
+
+    async def main():
+        task = asyncio.ensure_future(run_panel(url, n, think_s=think_s, sent=sent, latencies=lat,
+                                               errors=errors, registered=registered, started=started))
+        while len(started) < n and not task.done():
+            await asyncio.sleep(0.005)
+        mark.update(answers=len(sent), cpu=server.cpu_seconds() if server is not None else float("nan"))
+        await task
 
     cpu0 = server.cpu_seconds() if server is not None else float("nan")
     own0 = time.process_time()
     load0 = os.getloadavg()[0]
     t0 = time.perf_counter()
-    sent, lat, errors, registered = _run(run_panel(url, n, think_s=think_s))
+    _run(main())
     elapsed = time.perf_counter() - t0
     own = time.process_time() - own0
-    cpu = (server.cpu_seconds() - cpu0) if server is not None else float("nan")
+    cpu1 = server.cpu_seconds() if server is not None else float("nan")
     lat_ms = np.array(lat) * 1000
+    steady = len(sent) - mark.get("answers", 0)
     return {"participants": n, "answers": len(sent), "seconds": elapsed, "answers_per_s": len(sent) / elapsed,
-            "server_cpu_ms_per_answer": 1000 * cpu / max(len(sent), 1),
+            "server_cpu_ms_per_answer": 1000 * (cpu1 - cpu0) / max(len(sent), 1),
+            "steady_cpu_ms_per_answer": 1000 * (cpu1 - mark.get("cpu", float("nan"))) / max(steady, 1),
             "client_cpu_ms_per_answer": 1000 * own / max(len(sent), 1),
             "p50_ms": float(np.percentile(lat_ms, 50)) if len(lat_ms) else float("nan"),
             "p95_ms": float(np.percentile(lat_ms, 95)) if len(lat_ms) else float("nan"),
@@ -315,7 +338,9 @@ def load(url: str, n: int, *, think_s: float = 0.05, server: ServerProc | None =
 
 
 def check_stored(answers: list[dict], sent: dict, pid_by_token: dict) -> None:
-    """Every acknowledged answer is stored exactly once with the values sent."""
+    """Every acknowledged answer is stored exactly once with the values sent, and nothing else
+    is: each participant's stored trials are 0, 1, ... k-1 with k at most one more than it had
+    acknowledged (the answer in flight when the server died may or may not have been committed)."""
     keys = [(a["participant"], a["trial_index"], a["slot"]) for a in answers]
     assert len(keys) == len(set(keys)), "an answer was stored twice"
     stored = {(a["participant"], a["trial_index"], a["slot"]): a for a in answers}
@@ -323,6 +348,16 @@ def check_stored(answers: list[dict], sent: dict, pid_by_token: dict) -> None:
         pid = pid_by_token[token]
         for lab, v in body["ratings"].items():
             assert stored[(pid, idx, lab)]["value"] == v, (token, idx, lab)
+    acked: dict[int, int] = {}
+    for token, _idx in sent:
+        acked[pid_by_token[token]] = acked.get(pid_by_token[token], 0) + 1
+    trials: dict[int, set] = {}
+    for a in answers:
+        trials.setdefault(a["participant"], set()).add(a["trial_index"])
+    for pid, got in trials.items():
+        assert got == set(range(len(got))), f"participant {pid}: stored trials {sorted(got)} have a gap"
+        assert len(got) <= acked.get(pid, 0) + 1, \
+            f"participant {pid}: {len(got)} trials stored, {acked.get(pid, 0)} acknowledged"
 
 
 def pid_by_token(db_url: str) -> dict:
