@@ -72,15 +72,20 @@ class ServerProc:
 
         env = dict(os.environ)
         env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
+        # the server's stderr goes to a file, not a pipe: a pipe nobody reads fills up when the
+        # server logs errors under load, and every worker then blocks in its logger
+        import tempfile
+
+        self.log = tempfile.TemporaryFile()
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "headmotion", "listen", "serve", str(self.config), "--port", str(self.port),
              "--database", self.database, "--admin-token", ADMIN, "--workers", str(self.workers), "--sync", self.sync, *self.extra],
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True, env=env)
+            stdout=subprocess.DEVNULL, stderr=self.log, start_new_session=True, env=env)
         deadline = time.time() + 120
         ok = 0
         while time.time() < deadline:
             if self.proc.poll() is not None:
-                raise RuntimeError(f"server died: {self.proc.stderr.read().decode()[-2000:]}")
+                raise RuntimeError(f"server died: {self.stderr_tail()}")
             try:
                 if httpx.get(self.url + "/api/test", timeout=2).status_code == 200:
                     ok += 1
@@ -91,6 +96,12 @@ class ServerProc:
                 pass
             time.sleep(0.2)
         raise RuntimeError("server did not start")
+
+    def stderr_tail(self, n: int = 2000) -> str:
+        """The end of what the server wrote to stderr (errors it logged)."""
+        self.log.flush()
+        self.log.seek(0)
+        return self.log.read().decode(errors="replace")[-n:]
 
     def cpu_seconds(self) -> float:
         """CPU time (user + system) used so far by the server's processes (master and workers)."""
@@ -146,6 +157,10 @@ def answer_for(trial: dict, pnum: int) -> dict:
     return {"choice": "left" if (pnum + i) % 2 else "right"}
 
 
+class NoResponse(Exception):
+    """The server did not answer a request in time (an error, unlike a closed connection)."""
+
+
 class _Conn(asyncio.Protocol):
     """One keep-alive HTTP/1.1 connection, one request at a time (as a browser tab's fetches):
     requests written by hand, responses parsed by ``httptools`` (the parser uvicorn uses).
@@ -197,17 +212,23 @@ class _Conn(asyncio.Protocol):
         if self.waiter is not None and not self.waiter.done():
             self.waiter.set_result((self.parser.get_status_code(), b"".join(self.body)))
 
-    async def request(self, method: str, path: str, payload=None) -> tuple[int, bytes]:
-        """``(status, body)``; ``ConnectionError`` when the server goes away."""
+    async def request(self, method: str, path: str, payload=None, timeout_s: float = 120.0) -> tuple[int, bytes]:
+        """``(status, body)``; ``ConnectionError`` when the server goes away, :class:`NoResponse`
+        when it does not answer within ``timeout_s``."""
         if self.lost is not None:
             raise ConnectionError("connection closed")
         body = b"" if payload is None else json.dumps(payload).encode()
         self.body = []
-        self.waiter = asyncio.get_running_loop().create_future()
+        loop = asyncio.get_running_loop()
+        self.waiter = loop.create_future()
         head = (f"{method} {path} HTTP/1.1\r\nHost: ").encode() + self.host + \
             b"\r\nContent-Type: application/json\r\nContent-Length: " + str(len(body)).encode() + b"\r\n\r\n"
         self.transport.write(head + body)
-        return await self.waiter
+        timer = loop.call_later(timeout_s, self._fail, NoResponse(f"{method} {path}: no response in {timeout_s:g} s"))
+        try:
+            return await self.waiter
+        finally:
+            timer.cancel()
 
     def close(self):
         if self.transport is not None:
@@ -257,6 +278,8 @@ async def participant(url: str, pnum: int, *, think_s: float, sent: dict, latenc
                 return
             sent[(token, trial["index"])] = answer
             await asyncio.sleep(think_s)
+    except NoResponse as exc:
+        errors.append((pnum, "timeout", None, str(exc)))
     except OSError:  # refused / reset / closed: the server was killed
         return
     finally:
