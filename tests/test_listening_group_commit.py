@@ -150,3 +150,30 @@ def test_in_memory_sqlite_is_refused(tmp_path):
 
     with pytest.raises(ParameterError, match="must be a file"):
         Database("sqlite:///:memory:")
+
+
+def test_another_process_holding_the_write_lock_is_waited_for_up_to_the_timeout(db_path):
+    """Another connection (as another worker process would) holds SQLite's write lock: the batch
+    waits for it and commits after it is released; held past ``timeout_s``, the jobs fail."""
+    import time
+
+    holder = connect(db_path)
+    holder.execute("BEGIN IMMEDIATE")
+    release = threading.Timer(0.3, lambda: holder.execute("COMMIT"))
+    w = GroupCommitWriter(db_path, timeout_s=5.0)
+    t0 = time.perf_counter()
+    release.start()
+    assert w.run_sync(_insert(1)) == 1
+    waited = time.perf_counter() - t0
+    assert waited >= 0.25, waited  # it waited for the lock (and did not fail)
+    w.close()
+
+    holder.execute("BEGIN IMMEDIATE")
+    short = GroupCommitWriter(db_path, timeout_s=0.2)
+    with pytest.raises(sqlite3.OperationalError, match="locked"):
+        short.run_sync(_insert(2))
+    holder.execute("COMMIT")
+    assert short.run_sync(_insert(3)) == 3
+    assert _rows(db_path) == [(1, "x"), (3, "x")]
+    short.close()
+    holder.close()
