@@ -38,6 +38,12 @@ Hardening (issue 18 item 4), one ASGI middleware (:class:`Guard`) in front of ev
   machine — are not limited) and at most ``max_participants`` in all (403 "full"), both from the
   configuration and both counted in the database, so they hold over several workers.
 
+Speed (issue 18 item 4: answer p95 ≤ 250 ms with 300 participants answering every 50 ms): the
+state read and the answer — the two requests of every trial — are served by plain ASGI code
+(:mod:`headmotion.listening.trials_api`) in front of FastAPI, and on SQLite every write goes
+through one group-commit thread per process (:mod:`headmotion.listening.sqlite_writer`); the
+participant API's FastAPI handlers are coroutines.  ``benchmarks/run.py --only server`` measures it.
+
 Libraries considered: webMUSHRA and HEMVIP (PHP/JS test frameworks for audio and gesture; not
 embeddable in a Python package, no head viewer), Flask (no request validation built in).
 """
@@ -244,8 +250,9 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
     max_body : int
         Largest request body accepted (bytes).
     durable : bool
-        SQLite: ``synchronous=FULL`` (default; an acknowledged answer survives a power cut) or
-        ``NORMAL`` (survives a killed server, not a power cut; no fsync per answer).
+        SQLite: ``synchronous=FULL`` (default; an acknowledged answer survives a power cut: each
+        commit is fsynced before its answers are acknowledged, answers arriving together sharing
+        one commit) or ``NORMAL`` (survives a killed server, not a power cut; commits not fsynced).
 
     Returns the ASGI app (the FastAPI app wrapped in :class:`Guard`); the FastAPI app's state
     (``cfg``, ``db``, ``admin_token``, ``database_url``, ``allowed_hosts``) is on ``.state`` of
