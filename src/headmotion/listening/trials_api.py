@@ -133,8 +133,8 @@ class TrialEndpoints:
                                              [(k.lower().encode(), v.encode())
                                               for k, v in (exc.headers or {}).items()])
                     except ValidationError as exc:
-                        return await _respond(send, 422, b'{"detail":' + exc.json(
-                            include_url=False, include_context=False).encode() + b"}")
+                        detail = exc.json(include_url=False).encode()
+                        return await _respond(send, 422, b'{"detail":' + detail + b"}")
                     except _Disconnected:
                         return None
                     return await _respond(send, 200, body)
