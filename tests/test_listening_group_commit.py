@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import sqlite3
 import threading
+import time
 
 import pytest
 
@@ -155,8 +156,6 @@ def test_in_memory_sqlite_is_refused(tmp_path):
 def test_another_process_holding_the_write_lock_is_waited_for_up_to_the_timeout(db_path):
     """Another connection (as another worker process would) holds SQLite's write lock: the batch
     waits for it and commits after it is released; held past ``timeout_s``, the jobs fail."""
-    import time
-
     holder = connect(db_path)
     holder.execute("BEGIN IMMEDIATE")
     release = threading.Timer(0.3, lambda: holder.execute("COMMIT"))
@@ -177,3 +176,24 @@ def test_another_process_holding_the_write_lock_is_waited_for_up_to_the_timeout(
     assert _rows(db_path) == [(1, "x"), (3, "x")]
     short.close()
     holder.close()
+
+
+def test_closing_finishes_the_queued_jobs_and_refuses_new_ones(db_path):
+    lock = threading.Lock()
+    w = GroupCommitWriter(db_path, lock=lock)
+    results = []
+    with lock:
+        threads = [threading.Thread(target=lambda k=k: results.append(w.run_sync(_insert(k))))
+                   for k in range(5)]
+        for t in threads:
+            t.start()
+        closer = threading.Thread(target=w.close)
+        time.sleep(0.1)
+        closer.start()
+        time.sleep(0.05)
+    closer.join()
+    for t in threads:
+        t.join()
+    assert sorted(results) == list(range(5))
+    with pytest.raises(RuntimeError, match="closed"):
+        w.run_sync(_insert(9))

@@ -106,11 +106,11 @@ class GroupCommitWriter:
         return fut.result()
 
     def _put(self, job: _Job) -> None:
-        if self._closed:
-            raise RuntimeError("the database is closed")
         if self._thread is None:
             self._start()
-        with self._wake:
+        with self._wake:  # checked under the lock the thread drains under: no job is stranded
+            if self._closed:
+                raise RuntimeError("the database is closed")
             self._jobs.append(job)
             self._wake.notify()
 
@@ -125,11 +125,11 @@ class GroupCommitWriter:
 
     def close(self) -> None:
         """Finish the queued jobs and stop the thread."""
-        self._closed = True
+        with self._wake:
+            self._closed = True
+            self._wake.notify()
         t = self._thread
         if t is not None:
-            with self._wake:
-                self._wake.notify()
             t.join(30)
 
     # -- the thread ------------------------------------------------------------------------
@@ -152,7 +152,7 @@ class GroupCommitWriter:
         """``BEGIN IMMEDIATE``, retried every ~0.5 ms while another process holds the write lock,
         up to the busy timeout.  SQLite's own busy handler sleeps 1, 2, 5, 10, 15, 20, 25 ... ms
         between tries, and with several worker processes those sleeps showed in the answer's p95
-        (the lock is held for well under a millisecond per batch)."""
+        (a batch is about a millisecond of work)."""
         conn.execute("PRAGMA busy_timeout=0")
         try:
             deadline = time.monotonic() + self.timeout_s
