@@ -3,7 +3,8 @@
 Known answers: jobs queued while a batch is held up are committed together (two commits for 50
 answers); a job that raises leaves nothing behind and does not disturb its batch; a batch whose
 COMMIT fails acknowledges none of its jobs and stores nothing; an acknowledged write is visible to
-another connection at once; ``durable`` selects ``synchronous`` FULL (2) or NORMAL (1)."""
+another connection at once; another connection's write lock is waited for up to the timeout;
+closing finishes the queued jobs; ``durable`` selects ``synchronous`` FULL (2) or NORMAL (1)."""
 
 from __future__ import annotations
 
