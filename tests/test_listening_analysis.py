@@ -12,10 +12,11 @@ import pytest
 
 from headmotion.cli import main
 from headmotion.listening import analysis as an
-from headmotion.listening.app import AnswerBody, _answer_rows, results_csv, results_document
+from headmotion.listening.app import results_csv, results_document
 from headmotion.listening.config import load_config
 from headmotion.listening.db import Database
 from headmotion.listening.plan import make_plan
+from headmotion.listening.trials_api import AnswerBody, answer_rows
 
 TRUE_QUALITY = {"natural": 0.85, "reference": 0.85, "system": 0.6, "desync": 0.4, "noise": 0.1}
 
@@ -61,7 +62,7 @@ def simulate_panel(cfg, db: Database, *, n=24, seed=0, constant=(), effect=None)
                 pa = 1 / (1 + np.exp(-6 * (TRUE_QUALITY[a] - TRUE_QUALITY[b])))
                 body = {"choice": "left" if (p in constant or rng.random() < pa) else "right"}
             body["response_ms"] = float(rng.uniform(3000, 30000))
-            rows = _answer_rows(cfg, t, AnswerBody(trial_index=t["index"], **body))
+            rows = answer_rows(cfg, t, AnswerBody(trial_index=t["index"], **body))
             db.submit(tok, t["index"], rows)
 
 

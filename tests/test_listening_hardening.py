@@ -153,6 +153,41 @@ def test_cross_site_participant_post_is_refused(test_dir, tmp_path):
     assert r.status_code == 201
 
 
+def test_the_per_trial_requests_are_behind_the_same_guard(test_dir, tmp_path):
+    """The state read and the answer POST are served outside FastAPI (trials_api): the Host
+    allow-list, Origin check, body limit and headers still apply, errors keep FastAPI's shape, and
+    nothing refused is stored."""
+    c, app = _client(test_dir, tmp_path)
+    tok = c.post("/api/participants", json={"consent": True}).json()["token"]
+    assert c.post(f"/api/p/{tok}/demographics", json={"answers": {
+        "native_language": "yes", "listening": "speakers", "gender": "male", "age": None}}).status_code == 200
+    assert c.post(f"/api/p/{tok}/start").status_code == 200
+    st = c.get(f"/api/p/{tok}/state")
+    assert st.status_code == 200 and st.headers["cache-control"] == "no-store"
+    assert st.headers["content-security-policy"] == CSP and st.headers["x-frame-options"] == "DENY"
+    good = {"trial_index": 0, "rating": 3}
+    answer = f"/api/p/{tok}/answer"
+    assert c.get(f"/api/p/{tok}/state", headers={"Host": "attacker.example"}).status_code == 400
+    assert c.post(answer, json=good, headers={"Host": "attacker.example"}).status_code == 400
+    assert c.post(answer, json=good, headers={"Origin": "http://evil.example"}).status_code == 403
+    r = c.post(answer, json={**good, "pad": "x" * 100_000})
+    assert r.status_code == 413 and r.headers["x-content-type-options"] == "nosniff"
+    r = c.post(answer, content=(b"x" * 1024 for _ in range(100)), headers={"Content-Type": "application/json"})
+    assert r.status_code == 413
+    r = c.post(answer, content=b"{not json", headers={"Content-Type": "application/json"})
+    assert r.status_code == 422 and isinstance(r.json()["detail"], list)
+    r = c.post(answer, json={**good, "participant": 2})  # extra fields are refused
+    assert r.status_code == 422 and r.json()["detail"][0]["type"] == "extra_forbidden"
+    r = c.get(answer)
+    assert r.status_code == 405 and r.headers["allow"] == "POST"
+    assert c.post(f"/api/p/{tok}/state").status_code == 405
+    assert app.state.db.count_answers() == 0
+    r = c.post(answer, json=good)
+    assert r.status_code == 200 and r.json() == {"stored": 1, "duplicate": False, "next_trial": 1, "done": False}
+    assert r.headers["referrer-policy"] == "no-referrer" and r.headers["cache-control"] == "no-store"
+    assert c.get(f"/api/p/{tok}/state").json()["progress"]["done"] == 1
+
+
 # ----------------------------------------------------------------------------------- limits
 def test_request_body_size_limit(test_dir, tmp_path):
     c, _ = _client(test_dir, tmp_path)

@@ -29,10 +29,12 @@ def serve(
              "other host are refused (DNS-rebinding protection). localhost and --host are always "
              "allowed."),
     workers: int = typer.Option(1, min=1, max=64, help="Server processes (SQLite: WAL + busy "
-                                                        "timeout; PostgreSQL: row locks)."),
-    sync: str = typer.Option("full", help="SQLite commits: 'full' (fsync per answer; survives a power "
-                                          "cut) or 'normal' (survives a killed server, not a power cut; "
-                                          "faster on slow disks)."),
+                                                        "timeout; PostgreSQL: row locks); more than "
+                                                        "one per CPU core does not help."),
+    sync: str = typer.Option("full", help="SQLite commits: 'full' (each commit fsynced before its answers "
+                                          "are acknowledged, answers arriving together sharing one; survives "
+                                          "a power cut) or 'normal' (not fsynced; survives a killed server, "
+                                          "not a power cut)."),
 ) -> None:
     """Run a listening test (MOS with reference, MUSHRA or A/B) in the browser."""
     import secrets

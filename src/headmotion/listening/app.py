@@ -38,6 +38,12 @@ Hardening (issue 18 item 4), one ASGI middleware (:class:`Guard`) in front of ev
   machine — are not limited) and at most ``max_participants`` in all (403 "full"), both from the
   configuration and both counted in the database, so they hold over several workers.
 
+Speed (issue 18 item 4: answer p95 ≤ 250 ms with 300 participants answering every 50 ms): the
+state read and the answer — the two requests of every trial — are served by plain ASGI code
+(:mod:`headmotion.listening.trials_api`) in front of FastAPI, and on SQLite every write goes
+through one group-commit thread per process (:mod:`headmotion.listening.sqlite_writer`); the
+participant API's FastAPI handlers are coroutines.  ``benchmarks/run.py --only server`` measures it.
+
 Libraries considered: webMUSHRA and HEMVIP (PHP/JS test frameworks for audio and gesture; not
 embeddable in a Python package, no head viewer), Flask (no request validation built in).
 """
@@ -64,7 +70,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from .config import TestConfig
 from .db import ANSWER_COLUMNS, Conflict, Database, Full, NotFound, RateLimited
-from .plan import make_plan, public_trial, unblind_id
+from .plan import make_plan, unblind_id
+from .trials_api import TrialEndpoints
+from .trials_api import bad as _bad
 
 STATIC = Path(__file__).resolve().parent / "static"
 VIEWER_STATIC = Path(__file__).resolve().parents[1] / "web" / "static"
@@ -83,15 +91,6 @@ class DemographicsBody(BaseModel):
     answers: dict[str, str | int | float | None] = Field(default_factory=dict)
 
 
-class AnswerBody(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    trial_index: int
-    rating: int | None = None                     # MOS with reference (1..points)
-    ratings: dict[str, float] | None = None       # MUSHRA: slot letter -> 0..100
-    choice: str | None = None                     # A/B: left|right; attention: option
-    response_ms: float | None = Field(default=None, ge=0, le=24 * 3600 * 1000)
-
-
 CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
        "media-src 'self' blob:; connect-src 'self'; worker-src 'self' blob:; font-src 'self'; "
        "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'")
@@ -102,6 +101,9 @@ SECURITY_HEADERS = [
     (b"referrer-policy", b"no-referrer"),
     (b"cross-origin-opener-policy", b"same-origin"),
 ]
+_REPLACED = frozenset(name for name, _ in SECURITY_HEADERS)  # the app's own values are replaced
+_API_HEADERS = [*SECURITY_HEADERS, (b"cache-control", b"no-store")]
+_API_REPLACED = frozenset(name for name, _ in _API_HEADERS)
 MAX_BODY = 64 * 1024
 SESSION_COOKIE = "hm_admin"
 CSRF_COOKIE = "hm_csrf"
@@ -202,10 +204,9 @@ class Guard:
                 return
             if msg["type"] == "http.response.start":
                 started = True
-                hs = [h for h in msg.get("headers", []) if h[0].lower() not in dict(SECURITY_HEADERS)]
-                hs += SECURITY_HEADERS
-                if api:
-                    hs = [h for h in hs if h[0].lower() != b"cache-control"] + [(b"cache-control", b"no-store")]
+                drop = _API_REPLACED if api else _REPLACED
+                hs = [h for h in msg.get("headers", ()) if h[0].lower() not in drop]
+                hs += _API_HEADERS if api else SECURITY_HEADERS
                 msg = {**msg, "headers": hs}
             await send(msg)
 
@@ -229,10 +230,6 @@ class SessionBody(BaseModel):
     token: str = Field(max_length=512)
 
 
-def _bad(msg: str, code: int = 422):
-    raise HTTPException(status_code=code, detail=msg)
-
-
 def create_app(cfg: TestConfig, *, database_url: str | None = None,
                admin_token: str | None = None, allowed_hosts=None, served_host: str | None = None,
                max_body: int = MAX_BODY, durable: bool = True):
@@ -253,8 +250,9 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
     max_body : int
         Largest request body accepted (bytes).
     durable : bool
-        SQLite: ``synchronous=FULL`` (default; an acknowledged answer survives a power cut) or
-        ``NORMAL`` (survives a killed server, not a power cut; no fsync per answer).
+        SQLite: ``synchronous=FULL`` (default; an acknowledged answer survives a power cut: each
+        commit is fsynced before its answers are acknowledged, answers arriving together sharing
+        one commit) or ``NORMAL`` (survives a killed server, not a power cut; commits not fsynced).
 
     Returns the ASGI app (the FastAPI app wrapped in :class:`Guard`); the FastAPI app's state
     (``cfg``, ``db``, ``admin_token``, ``database_url``, ``allowed_hosts``) is on ``.state`` of
@@ -280,7 +278,7 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
         or secrets.token_urlsafe(16)
 
     app = FastAPI(title=f"headmotion listening test: {cfg.title}", docs_url=None, redoc_url=None,
-                  openapi_url=None)
+                  openapi_url=None, **_no_telemetry())
     app.state.cfg = cfg
     app.state.db = db
     app.state.admin_token = token
@@ -330,8 +328,10 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
         info["viewer"] = _viewer_module()
         return info
 
+    # the participant API's handlers are coroutines: their database calls go to the SQLite writer
+    # thread (or, on PostgreSQL, a worker thread), not through FastAPI's thread pool
     @app.post("/api/participants", status_code=201)
-    def register(body: ConsentBody, request: Request):
+    async def register(body: ConsentBody, request: Request):
         if not body.consent:
             _bad("consent is required to take part", 400)
         first = "demographics" if cfg.demographics else "instructions"
@@ -340,11 +340,10 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
         addr = "" if _is_loopback(client) else \
             hmac.new(secret, b"addr:" + client.encode(), hashlib.sha256).hexdigest()[:32]
         try:
-            p = db.create_participant(lambda n: make_plan(cfg, n),
-                                      user_agent=request.headers.get("user-agent", ""), stage=first,
-                                      addr=addr, max_participants=cfg.max_participants,
-                                      per_address=cfg.registrations_per_address,
-                                      window_s=cfg.registration_window_s)
+            p = await db.create_participant_async(
+                lambda n: make_plan(cfg, n), user_agent=request.headers.get("user-agent", ""),
+                stage=first, addr=addr, max_participants=cfg.max_participants,
+                per_address=cfg.registrations_per_address, window_s=cfg.registration_window_s)
         except Full:
             raise HTTPException(status_code=403, detail="this test is full; thank you for your "
                                                         "interest") from None
@@ -354,68 +353,33 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
                                 headers={"Retry-After": str(int(cfg.registration_window_s))}) from None
         return {"token": p["token"], "stage": p["stage"]}
 
-    def _participant(token: str) -> dict[str, Any]:
+    async def _known(token: str) -> None:
+        """404 for a token that names no participant (the plan is cached after the first look)."""
         try:
-            return db.participant(token)
+            await db.plan_async(token)
         except NotFound:
             raise HTTPException(status_code=404, detail="unknown participant") from None
-
-    @app.get("/api/p/{token}/state")
-    def state(token: str):
-        try:
-            p = db.progress_of(token)
-        except NotFound:
-            raise HTTPException(status_code=404, detail="unknown participant") from None
-        out: dict[str, Any] = {"stage": p["stage"],
-                               "progress": {"done": p["next_trial"], "total": p["n_trials"]}}
-        if p["stage"] == "trials" and p["next_trial"] < p["n_trials"]:
-            try:
-                out["trial"] = public_trial(p["plan"][p["next_trial"]], cfg, secret=secret,
-                                            participant=p["id"])
-            except KeyError:
-                raise HTTPException(status_code=409, detail=(
-                    "this participant's trials name stimuli that are no longer in the test "
-                    "configuration (was it edited after the test started?)")) from None
-        return out
 
     @app.post("/api/p/{token}/demographics")
-    def demographics(token: str, body: DemographicsBody):
-        _participant(token)
+    async def demographics(token: str, body: DemographicsBody):
+        await _known(token)
         clean = _check_demographics(cfg, body.answers)
-        _advance(token, "demographics", "instructions", demographics=clean)
+        await _advance(token, "demographics", "instructions", demographics=clean)
         return {"stage": "instructions"}
 
     @app.post("/api/p/{token}/start")
-    def start(token: str):
-        _participant(token)
-        _advance(token, "instructions", "trials")
+    async def start(token: str):
+        await _known(token)
+        await _advance(token, "instructions", "trials")
         return {"stage": "trials"}
 
-    def _advance(token: str, expect: str, stage: str, **kw):
+    async def _advance(token: str, expect: str, stage: str, **kw):
         try:
-            db.set_stage(token, expect=expect, stage=stage, **kw)
+            await db.set_stage_async(token, expect=expect, stage=stage, **kw)
         except NotFound:
             raise HTTPException(status_code=404, detail="unknown participant") from None
         except Conflict as exc:
             raise HTTPException(status_code=409, detail=str(exc)) from None
-
-    @app.post("/api/p/{token}/answer")
-    def answer(token: str, body: AnswerBody):
-        try:
-            _pid, plan = db.plan(token)
-        except NotFound:
-            raise HTTPException(status_code=404, detail="unknown participant") from None
-        if not 0 <= body.trial_index < len(plan):
-            _bad(f"trial_index must be in [0, {len(plan) - 1}]; got {body.trial_index}")
-        trial = plan[body.trial_index]
-        rows = _answer_rows(cfg, trial, body)
-        try:
-            res = db.submit(token, body.trial_index, rows)
-        except NotFound:
-            raise HTTPException(status_code=404, detail="unknown participant") from None
-        except Conflict as exc:
-            raise HTTPException(status_code=409, detail=str(exc)) from None
-        return res
 
     # -- stimuli ---------------------------------------------------------------------------
     @app.get("/stimuli/{alias}/{kind}")
@@ -498,9 +462,23 @@ def create_app(cfg: TestConfig, *, database_url: str | None = None,
                         headers={"Content-Disposition":
                                  f'attachment; filename="{cfg.name}-results.csv"'})
 
-    guarded = Guard(app, allowed_hosts=hosts, max_body=max_body)
+    # the state and answer requests of every trial skip FastAPI (see trials_api)
+    trials = TrialEndpoints(app, cfg=cfg, db=db, secret=secret)
+    guarded = Guard(trials, allowed_hosts=hosts, max_body=max_body)
     guarded.state = app.state
     return guarded
+
+
+def _no_telemetry() -> dict[str, Any]:
+    """FastAPI's keyword that turns its OpenTelemetry instrumentation off, where it has one: newer
+    FastAPI looks up the tracer, meter and logger providers on every request (~6% of the server's
+    CPU under load), and this server exports no telemetry."""
+    import inspect
+
+    if "telemetry" in inspect.signature(FastAPI.__init__).parameters:
+        return {"telemetry": {"tracing": False, "metrics": False, "logs": False,
+                              "operation_spans": False}}
+    return {}
 
 
 def app_from_env():
@@ -553,46 +531,6 @@ def _check_demographics(cfg: TestConfig, given: dict[str, Any]) -> dict[str, Any
             v = str(v)[:500]
         clean[q.name] = v
     return clean
-
-
-def _answer_rows(cfg: TestConfig, trial: dict, body: AnswerBody) -> list[dict[str, Any]]:
-    """Validate an answer against its trial and turn it into rows; 422 on anything wrong."""
-    base = {"phase": trial["phase"], "kind": trial["kind"], "item": trial["item"],
-            "speaker": trial.get("speaker", ""), "grp": trial.get("group", ""),
-            "response_ms": body.response_ms}
-    kind = trial["kind"]
-    given = {k for k in ("rating", "ratings", "choice") if getattr(body, k) is not None}
-    want = {"mos": "rating", "mushra": "ratings", "ab": "choice", "attention": "choice"}[kind]
-    if given != {want}:
-        _bad(f"a {kind} trial needs exactly '{want}'; got {sorted(given) or 'nothing'}")
-    if kind == "mos":
-        r = body.rating
-        if not 1 <= r <= cfg.scale_points:
-            _bad(f"rating must be an integer in [1, {cfg.scale_points}]; got {r}")
-        s = trial["slots"][0]
-        return [{**base, "slot": s["label"], "condition": s["condition"], "value": float(r)}]
-    if kind == "mushra":
-        slots = {s["label"]: s for s in trial["slots"]}
-        if set(body.ratings) != set(slots):
-            _bad(f"ratings must give exactly the slots {sorted(slots)}; got {sorted(body.ratings)}")
-        rows = []
-        for label, v in body.ratings.items():
-            if not (math.isfinite(v) and 0 <= v <= 100):
-                _bad(f"rating of {label} must be in [0, 100]; got {v}")
-            rows.append({**base, "slot": label, "condition": slots[label]["condition"],
-                         "value": float(v)})
-        return rows
-    if kind == "ab":
-        slots = {s["label"]: s for s in trial["slots"]}
-        if body.choice not in slots:
-            _bad(f"choice must be 'left' or 'right'; got {body.choice!r}")
-        other = next(s for lab, s in slots.items() if lab != body.choice)
-        return [{**base, "slot": body.choice, "condition": slots[body.choice]["condition"],
-                 "value": 1.0, "other": other["condition"]}]
-    if body.choice not in trial["options"]:
-        _bad(f"choice must be one of {trial['options']}; got {body.choice!r}")
-    return [{**base, "slot": "choice", "condition": body.choice,
-             "value": 1.0 if body.choice == trial["answer"] else 0.0, "other": trial["answer"]}]
 
 
 def _motion_json(path: Path) -> dict[str, Any]:

@@ -10,7 +10,6 @@ ids — is ever sent to the browser.
 
 from __future__ import annotations
 
-import hashlib
 import hmac
 from typing import Any
 
@@ -135,10 +134,13 @@ def blind_id(sid: str, context: str, secret: bytes) -> str:
     stimulus cannot be linked."""
     if not secret:
         return sid
-    nonce = hmac.new(secret, context.encode(), hashlib.sha256).digest()[:8]
-    pad = hmac.new(secret, nonce, hashlib.sha256).digest()[:8]
-    body = bytes(a ^ b for a, b in zip(bytes.fromhex(sid), pad))
-    return (nonce + body).hex()
+    nonce = hmac.digest(secret, context.encode(), "sha256")[:8]
+    return (nonce + _xor(bytes.fromhex(sid), hmac.digest(secret, nonce, "sha256")[:8])).hex()
+
+
+def _xor(a: bytes, pad: bytes) -> bytes:
+    n = min(len(a), len(pad))
+    return (int.from_bytes(a[:n], "big") ^ int.from_bytes(pad[:n], "big")).to_bytes(n, "big")
 
 
 def unblind_id(alias: str, secret: bytes) -> str | None:
@@ -151,8 +153,7 @@ def unblind_id(alias: str, secret: bytes) -> str | None:
         return None
     if len(raw) != 16:
         return None
-    pad = hmac.new(secret, raw[:8], hashlib.sha256).digest()[:8]
-    return bytes(a ^ b for a, b in zip(raw[8:], pad)).hex()
+    return _xor(raw[8:], hmac.digest(secret, raw[:8], "sha256")[:8]).hex()
 
 
 __all__ = ["make_plan", "public_trial", "stimulus_info", "blind_id", "unblind_id"]
