@@ -521,6 +521,9 @@ class Le2012Stream:
             self.weigher = CausalPauseWeight(fps=self.fps)
             self.settler = PauseSettler(fps=self.fps, idle=float(model.idle), mean_pose=self.pose)
             self.db_scale = 10.0 / float(dict(model._config().params).get("exponent", 0.3))
+        if model.compiled:  # load (or compile) the kernels now, not on the first frame (~0.6 s)
+            _, stacked = model._cond_rows(np.zeros((1, len(model.z_mu_) - 5)), pad=2)
+            model._ascend(np.zeros((3, 3)), None, stacked, self.pull, self.pose, np.zeros((3, 3)))
 
     def _frames(self, F_raw: np.ndarray) -> Motion:
         n = len(F_raw)
