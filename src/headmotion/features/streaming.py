@@ -60,12 +60,18 @@ the synthesiser (the template-warping generator itself is causal: it adds 0).  `
 exact for any parameters: frame ``t`` is final once the sample ``(t+K+0.5)·sr/fps + W_f/2`` is in,
 ``K = smooth_lookahead + 2 · delta_lookahead``.
 
-Cost (``benchmarks/run.py --only features,stream``): pushed 10 ms at a time, a median 0.17 ms per
-chunk on this shared 2-core machine under a load average of ~10 (≈ 4× slower than quiet); a whole
-file at once runs at 0.4–0.6× the speed of the Praat-based ``f0e`` measured at the same moment.
-Every stage works on a batch of frames with per-row numpy operations only (one ``np.correlate``
-per frame for YIN's autocorrelation; sums over a window in a fixed order), which is what keeps a
-frame's value independent of how the audio was chunked.
+Cost (``benchmarks/run.py --only features,stream``): pushed 10 ms at a time, 0.07 ms of CPU per
+chunk (p95 0.12 ms; load average ~3 on this shared 2-core machine); a whole file at once runs at
+0.4–0.6× the speed of the Praat-based ``f0e`` measured at the same moment.  Every stage works on a
+batch of frames with per-row numpy operations only (one ``np.correlate`` per frame for YIN's
+autocorrelation; sums over a window in a fixed order), which is what keeps a frame's value
+independent of how the audio was chunked.  A push that completes one to four frames (a stream's
+10 ms chunk) takes them one at a time through the same operations on 1-D rows (:func:`yin_row`,
+views of the audio and of the stored frames instead of gathers, storage grown geometrically
+instead of concatenated): ~40 numpy calls per frame instead of ~150, the same bits
+(``tests/test_stream_fast_paths.py``).  numba was not used here: the per-frame numpy path meets the
+issue's 0.5 ms per chunk with room, and the streaming model's CLI start does not pay numba's import
+(~0.35 s).
 
 F0 against the offline ``f0e`` on ../shared/data/speech (9 files, first 30 s each, 100 fps):
 on the frames both trackers call voiced, log F0 correlates at r = 0.93–0.999 (median |Δ| 0.03–0.12

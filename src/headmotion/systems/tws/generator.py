@@ -306,7 +306,10 @@ class TwsStream:
 
     Memory and time per chunk are bounded over any length: consumed audio is dropped, the
     generator keeps only the feature frames and segments it can still read (:meth:`Generator.forget`)
-    and renders only the new frames."""
+    and renders only the new frames.  A push that completes one frame (a 10 ms chunk) renders,
+    flags, weighs and settles it on scalars (:meth:`Generator.render_settled_one`, equal to the
+    batch code): ~0.14 ms of CPU per chunk with the features (``benchmarks/run.py --only stream``;
+    the mean includes the change points, whose choice of the next segment costs 1–5 ms each)."""
 
     def __init__(self, system, *, seed: int | None):
         self.sys = system
