@@ -309,7 +309,7 @@ class TwsStream:
     and renders only the new frames.  A push that completes one frame (a 10 ms chunk) renders,
     flags, weighs and settles it on scalars (:meth:`Generator.render_settled_one`, equal to the
     batch code): ~0.14 ms of CPU per chunk with the features (``benchmarks/run.py --only stream``;
-    the mean includes the change points, whose choice of the next segment costs 1–5 ms each)."""
+    the mean includes the change points, whose choice of the next segment costs up to ~0.7 ms)."""
 
     def __init__(self, system, *, seed: int | None):
         self.sys = system
