@@ -60,12 +60,18 @@ the synthesiser (the template-warping generator itself is causal: it adds 0).  `
 exact for any parameters: frame ``t`` is final once the sample ``(t+K+0.5)·sr/fps + W_f/2`` is in,
 ``K = smooth_lookahead + 2 · delta_lookahead``.
 
-Cost (``benchmarks/run.py --only features,stream``): pushed 10 ms at a time, a median 0.17 ms per
-chunk on this shared 2-core machine under a load average of ~10 (≈ 4× slower than quiet); a whole
-file at once runs at 0.4–0.6× the speed of the Praat-based ``f0e`` measured at the same moment.
-Every stage works on a batch of frames with per-row numpy operations only (one ``np.correlate``
-per frame for YIN's autocorrelation; sums over a window in a fixed order), which is what keeps a
-frame's value independent of how the audio was chunked.
+Cost (``benchmarks/run.py --only features,stream``): pushed 10 ms at a time, 0.07 ms of CPU per
+chunk (p95 0.12 ms; load average ~3 on this shared 2-core machine); a whole file at once runs at
+0.4–0.6× the speed of the Praat-based ``f0e`` measured at the same moment.  Every stage works on a
+batch of frames with per-row numpy operations only (one ``np.correlate`` per frame for YIN's
+autocorrelation; sums over a window in a fixed order), which is what keeps a frame's value
+independent of how the audio was chunked.  A push that completes one to four frames (a stream's
+10 ms chunk) takes them one at a time through the same operations on 1-D rows (:func:`yin_row`,
+views of the audio and of the stored frames instead of gathers, storage grown geometrically
+instead of concatenated): ~40 numpy calls per frame instead of ~150, the same bits
+(``tests/test_stream_fast_paths.py``).  numba was not used here: the per-frame numpy path meets the
+issue's 0.5 ms per chunk with room, and the streaming model's CLI start does not pay numba's import
+(~0.35 s).
 
 F0 against the offline ``f0e`` on ../shared/data/speech (9 files, first 30 s each, 100 fps):
 on the frames both trackers call voiced, log F0 correlates at r = 0.93–0.999 (median |Δ| 0.03–0.12
@@ -165,18 +171,81 @@ def yin_frame(x: np.ndarray, win: int, tau_min: int, tau_max: int, threshold: fl
     return float(p[0]), float(a[0])
 
 
+def yin_row(x: np.ndarray, win: int, tau_min: int, tau_max: int, threshold: float,
+            lags: np.ndarray | None = None) -> tuple[float, float]:
+    """:func:`yin_frames` of one window ``x (win + tau_max,)`` with the same operations in the same
+    order (so the same bits), for the stream's one-frame pushes: ~15 numpy calls on 1-D arrays and
+    the dip search in Python instead of ~35 calls on 2-D ones.  ``lags`` is ``arange(1, tau_max +
+    1)`` as floats (precomputed by the caller).  Returns ``(period in samples, aperiodicity)``."""
+    x = np.asarray(x, dtype=np.float64)
+    r = np.correlate(x, x[:win], mode="valid")[: tau_max + 1]
+    c = np.zeros(len(x) + 1)
+    np.cumsum(x * x, out=c[1:])
+    e = c[win:win + tau_max + 1] - c[:tau_max + 1]
+    d = np.maximum(e[0] + e - 2.0 * r, 0.0)
+    cs = np.cumsum(d[1:])
+    if cs[-1] <= 0.0:
+        return 0.0, 1.0
+    dn = np.empty(tau_max + 1)
+    dn[0] = 1.0
+    if lags is None:
+        lags = np.arange(1, tau_max + 1, dtype=np.float64)
+    np.divide(d[1:] * lags, np.maximum(cs, 1e-30), out=dn[1:])
+    seg = dn[tau_min:]
+    L = len(seg)
+    below = seg < threshold
+    i = int(np.argmax(below))
+    if below[i]:
+        # down to the bottom of the first dip: the first j >= i where seg stops falling
+        rest = seg[i + 1:] >= seg[i:L - 1]
+        j = int(np.argmax(rest)) if rest.size else 0
+        i = i + j if rest.size and rest[j] else L - 1
+    else:
+        i = int(np.argmin(seg))
+    tau = i + tau_min
+    ap = float(dn[tau])
+    if not tau_min < tau < tau_max:
+        return float(tau), ap
+    a, b, cc = float(dn[tau - 1]), float(dn[tau]), float(dn[tau + 1])
+    den = a - 2.0 * b + cc
+    shift = 0.5 * (a - cc) / den if den > 0 else 0.0
+    return tau + min(max(shift, -1.0), 1.0), ap
+
+
 class _Store:
-    """Rows indexed by absolute frame number, the oldest ones forgettable."""
+    """Rows indexed by absolute frame number, the oldest ones forgettable; storage grown
+    geometrically, so appending a frame costs O(1) amortised (no copy of the rows held)."""
 
     def __init__(self, dim: int):
-        self.arr = np.zeros((0, dim))
-        self.off = 0
+        self.buf = np.zeros((64, dim))
+        self.n = 0                # rows used in buf
+        self.off = 0              # absolute frame of buf[0]
+
+    @property
+    def arr(self) -> np.ndarray:
+        return self.buf[:self.n]
 
     def __len__(self):
-        return self.off + len(self.arr)
+        return self.off + self.n
+
+    def _room(self, k: int) -> None:
+        if self.n + k > self.buf.shape[0]:
+            new = np.zeros((max(2 * self.buf.shape[0], self.n + k), self.buf.shape[1]))
+            new[:self.n] = self.buf[:self.n]
+            self.buf = new
 
     def extend(self, rows: np.ndarray) -> None:
-        self.arr = np.concatenate([self.arr, rows.reshape(-1, self.arr.shape[1])])
+        rows = rows.reshape(-1, self.buf.shape[1])
+        k = len(rows)
+        self._room(k)
+        self.buf[self.n:self.n + k] = rows
+        self.n += k
+
+    def append(self, *values: float) -> None:
+        """One row of scalars (the single-frame path)."""
+        self._room(1)
+        self.buf[self.n] = values
+        self.n += 1
 
     def take(self, idx: np.ndarray) -> np.ndarray:
         return self.arr[idx - self.off]
@@ -184,7 +253,9 @@ class _Store:
     def forget(self, before: int) -> None:
         k = before - self.off
         if k > 256:
-            self.arr = self.arr[k:].copy()
+            m = max(self.n - k, 0)
+            self.buf[:m] = self.buf[k:k + m].copy()
+            self.n = m
             self.off = before
 
 
@@ -260,7 +331,8 @@ class StreamingF0e:
         self.default_logf0 = 0.5 * (math.log(pitch_floor) + math.log(pitch_ceiling))
         self.K = self.Ls + 2 * self.Ld                                     # frames of lookahead
         # state
-        self._buf = np.zeros(0, dtype=np.float64)
+        self._abuf = np.zeros(4096, dtype=np.float64)   # audio storage: _buf = _abuf[:_alen]
+        self._alen = 0
         self._buf0 = 0            # absolute index of _buf[0]
         self._n_in = 0            # samples pushed so far
         self._static = _Store(2)            # (log F0 held, energy dB)
@@ -275,6 +347,17 @@ class StreamingF0e:
         self._n_out = 0
         self._total: int | None = None   # known at flush
         self._flushed = False
+        self._need_next = self._needed(0)   # samples needed before the next frame's static values
+        self._k_tau = np.arange(1, self.tau_max + 1, dtype=np.float64)
+
+    @property
+    def _empty(self) -> np.ndarray:
+        return np.zeros((0, len(self.names)))
+
+    @property
+    def _buf(self) -> np.ndarray:
+        """The audio held: samples ``_buf0 … _n_in − 1``."""
+        return self._abuf[:self._alen]
 
     # -- geometry --------------------------------------------------------------------------------
     def _centre(self, t: int) -> float:
@@ -315,6 +398,10 @@ class StreamingF0e:
         return np.lib.stride_tricks.sliding_window_view(seg, length)[starts - lo]
 
     def _static_frames(self, t0: int, t1: int) -> None:
+        if t1 - t0 <= 4:           # a stream's push: frame by frame, same values as the batch
+            for t in range(t0, t1):
+                self._static_one(t)
+            return
         xe = self._windows(t0, t1, self.win)
         sq = xe * xe
         if self._intensity is not None:  # openSMILE's cIntensity: Hamming-weighted mean of x²
@@ -327,27 +414,59 @@ class StreamingF0e:
         voiced = (period > 0) & (ap < self.voicing_threshold) & (energy > self.silence_db)
         raw = np.log(self.sample_rate / np.where(voiced, period, 1.0))
         for k in range(t1 - t0):                  # the hold and the octave-jump guard: sequential
-            t = t0 + k
-            if voiced[k]:
-                lf = float(raw[k])
-                recent = sorted(v for f, v in self._recent if f >= t - self.jump_memory)
-                med = 0.0
-                if recent:
-                    m = len(recent)
-                    med = recent[m // 2] if m % 2 else 0.5 * (recent[m // 2 - 1] + recent[m // 2])
-                if self.max_jump > 0 and recent and abs(lf - med) > self.max_jump:
-                    voiced[k] = False     # an octave-like jump away from the recent voiced frames
-                else:
-                    self._recent = [(f, v) for f, v in self._recent if f >= t - self.jump_memory][-4:] + [(t, lf)]
-                    self._last_logf0 = lf
+            voiced[k] = self._hold(t0 + k, bool(voiced[k]), float(raw[k]))
             logf0[k] = self._last_logf0
         self._static.extend(np.stack([logf0, energy], axis=1))
         self._voiced.extend(voiced.astype(np.float64))
 
+    def _hold(self, t: int, voiced: bool, lf: float) -> bool:
+        """The hold and the octave-jump guard of frame ``t`` (sequential); returns its voicing."""
+        if not voiced:
+            return False
+        recent = sorted(v for f, v in self._recent if f >= t - self.jump_memory)
+        med = 0.0
+        if recent:
+            m = len(recent)
+            med = recent[m // 2] if m % 2 else 0.5 * (recent[m // 2 - 1] + recent[m // 2])
+        if self.max_jump > 0 and recent and abs(lf - med) > self.max_jump:
+            return False     # an octave-like jump away from the recent voiced frames
+        self._recent = [(f, v) for f, v in self._recent if f >= t - self.jump_memory][-4:] + [(t, lf)]
+        self._last_logf0 = lf
+        return True
+
+    def _frame_window(self, t: int, length: int) -> np.ndarray:
+        """Row ``t`` of :meth:`_windows`: a view of the audio when it lies inside what is held."""
+        s0 = math.floor((t + 0.5) * self.sample_rate / self.fps - length / 2 + 0.5)
+        a = s0 - self._buf0
+        if s0 >= 0 and a >= 0 and s0 + length <= self._n_in:
+            return self._abuf[a:a + length]
+        return self._windows(t, t + 1, length)[0]
+
+    def _static_one(self, t: int) -> None:
+        """:meth:`_static_frames` of the one frame ``t``: the same operations on 1-D rows (numpy's
+        own log / log10 on scalars, as its vectorised ones give different last bits from ``math``'s)."""
+        xe = self._frame_window(t, self.win)
+        sq = xe * xe
+        if self._intensity is not None:
+            self._intensity.append(np.sum(sq * self.hamming) / self.hamming_sum)
+        p = np.sum(sq * self.hamming2) / self.hamming2_sum
+        energy = max(10.0 * np.log10(p if p > 1e-30 else 1e-30), -100.0)
+        period, ap = yin_row(self._frame_window(t, self.f0_len), self.win, self.tau_min, self.tau_max,
+                             self.threshold, self._k_tau)
+        voiced = period > 0 and ap < self.voicing_threshold and energy > self.silence_db
+        voiced = self._hold(t, voiced, float(np.log(self.sample_rate / period)) if voiced else 0.0)
+        self._static.append(self._last_logf0, energy)
+        self._voiced.append(1.0 if voiced else 0.0)
+
     def _window_sum(self, src: _Store, t0: int, t1: int, back: int, ahead: int, weights=None) -> np.ndarray:
         """Σ_k w_k · src[t + k] for k = −back … ahead (w = 1 without weights), indices clipped to
         the stream.  The sum runs over the middle axis of ``(frames, k, dims)``, in k order for
-        every frame, so a frame's value does not depend on how many frames are in the batch."""
+        every frame, so a frame's value does not depend on how many frames are in the batch (one
+        frame inside the stream: the same ``(1, k, dims)`` sum over a view instead of a gather)."""
+        a = t0 - back - src.off
+        if t1 - t0 == 1 and self._total is None and a >= 0 and t0 - back >= 0:
+            g = src.buf[a:a + back + ahead + 1][None]
+            return (g * weights[None, :, None] if weights is not None else g).sum(axis=1)
         idx = np.arange(t0, t1)[:, None] + np.arange(-back, ahead + 1)[None, :]
         np.maximum(idx, 0, out=idx)
         if self._total is not None:
@@ -361,6 +480,8 @@ class StreamingF0e:
         """Frames whose static values can be computed now."""
         if self._total is not None:
             return self._total
+        if self._n_in < self._need_next:
+            return self._n_static
         t = max(self._n_static, int((self._n_in - self.f0_len) * self.fps / self.sample_rate) - 2)
         while t > self._n_static and self._needed(t - 1) > self._n_in:
             t -= 1
@@ -374,6 +495,7 @@ class StreamingF0e:
         if t1 > self._n_static:
             self._static_frames(self._n_static, t1)
             self._n_static = t1
+            self._need_next = self._needed(t1)
         def stop(n_src: int, la: int) -> int:  # frames final at a stage whose input has n_src frames
             return n_src - la if total is None else total
 
@@ -389,13 +511,15 @@ class StreamingF0e:
         t0, t1 = self._n_out, stop(self._n_d1, self.Ld)
         if t1 <= t0:
             return np.zeros((0, len(self.names)))
-        t = np.arange(t0, t1)
-        cols = [self._smooth.take(t), self._d1.take(t), self._window_sum(self._d1, t0, t1, back, self.Ld, self.w_delta)]
+        cols = [self._smooth.arr[t0 - self._smooth.off:t1 - self._smooth.off],
+                self._d1.arr[t0 - self._d1.off:t1 - self._d1.off],
+                self._window_sum(self._d1, t0, t1, back, self.Ld, self.w_delta)]
         if self.voicing:
-            cols.append(self._voiced.take(t))
+            cols.append(self._voiced.arr[t0 - self._voiced.off:t1 - self._voiced.off])
+        out = np.hstack(cols)    # (a copy: _forget may move the rows the slices view)
         self._n_out = t1
         self._forget()
-        return np.hstack(cols)
+        return out
 
     def _forget(self) -> None:
         """Drop frames and samples no later frame can need (memory stays bounded on long streams)."""
@@ -407,7 +531,9 @@ class StreamingF0e:
         first = min(self._start(self._n_static, self.f0_len), self._start(self._n_static, self.win), self._n_in)
         drop = first - self._buf0        # (at low frame rates the next window may start past the input)
         if drop > 4 * self.f0_len:
-            self._buf = self._buf[drop:]
+            m = max(self._alen - drop, 0)
+            self._abuf[:m] = self._abuf[drop:drop + m].copy()
+            self._alen = m
             self._buf0 = first
 
     # -- the interface ---------------------------------------------------------------------------
@@ -417,11 +543,20 @@ class StreamingF0e:
         if self._flushed:
             raise ParameterError("push() after flush(): start a new StreamingF0e for a new stream")
         x = np.asarray(samples, dtype=np.float64).reshape(-1)
-        if x.size and not np.all(np.isfinite(x)):
-            raise ParameterError("pushed audio holds NaN or inf samples; expected finite values in [-1, 1]")
-        if x.size:
-            self._buf = np.concatenate([self._buf, x])
-            self._n_in += x.size
+        k = x.size
+        if k:
+            # a sum of float32-range samples cannot overflow: it is finite iff every sample is
+            if not math.isfinite(float(np.add.reduce(x))) and not np.all(np.isfinite(x)):
+                raise ParameterError("pushed audio holds NaN or inf samples; expected finite values in [-1, 1]")
+            if self._alen + k > len(self._abuf):
+                new = np.zeros(max(2 * len(self._abuf), self._alen + k))
+                new[:self._alen] = self._abuf[:self._alen]
+                self._abuf = new
+            self._abuf[self._alen:self._alen + k] = x
+            self._alen += k
+            self._n_in += k
+            if self._n_in < self._need_next and self._total is None:
+                return self._empty   # no frame's window is complete yet (most pushes of a few ms)
         return self._advance()
 
     def flush(self) -> np.ndarray:
@@ -474,16 +609,17 @@ class StreamingProsody(StreamingF0e):
         if t1 > self._n_static:
             self._static_frames(self._n_static, t1)
             self._n_static = t1
+            self._need_next = self._needed(t1)
         t0, t1 = self._n_out, self._n_static
         if t1 <= t0:
             return np.zeros((0, 2))
-        t = np.arange(t0, t1)
-        lf = self._static.take(t)[:, 0]
+        lf = self._static.arr[t0 - self._static.off:t1 - self._static.off, 0]
         pitch = 12.0 * (lf - math.log(27.5)) / math.log(2.0) if self.unit == "semitone" else np.exp(lf)
-        loud = (self._intensity.take(t)[:, 0] / 1e-6) ** self.exponent
+        loud = (self._intensity.arr[t0 - self._intensity.off:t1 - self._intensity.off, 0] / 1e-6) ** self.exponent
+        out = np.stack([pitch, loud], axis=1)
         self._n_out = t1
         self._forget()
-        return np.stack([pitch, loud], axis=1)
+        return out
 
 
 def prosody_live(audio: Audio, *, fps: float, n_frames: int, **params):

@@ -139,6 +139,21 @@ class CausalPauseWeight:
         self.t += n
         return w
 
+    def push_one(self, flag: bool) -> float:
+        """The weight of the next frame: :meth:`push` of one flag with the same operations on
+        scalars (numpy's cos, whose last bits can differ from ``math.cos``), for streams that emit
+        a frame per 10 ms chunk."""
+        t = self.t
+        run = self.run + 1 if flag else 0
+        last = t if run >= self.min_speech else self.last_speech
+        u = min(max((t - last - self.delay) / (self.full - self.delay), 0.0), 1.0)
+        target = 0.5 * (1.0 - float(np.cos(np.pi * u)))
+        ramp = target + self.step_down * t
+        m = ramp if ramp > self.peak else self.peak
+        w = m - self.step_down * t
+        self.peak, self.last_speech, self.run, self.t = float(m), int(last), run, t + 1
+        return w if w >= target else target
+
 
 class PauseSettler:
     """The velocity scaling of :func:`settle_in_pauses` as a recursion with state.
@@ -161,6 +176,20 @@ class PauseSettler:
         self.prev_y = None
         self.off = None
 
+    def push_one(self, x, w: float) -> list[float]:
+        """The next frame ``x`` (a sequence of D floats) with its pause weight ``w``, settled:
+        :meth:`push` of one frame with the same operations on scalars (numpy's exp), for streams
+        that emit a frame per 10 ms chunk.  Returns the settled frame as a list of floats."""
+        if self.pull != 0.0 or self.prev_x is None:
+            return self.push(np.asarray(x, dtype=np.float64)[None], np.array([w]))[0].tolist()
+        x = [float(v) for v in x]
+        rate1 = (1.0 - (1.0 - self.idle) * w) - 1.0
+        decay = float(np.exp(-(1.0 - w) / (self.relax_s * self.fps)))
+        off = [decay * (o + (rate1 * (xi - pi)) / decay) for o, xi, pi in zip(self.off, x, self.prev_x)]
+        y = [xi + o for xi, o in zip(x, off)]
+        self.off, self.prev_x, self.prev_y = off, x, y
+        return y
+
     def push(self, x, w) -> np.ndarray:
         x = np.asarray(x, dtype=np.float64)
         w = np.asarray(w, dtype=np.float64)
@@ -178,6 +207,10 @@ class PauseSettler:
             first = x[:1]
             k_pull[0] = 0.0  # the utterance's first frame is the motion's
         else:
+            # (push_one keeps its state as lists of floats)
+            self.off, self.prev_x, self.prev_y = (np.asarray(self.off, dtype=np.float64),
+                                                  np.asarray(self.prev_x, dtype=np.float64),
+                                                  np.asarray(self.prev_y, dtype=np.float64))
             first = self.prev_x[None]
         dx = np.diff(np.vstack([first, x]), axis=0)   # dx[0] = 0 for the utterance's first frame
         u = (rate - 1.0)[:, None] * dx

@@ -133,3 +133,34 @@ def ascent_joint(out, LW, CM, P, mu, sd, lo, hi, step, n_steps, pull, pose, jitt
             _ascent_update(theta, g, gv, ga, sd, lo, hi, step)
         for k in range(3):
             out[t, k] = theta[k]
+
+
+@njit(cache=True)
+def conditionals(X, c0, mx, Px, A, my, const, LW, CM, row0):
+    """Condition G stacked GMMs on the feature rows ``X (T, dx)`` (eq 2.5–2.8; what
+    :meth:`headmotion.systems.le2012.Le2012._conditionals` computes with einsum, with the same
+    products summed in the same order): for frame t, GMM g, component m, ``d = x_t − mx[g, m]``,
+    ``LW[row0 + t, g, m] = c0[g, m] − 0.5 (const + |d Px[g, m]|²)`` and ``CM[row0 + t, g, m] =
+    my[g, m] + A[g, m] d``.  ``Px`` is the Cholesky factor of the component's feature precision,
+    ``A`` its regression matrix (both computed once per model)."""
+    T, dx = X.shape
+    G, M = c0.shape
+    dz = my.shape[2]
+    d = np.empty(dx)
+    for t in range(T):
+        for g in range(G):
+            for m in range(M):
+                for i in range(dx):
+                    d[i] = X[t, i] - mx[g, m, i]
+                q = 0.0
+                for j in range(dx):
+                    y = 0.0
+                    for i in range(dx):
+                        y += d[i] * Px[g, m, i, j]
+                    q += y * y
+                LW[row0 + t, g, m] = c0[g, m] - 0.5 * (const + q)
+                for k in range(dz):
+                    s = 0.0
+                    for i in range(dx):
+                        s += A[g, m, k, i] * d[i]
+                    CM[row0 + t, g, m, k] = my[g, m, k] + s

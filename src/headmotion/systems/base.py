@@ -58,7 +58,7 @@ import numpy as np
 
 from ..errors import ModelFileError, NotFittedError, ParameterError
 from ..models.serialization import load_model_file, save_model_file
-from ..motion.control import apply_gain, as_triple
+from ..motion.control import apply_gain, as_triple, is_identity
 from ..types import Audio, Motion
 
 #: registry name → "module:Class" (modules are imported on first use)
@@ -112,12 +112,15 @@ class _GainedStream:
     def __init__(self, inner, mean_pose, gain, offset):
         self.inner, self.mean_pose, self.gain, self.offset = inner, mean_pose, gain, offset
         self.latency_ms = inner.latency_ms
+        self.identity = is_identity(gain, offset)   # decided once, not on every 10 ms push
 
     def push(self, samples) -> Motion:
-        return apply_gain(self.inner.push(samples), self.mean_pose, self.gain, self.offset)
+        m = self.inner.push(samples)
+        return m if self.identity else apply_gain(m, self.mean_pose, self.gain, self.offset)
 
     def flush(self) -> Motion:
-        return apply_gain(self.inner.flush(), self.mean_pose, self.gain, self.offset)
+        m = self.inner.flush()
+        return m if self.identity else apply_gain(m, self.mean_pose, self.gain, self.offset)
 
 
 class Synthesizer(ABC):

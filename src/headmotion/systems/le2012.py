@@ -68,7 +68,7 @@ from ..errors import ParameterError
 from ..features import ANALYSIS_RATE
 from ..models.gmm import GMMRegression
 from ..motion.control import mean_pose_of
-from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
+from ..rotations import pitch_yaw_roll_to_rotvec, pitch_yaw_roll_to_rotvec_one, rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
 from .base import CAUSAL, Synthesizer
 from .tws.features import make_feature_config
@@ -233,11 +233,28 @@ class Le2012(Synthesizer):
     def _conditionals(self, Fs: np.ndarray):
         """Condition every GMM on the speech features of every frame (vectorised over T and the
         components; eq 2.5–2.8 as :meth:`GMMRegression.condition`, whose per-component loop costs
-        ~3 ms per call — too much for a 10 ms stream chunk).
+        ~3 ms per call — too much for a 10 ms stream chunk).  The numpy form, read by the reference
+        ascent (``compiled=False``); compiled models condition with
+        :func:`._le2012_kernel.conditionals` on the same arrays (:meth:`_kernel_model`), the same
+        products summed in the same order (~2 µs per frame instead of ~80).
 
         Returns per GMM: log weights (T, M) = ``log p(f_t, m) - 0.5 log |C_m|`` (so that
         ``logw - 0.5 (z - cm)' P (z - cm)`` is the log density up to a constant), conditional means
         (T, M, Dz) and conditional precisions P (M, Dz, Dz)."""
+        X = np.asarray(Fs, dtype=np.float64)
+        out = {}
+        for key, (c0, mx, Px, A, my, P) in self._prepared().items():
+            d = X[:, None, :] - mx[None]                                  # (T, M, dx)
+            y = np.einsum("nmi,mij->nmj", d, Px)
+            lw = c0[None] - 0.5 * (X.shape[1] * _LOG2PI + np.einsum("nmj,nmj->nm", y, y))
+            out[key] = (lw, my[None] + np.einsum("myx,nmx->nmy", A, d), P)
+        return out
+
+    def _prepared(self) -> dict:
+        """Per GMM, what conditioning on a frame needs, computed once per model: ``(c0, mx, Px, A,
+        my, P)`` — the log weight with the feature density's normaliser and ``-0.5 log |C_m|``, the
+        feature means, the Cholesky factor of the feature precision, the regression matrix, the
+        motion means and the conditional precision."""
         cache = getattr(self, "_cond_prep", None)
         if cache is None or cache[0] is not self.gmms_:
             prep = {}
@@ -245,14 +262,29 @@ class Le2012(Synthesizer):
                 log_det = 2.0 * np.log(np.diagonal(g._chol_c, axis1=1, axis2=2)).sum(axis=1)
                 prep[key] = (g._log_w + g._ldx - 0.5 * log_det, g._mx, g._Px, g._A, g._my, np.linalg.inv(g._cov_c))
             cache = self._cond_prep = (self.gmms_, prep)
-        X = np.asarray(Fs, dtype=np.float64)
-        out = {}
-        for key, (c0, mx, Px, A, my, P) in cache[1].items():
-            d = X[:, None, :] - mx[None]                                  # (T, M, dx)
-            y = np.einsum("nmi,mij->nmj", d, Px)
-            lw = c0[None] - 0.5 * (X.shape[1] * _LOG2PI + np.einsum("nmj,nmj->nm", y, y))
-            out[key] = (lw, my[None] + np.einsum("myx,nmx->nmy", A, d), P)
-        return out
+        return cache[1]
+
+    def _kernel_model(self):
+        """The compiled kernels' model arrays, stacked over the GMMs and made contiguous once per
+        model: ``(c0 (G, M), mx (G, M, dx), Px (G, M, dx, dx), A (G, M, dz, dx), my (G, M, dz),
+        P, mu, sd, lo, hi)`` with ``P`` the joint GMM's conditional precisions (M, 5, 5) or the five
+        univariate ones (5, M), ``mu``/``sd`` the standardisation and ``lo``/``hi`` the clip of the
+        ascent; None when the GMMs have different numbers of components (then numpy conditions)."""
+        cache = getattr(self, "_kernel_prep", None)
+        if cache is None or cache[0] is not self.gmms_:
+            prep = self._prepared()
+            keys = ["joint"] if self.joint else ["angle0", "angle1", "angle2", "vel", "acc"]
+            arrays = None
+            if len({prep[k][0].shape for k in keys}) == 1:
+                c = np.ascontiguousarray
+                stack = [c(np.stack([prep[k][i] for k in keys]), dtype=np.float64) for i in range(5)]
+                P = (prep["joint"][5] if self.joint else np.stack([prep[k][5][:, 0, 0] for k in keys], axis=0))
+                span = self.hi_ - self.lo_
+                arrays = (*stack, c(P, dtype=np.float64), c(self.z_mu_, dtype=np.float64),
+                          c(self.z_sd_, dtype=np.float64), c(self.lo_ - 0.1 * span, dtype=np.float64),
+                          c(self.hi_ + 0.1 * span, dtype=np.float64))
+            cache = self._kernel_prep = (self.gmms_, arrays)
+        return cache[1]
 
     @staticmethod
     def _mix_grad(z, logw, cm, P):
@@ -330,12 +362,34 @@ class Le2012(Synthesizer):
 
         return SpeechDetector(col=0, mu=0.0, sd=1.0, db_per_unit=1.0, fps=float(self.fps_)).start()
 
-    def _cond_rows(self, F_raw: np.ndarray):
+    def _cond_rows(self, F_raw: np.ndarray, pad: int = 0):
         """Per-frame conditional mixtures of raw (float32-cast) feature rows, stacked for the
-        kernels: ``("joint", lw, cm, P)`` or ``("independent", LW, CM, PR)``."""
+        kernels: ``("joint", lw, cm, P)`` or ``("independent", LW, CM, PR)``, each per-frame array
+        with ``pad`` leading rows of zeros (a stream's two history frames).  Compiled: conditioned
+        by :func:`._le2012_kernel.conditionals` (``cond`` is None); otherwise with numpy, ``cond``
+        the per-GMM dict the reference ascent reads."""
         F = np.asarray(self.normalizer_.transform(np.asarray(F_raw, dtype=np.float64)), dtype=np.float64)
         Fs = (F - self.z_mu_[5:]) / self.z_sd_[5:]
+        km = self._kernel_model() if self.compiled else None
+        if km is not None:
+            from ._le2012_kernel import conditionals
+
+            c0, mx, Px, A, my, P = km[:6]
+            T, (G, M), dz = len(Fs), c0.shape, my.shape[2]
+            LW, CM = np.zeros((T + pad, G, M)), np.zeros((T + pad, G, M, dz))
+            conditionals(np.ascontiguousarray(Fs), c0, mx, Px, A, my, Fs.shape[1] * _LOG2PI, LW, CM, pad)
+            if self.joint:
+                return None, ("joint", LW.reshape(T + pad, M), CM.reshape(T + pad, M, dz), P)
+            return None, ("independent", LW, CM.reshape(T + pad, G, M), P)
+
+        def padded(a):
+            z = np.zeros((len(a) + pad,) + a.shape[1:])
+            z[pad:] = a
+            return z
+
         cond = self._conditionals(Fs)
+        if pad:
+            cond = {key: (padded(v[0]), padded(v[1]), v[2]) for key, v in cond.items()}
         if self.joint:
             lw, cm, P = cond["joint"]
             return cond, ("joint", np.ascontiguousarray(lw), np.ascontiguousarray(cm), np.ascontiguousarray(P))
@@ -347,18 +401,24 @@ class Le2012(Synthesizer):
 
     def _ascend(self, out, cond, stacked, pull, pose, jitter) -> None:
         """Fill ``out[2:]`` given ``out[0:2]`` (the ascent, compiled or the numpy reference)."""
-        mu, sd = self.z_mu_, self.z_sd_
-        span = self.hi_ - self.lo_
-        lo, hi = self.lo_ - 0.1 * span, self.hi_ + 0.1 * span
         if self.compiled:
             from ._le2012_kernel import ascent_independent, ascent_joint
 
-            args = (np.ascontiguousarray(mu, dtype=np.float64), np.ascontiguousarray(sd, dtype=np.float64),
-                    np.ascontiguousarray(lo, dtype=np.float64), np.ascontiguousarray(hi, dtype=np.float64),
-                    float(self.step), int(self.n_steps), float(pull), np.ascontiguousarray(pose),
-                    np.ascontiguousarray(jitter))
+            km = self._kernel_model()
+            if km is not None:
+                mu, sd, lo, hi = km[6:]
+            else:
+                span = self.hi_ - self.lo_
+                c = np.ascontiguousarray
+                mu, sd = c(self.z_mu_, dtype=np.float64), c(self.z_sd_, dtype=np.float64)
+                lo, hi = c(self.lo_ - 0.1 * span, dtype=np.float64), c(self.hi_ + 0.1 * span, dtype=np.float64)
+            args = (mu, sd, lo, hi, float(self.step), int(self.n_steps), float(pull),
+                    np.ascontiguousarray(pose, dtype=np.float64), np.ascontiguousarray(jitter, dtype=np.float64))
             (ascent_joint if stacked[0] == "joint" else ascent_independent)(out, *stacked[1:], *args)
         else:
+            mu, sd = self.z_mu_, self.z_sd_
+            span = self.hi_ - self.lo_
+            lo, hi = self.lo_ - 0.1 * span, self.hi_ + 0.1 * span
             self._ascent_reference(out, cond, mu, sd, lo, hi, pull, pose, jitter if self.start_sd else None)
 
     def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
@@ -443,7 +503,15 @@ class Le2012Stream:
     """:meth:`Le2012.stream`: push float samples at the model's ``sample_rate``; every frame is
     final once its ``prosody-live`` features are (``latency_ms``, 24.2 ms at 100 fps), and the
     frames equal offline ``predict``'s (module docstring).  State: the feature extractor, the last
-    two frames, the noise generator, the speech tracker and the pause settler — bounded."""
+    two frames, the noise generator, the speech tracker and the pause settler — bounded.
+
+    Cost per 10 ms chunk (one frame; ``benchmarks/run.py --only stream``): ~0.15 ms of CPU — the
+    features ~0.06, the compiled conditioning and ascent, then the speech flag, pause weight,
+    settling and Euler → rotation vector on scalars (the one-frame paths of
+    :mod:`headmotion.motion.pauses`, :mod:`headmotion.systems.tws.speech` and
+    :func:`headmotion.rotations.pitch_yaw_roll_to_rotvec_one`, equal to the batch code).  The
+    numba kernels are loaded when the stream starts (~0.5 s for the first stream of a process), not
+    on its first frame."""
 
     def __init__(self, model: Le2012, *, seed: int | None):
         from ..motion.pauses import CausalPauseWeight, PauseSettler
@@ -463,6 +531,10 @@ class Le2012Stream:
             self.tracker = model._speech_tracker()
             self.weigher = CausalPauseWeight(fps=self.fps)
             self.settler = PauseSettler(fps=self.fps, idle=float(model.idle), mean_pose=self.pose)
+            self.db_scale = 10.0 / float(dict(model._config().params).get("exponent", 0.3))
+        if model.compiled:  # load (or compile) the kernels now, not on the first frame (~0.6 s)
+            _, stacked = model._cond_rows(np.zeros((1, len(model.z_mu_) - 5)), pad=2)
+            model._ascend(np.zeros((3, 3)), None, stacked, self.pull, self.pose, np.zeros((3, 3)))
 
     def _frames(self, F_raw: np.ndarray) -> Motion:
         n = len(F_raw)
@@ -473,29 +545,35 @@ class Le2012Stream:
         k = min(n, max(0, 2 - self.t))    # the utterance's first two frames are the start pose
         x = np.empty((n, 3))
         x[:k] = m.start_
-        hist = np.vstack([self.last, x[:k]])[-2:]
+        hist = self.last if k == 0 else np.vstack([self.last, x[:k]])[-2:]
         if n > k:
-            cond, stacked = m._cond_rows(F_raw[k:])
             # rows: the two frames before (history), then the new frames
+            cond, stacked = m._cond_rows(F_raw[k:], pad=2)
             out = np.empty((n - k + 2, 3))
             out[:2] = hist
-            def pad(a):
-                z = np.zeros((len(a) + 2,) + a.shape[1:])
-                z[2:] = a
-                return z
-
-            stacked = (stacked[0], pad(stacked[1]), pad(stacked[2]), stacked[3])
-            if not m.compiled:  # the numpy reference reads the per-GMM rows
-                cond = {key: (pad(v[0]), pad(v[1]), v[2]) for key, v in cond.items()}
-            m._ascend(out, cond, stacked, self.pull, self.pose, pad(jitter[k:]))
+            jit = np.zeros((n - k + 2, 3))
+            jit[2:] = jitter[k:]
+            m._ascend(out, cond, stacked, self.pull, self.pose, jit)
             x[k:] = out[2:]
             hist = out[-2:]
         self.last = np.array(hist, dtype=np.float64)
         self.t += n
+        if n == 1:  # a 10 ms push: the settling and the rotation on scalars (same values)
+            row = x[0].tolist()
+            if self.settle:
+                row = self.settler.push_one(row, self.weigher.push_one(self._speech_one(float(F_raw[0, 1]))))
+            return Motion(np.array([pitch_yaw_roll_to_rotvec_one(*row)]), self.fps)
         if self.settle:
             w = self.weigher.push(self.tracker.push_db(m._loudness_db(F_raw)))
             x = self.settler.push(x, w)
         return Motion(pitch_yaw_roll_to_rotvec(x[:, 0], x[:, 1], x[:, 2]), self.fps)
+
+    def _speech_one(self, loudness: float) -> bool:
+        """The speech flag of one frame from its raw loudness (:meth:`Le2012._loudness_db` on a scalar)."""
+        if self.tracker.n < self.tracker.update_frames - 1:
+            return bool(self.tracker.push_db(self.m._loudness_db(np.array([[0.0, loudness]])))[0])
+        db = self.db_scale * float(np.log10(loudness if loudness >= 1e-30 else 1e-30)) - 60.0
+        return self.tracker.push_one_db(db if db >= -100.0 else -100.0)
 
     def push(self, samples) -> Motion:
         return self._frames(self.feats.push(np.asarray(samples, dtype=np.float32).ravel()))

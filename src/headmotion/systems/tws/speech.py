@@ -96,10 +96,31 @@ class SpeechTracker:
     def __init__(self, det: SpeechDetector):
         self.det = det
         self.W = max(2, int(round(det.window_s * det.fps)))
-        self.e = np.zeros(0)       # the energies (dB) of the last W frames at most
+        self._ebuf = np.zeros(2 * self.W + 64)   # storage of ``e``, shifted down when full
+        self._elen = 0
         self.e_off = 0             # the absolute frame index of e[0]
         self.n = 0                 # frames pushed so far
         self.stats = (np.nan, np.nan)  # (floor, level) of the latest update
+        self._lags = np.arange(0, self.W, self.stride)   # a full window: frames u - lags
+
+    @property
+    def e(self) -> np.ndarray:
+        """The energies (dB) held: frames ``e_off …`` (at least the last W)."""
+        return self._ebuf[:self._elen]
+
+    def _append(self, e: np.ndarray) -> None:
+        k = len(e)
+        if self._elen + k > len(self._ebuf):
+            # forget what no later window can reach (memory and time per push stay bounded)
+            drop = max(self._elen - self.W, 0)
+            keep = self._ebuf[drop:self._elen].copy()
+            if len(keep) + k > len(self._ebuf):
+                self._ebuf = np.zeros(2 * (len(keep) + k))
+            self._ebuf[:len(keep)] = keep
+            self._elen = len(keep)
+            self.e_off += drop
+        self._ebuf[self._elen:self._elen + k] = e
+        self._elen += k
 
     def _window(self, u: int) -> np.ndarray:
         return self.e[max(0, u - self.W + 1) - self.e_off: u + 1 - self.e_off][::-1][:: self.stride]
@@ -108,7 +129,36 @@ class SpeechTracker:
         """Flags of the next feature frames (normalised rows of the system's features)."""
         if len(F) == 0:
             return np.zeros(0, dtype=bool)
+        if len(F) == 1 and self.n >= self.update_frames - 1:
+            d = self.det
+            return np.array([self.push_one_db((float(F[0, d.col]) * d.sd + d.mu) * d.db_per_unit)])
         return self.push_db(self.det.energy_db(F))
+
+    def push_one_db(self, e: float) -> bool:
+        """The flag of the next frame given its energy in dB, once the first ``update_frames - 1``
+        frames are in: :meth:`push_db` of one frame with the same operations on scalars (the
+        percentiles, every ``update_frames`` frames, by the same numpy calls)."""
+        u = self.n
+        if u < self.update_frames - 1:
+            return bool(self.push_db(np.array([e]))[0])
+        if self._elen == len(self._ebuf):
+            self._append(np.array([e]))
+        else:
+            self._ebuf[self._elen] = e
+            self._elen += 1
+        self.n += 1
+        if (u + 1) % self.update_frames == 0:
+            if u >= self.W - 1:
+                st = np.percentile(self.e[(u - self._lags)[None, :] - self.e_off], (10, 95), axis=1)[:, 0]
+            else:
+                st = np.percentile(self._window(u), (10, 95))
+            self.stats = (float(st[0]), float(st[1]))
+        floor, level = self.stats
+        d = self.det
+        rng = level - floor
+        if rng < d.min_snr_db:
+            return e > d.silence_db
+        return e > floor + max(d.min_snr_db, 0.25 * rng)
 
     def push_db(self, e: np.ndarray) -> np.ndarray:
         """Flags of the next frames given their energies in dB (for systems whose features have no
@@ -117,7 +167,7 @@ class SpeechTracker:
         if len(e) == 0:
             return np.zeros(0, dtype=bool)
         t0 = self.n
-        self.e = np.concatenate([self.e, e])
+        self._append(e)
         self.n += len(e)
         n = len(e)
         K = self.update_frames
@@ -148,11 +198,6 @@ class SpeechTracker:
             floor[i0:], level[i0:] = got[:, 0], got[:, 1]
         if len(ups):
             self.stats = (float(st[-1, 0]), float(st[-1, 1]))
-        # forget what no later window can reach (memory and time per push stay bounded)
-        drop = len(self.e) - self.W
-        if drop > 0:
-            self.e = self.e[drop:]
-            self.e_off += drop
         rng = level - floor
         thr = floor + np.maximum(self.det.min_snr_db, 0.25 * rng)
         return np.where(rng < self.det.min_snr_db, e > self.det.silence_db, e > thr)
