@@ -4,6 +4,8 @@ same folds as ``headmotion evaluate --protocol speakers --speaker-folds 3 --seed
 normalised output cached, and post stages are compared on the same output, 4 synthesis seeds.
 
     PYTHONPATH=src nice python scripts/diagnosis_i14/dnn_band_sweep.py [--variants a,b] [--seeds 4]
+    # the product's networks (two training seeds) with other drift settings:
+    PYTHONPATH=src nice python scripts/diagnosis_i14/dnn_band_sweep.py --variants drift:0.2:4:zero,drift:0.2:8:zero,drift:0.2:4:eval,drift:0.2:8:eval
 
 Prints one line per variant: band shares, L1, SD ratios, H speed (per recording median and
 pooled over the corpus, GENEA-style), LC, pause ratio, diversity, pooled FCCA p per seed.
@@ -152,6 +154,38 @@ def product(tag, recs, ctx, a):
     report(tag, refs, first, samples, ctx, a, t0)
 
 
+def product_models(which: str) -> list:
+    """The product's fold networks (fitted by this checkout, cached as ``prod{which}{k}.hmz``)."""
+    from headmotion.evaluation.protocols import _sub_seed
+
+    out = []
+    for k, (name, train, _, _) in enumerate(make_folds(corpus(), "speakers", seed=0, speaker_folds=3)):
+        f = HOME / f"prod{which}{k}.hmz"
+        if not f.exists():
+            rs = 0 if which == "zero" else _sub_seed(0, name, "mfcc-dnn")
+            HOME.mkdir(parents=True, exist_ok=True)
+            create("mfcc-dnn", random_state=rs).fit(train).save(f)
+        out.append(load_model(f))
+    return out
+
+
+def drift(tag, recs, ctx, a):
+    """``drift:SHARE:TAU:zero|eval``: the cached product networks with another drift share / time
+    constant (the speed map stays the one fitted with the defaults)."""
+    t0 = time.time()
+    _, share, tau, which = tag.split(":")
+    refs, first, samples = [], [], []
+    folds = make_folds(corpus(), "speakers", seed=0, speaker_folds=3)
+    for model, (_, _, test, _) in zip(product_models(which), folds):
+        model.set_params(drift_share=float(share), drift_tau_s=float(tau))
+        for r in test:
+            outs = [at_rate(model.predict(r.audio, seed=s), r.motion.fps, len(r.motion)) for s in range(a.seeds)]
+            refs.append(recs[r.id])
+            first.append(outs[0])
+            samples.append(outs)
+    report(tag, refs, first, samples, ctx, a, t0)
+
+
 def report(v, refs, first, samples, ctx, a, t0):
     rows = rows_for(v, refs, first, ctx, samples=samples if a.seeds > 1 else None, n_shifts=a.shifts)
     s = rows[-1]
@@ -210,6 +244,9 @@ def main():
     for v in a.variants.split(","):
         if v.startswith("prod"):
             product(v, recs, ctx, a)
+            continue
+        if v.startswith("drift:"):
+            drift(v, recs, ctx, a)
             continue
         spec = specs[v]
         t0 = time.time()
