@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from realism_report import at_rate, context, rows_for  # noqa: E402
+from realism_report import at_rate, rows_for  # noqa: E402
 
 from headmotion.corpus import Corpus  # noqa: E402
 from headmotion.evaluation import realism as R  # noqa: E402
@@ -62,7 +62,7 @@ def fold_data():
             model.save(mp)
             print(f"fold {k} ({name}) fitted in {time.time() - t:.0f} s", flush=True)
 
-        def raw(audio):
+        def raw(audio, model=model):
             T = _n_frames(len(audio.samples), audio.sample_rate, 100.0)
             return np.asarray(model._network_values(model._extract(audio, T)), dtype=np.float64), T
 
@@ -143,7 +143,7 @@ def product(tag, recs, ctx, a):
     t0 = time.time()
     which = tag.split(":")[1]
     refs, first, samples = [], [], []
-    for k, (name, train, test, _) in enumerate(make_folds(corpus(), "speakers", seed=0, speaker_folds=3)):
+    for name, train, test, _ in make_folds(corpus(), "speakers", seed=0, speaker_folds=3):
         rs = 0 if which == "zero" else _sub_seed(0, name, "mfcc-dnn")
         model = create("mfcc-dnn", random_state=rs).fit(train)
         for r in test:
