@@ -88,10 +88,6 @@ def fold_data():
 
 
 # -- variants -------------------------------------------------------------------------------------
-def current(model, fold, share=0.15, tau=4.0):
-    return dict(kind="gv", share=share, tau=tau)
-
-
 def synth(model, y, e, seed, spec, bank=None, table=None):
     """Post stages of ``spec`` on normalised raw output ``y`` → rotvec at 100 fps."""
     stages = DnnPostStages(model, seed)
