@@ -61,3 +61,17 @@ def planted():
         return cache[key]
 
     return make
+
+
+@pytest.fixture(scope="module")
+def gl():
+    """Offscreen OpenGL is available (the rendering tests skip with the reason otherwise)."""
+    from headmotion.errors import MissingDependencyError
+    from headmotion.render.offscreen import create_context
+
+    try:
+        ctx = create_context()
+    except MissingDependencyError as exc:
+        pytest.skip(f"no offscreen OpenGL: {exc}")
+    ctx.release()
+    return True

@@ -13,12 +13,13 @@ answer stored exactly once, and SIGKILL of the whole server mid-load loses nothi
 from __future__ import annotations
 
 import asyncio
-import importlib.util
 import shutil
 import warnings
 from pathlib import Path
 
 import pytest
+
+from listening_driver import driver
 
 from headmotion.listening.app import CSP, create_app, split_host
 from headmotion.listening.config import load_config
@@ -30,14 +31,7 @@ with warnings.catch_warnings():
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _load_driver():
-    spec = importlib.util.spec_from_file_location("listening_load", ROOT / "benchmarks" / "listening_load.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-L = _load_driver()
+L = driver
 
 
 @pytest.fixture

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+from listening_driver import driver
 
 ADMIN = "admin-secret"
 pytestmark = pytest.mark.slow
@@ -83,19 +84,6 @@ def test_dir(tmp_path, examples_dir) -> Path:
     return d
 
 
-def _answer_for(trial: dict, pnum: int) -> dict:
-    """A deterministic answer of simulated participant ``pnum`` for ``trial``."""
-    i = trial["index"]
-    if trial["kind"] == "attention":
-        return {"choice": trial["options"][(pnum + i) % len(trial["options"])]}
-    if trial["kind"] == "mos":
-        return {"rating": 1 + (pnum * 7 + i * 3) % 7}
-    if trial["kind"] == "mushra":
-        return {"ratings": {s["label"]: float((pnum * 13 + i * 7 + k * 29) % 101)
-                            for k, s in enumerate(trial["slots"])}}
-    return {"choice": "left" if (pnum + i) % 2 else "right"}
-
-
 async def _participant(client, pnum, sent, errors, *, demographics, token=None, stop_after=None,
                        registered=None):
     """Run one participant to the end; record acked answers in ``sent``.  A dropped connection
@@ -135,7 +123,7 @@ async def _participant_steps(client, pnum, sent, errors, *, demographics, token,
         if st["stage"] == "done":
             return token
         trial = st["trial"]
-        body = {"trial_index": trial["index"], **_answer_for(trial, pnum)}
+        body = {"trial_index": trial["index"], **driver.answer_for(trial, pnum)}
         r = await client.post(f"/api/p/{token}/answer", json=body)
         if r.status_code != 200:
             errors.append((pnum, "answer", r.status_code, r.text))

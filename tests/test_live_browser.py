@@ -33,18 +33,24 @@ def speech_wav(tmp_path_factory, shared_data):
     return path
 
 
-def test_live_page_moves_head_with_fake_microphone(speech_wav):
+@pytest.fixture
+def playwright():
+    """``sync_playwright``, or a skip with the reason (no playwright, no Chromium)."""
     try:
         from playwright.sync_api import sync_playwright
     except ImportError:
         pytest.skip("playwright is not installed")
     if not (Path(CHROMIUM).is_file() or shutil.which(CHROMIUM)):
         pytest.skip(f"chromium not found at {CHROMIUM}")
+    return sync_playwright
+
+
+def test_live_page_moves_head_with_fake_microphone(speech_wav, playwright):
     from headmotion.systems.base import load_model
     from headmotion.web.live import running_live_server
 
     model = load_model(MODEL)
-    with running_live_server(model) as url, sync_playwright() as p:
+    with running_live_server(model) as url, playwright() as p:
         b = p.chromium.launch(executable_path=CHROMIUM, args=[
             "--no-sandbox", "--disable-gpu", "--headless", "--autoplay-policy=no-user-gesture-required",
             "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
@@ -85,17 +91,11 @@ def test_live_page_moves_head_with_fake_microphone(speech_wav):
             b.close()
 
 
-def test_live_page_with_a_chosen_audio_file(speech_wav):
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        pytest.skip("playwright is not installed")
-    if not (Path(CHROMIUM).is_file() or shutil.which(CHROMIUM)):
-        pytest.skip(f"chromium not found at {CHROMIUM}")
+def test_live_page_with_a_chosen_audio_file(speech_wav, playwright):
     from headmotion.systems.base import load_model
     from headmotion.web.live import running_live_server
 
-    with running_live_server(load_model(MODEL)) as url, sync_playwright() as p:
+    with running_live_server(load_model(MODEL)) as url, playwright() as p:
         b = p.chromium.launch(executable_path=CHROMIUM, args=[
             "--no-sandbox", "--disable-gpu", "--headless", "--autoplay-policy=no-user-gesture-required",
             "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])

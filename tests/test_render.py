@@ -65,19 +65,6 @@ def test_import_is_lazy():
 
 
 # -- OpenGL ------------------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def gl():
-    from headmotion.errors import MissingDependencyError
-    from headmotion.render.offscreen import create_context
-
-    try:
-        ctx = create_context()
-    except MissingDependencyError as exc:
-        pytest.skip(f"no offscreen OpenGL: {exc}")
-    ctx.release()
-    return True
-
-
 def _mask_stats(img):
     """Centroid (x, y) of the black-box pixels, their x–row covariance and count."""
     m = img.max(axis=2) < 10

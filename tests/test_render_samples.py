@@ -15,19 +15,6 @@ from headmotion.types import Audio, Motion
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.fixture(scope="module")
-def gl():
-    from headmotion.errors import MissingDependencyError
-    from headmotion.render.offscreen import create_context
-
-    try:
-        ctx = create_context()
-    except MissingDependencyError as exc:
-        pytest.skip(f"no offscreen OpenGL: {exc}")
-    ctx.release()
-    return True
-
-
 def test_labels():
     assert sample_labels(2) == ["sample 1", "sample 2"]
     assert sample_labels(2, [7, 8]) == ["sample 1 · seed 7", "sample 2 · seed 8"]

@@ -740,7 +740,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     rows += pooled_rows(rows, [GROUND_TRUTH] + [n for n, _ in specs])
     recs = [rid for rid in corpus.ids if rid in gt]
     if motions:
-        rows += pooled_histogram_rows(motions, {r.id: r.motion for r in corpus if r.id in gt})
+        rows += pooled_histogram_rows(motions, {rid: Motion(g[0], g[3]) for rid, g in gt.items()})
     fps = gt[trajectory_recording][3] if trajectory_recording in gt else 100.0
     timings["total_wall"] = time.perf_counter() - t_start
     fs_names = [feature_set_name(f) for f in feature_sets]

@@ -189,9 +189,6 @@ DEFAULT_DRIFT_SHARE = 0.2
 DEFAULT_DRIFT_TAU_S = 4.0
 #: parameters that switch every addition to the paper off (the paper's protocols use them)
 PAPER_PARAMS = {"variance_restore": False, "drift_share": 0.0, "idle": None, "speed_shaping": False}
-#: the speed shaper's window (s) and follow time (s) (:class:`~headmotion.systems.dnn_post.SpeedShaper`)
-SHAPING_LAG_S = 0.04
-SHAPING_FOLLOW_S = 0.25
 #: product default idle level in pauses for the DNN systems
 DNN_IDLE = 0.45
 
@@ -503,8 +500,6 @@ class _DnnSystem(Synthesizer):
         g_train = dnn_post.band_gains(raw, [p.y for p in train], fps=fps)
         g_valid = dnn_post.band_gains(hraw, hy, fps=fps, starts=hs)
         self.band_gains_ = np.sqrt(g_train * g_valid)
-        self.motion_norm_ = mot_norm
-        self.speed_map_ = self._fit_speed_map(hraw, hy, [0] * len(hraw))
         self.feature_config_ = config
         self.input_dim_ = int(train[0].feats.shape[1])
         self.feature_norm_ = feat_norm
@@ -513,6 +508,7 @@ class _DnnSystem(Synthesizer):
         self.autoencoder_ = ae
         self.regressor_ = reg
         self.postfilter_ = pf
+        self.speed_map_ = self._fit_speed_map(hraw, hy, [0] * len(hraw))  # needs the stages above
         fps_list = sorted({float(r.motion.fps) for r in train_recs})
         self.output_fps_ = fps_list[0] if len(fps_list) == 1 else float(self.model_fps)  # informational
         self.splits_ = {r.id: split[r.id] for r in corpus}
@@ -672,8 +668,9 @@ class _DnnSystem(Synthesizer):
 
     @property
     def shaping_lag(self) -> int:
-        """The speed shaper's window in frames (:data:`SHAPING_LAG_S` at the model rate)."""
-        return max(1, int(round(SHAPING_LAG_S * float(self.model_fps))))
+        """The speed shaper's window in frames (:data:`~headmotion.systems.dnn_post.SHAPING_LAG_S` at the
+        model rate)."""
+        return max(1, int(round(dnn_post.SHAPING_LAG_S * float(self.model_fps))))
 
     def _predict_values(self, feats: np.ndarray, *, seed: int | None = None, post: bool = True) -> np.ndarray:
         """Model-rate features ``(T, D)`` → rotation vectors ``(T, 3)`` at the model rate; with
@@ -907,5 +904,4 @@ class WavDnnSystem(_DnnSystem):
 
 
 __all__ = ["CccaeSystem", "AeDnnSystem", "MfccDnnSystem", "FbankDnnSystem", "F0eDnnSystem", "WavDnnSystem",
-           "MODEL_FPS", "PAPER_PARAMS", "DEFAULT_DRIFT_SHARE", "DEFAULT_DRIFT_TAU_S", "DNN_IDLE",
-           "SHAPING_LAG_S", "SHAPING_FOLLOW_S"]
+           "MODEL_FPS", "PAPER_PARAMS", "DEFAULT_DRIFT_SHARE", "DEFAULT_DRIFT_TAU_S", "DNN_IDLE"]

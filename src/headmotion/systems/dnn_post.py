@@ -183,6 +183,9 @@ def band_gains(predicted, target, *, fps: float, share: float = 0.0, cap: float 
     return np.minimum(g, cap)
 
 
+#: the speed shaper's window (s) and follow time (s) in the product
+SHAPING_LAG_S = 0.04
+SHAPING_FOLLOW_S = 0.25
 #: quantiles at which the speed map is tabulated
 SPEED_QUANTILES = np.linspace(0.0, 1.0, 51)
 
@@ -230,11 +233,10 @@ class SpeedShaper:
     ``follow_s``.  A first-order recursion run with state (``lfilter`` with ``zi``), so chunked
     pushes give what one push gives."""
 
-    def __init__(self, table, *, fps: float, follow_s: float = 0.5, lag: int = 1, power: float = 1.0):
+    def __init__(self, table, *, fps: float, follow_s: float = 0.5, lag: int = 1):
         self.table = np.asarray(table, dtype=np.float64)
         self.k = 1.0 / max(float(follow_s) * float(fps), 1.0)
         self.lag = max(int(lag), 1)
-        self.power = float(power)
         self.hist = None      # the last ``lag`` input frames
         self.zi = None        # lfilter state: (1 − κ) x'_{t−1}
 
@@ -249,9 +251,9 @@ class SpeedShaper:
         L = self.lag
         prev = ext[L - 1:L - 1 + n]
         v = x - prev
-        sp = np.linalg.norm(x - ext[:n], axis=1) / L           # speed over the last ``lag`` frames
+        sp = speeds(ext, L)[L:]                                # speed over the last ``lag`` frames
         ratio = np.interp(sp, self.table[0], self.table[1]) / np.maximum(sp, 1e-12)
-        s = np.where(sp > 1e-12, ratio ** self.power, 1.0)
+        s = np.where(sp > 1e-12, ratio, 1.0)
         u = self.k * prev + s[:, None] * v
         if self.zi is None:
             self.zi = ((1.0 - self.k) * x[0])[None]
@@ -322,4 +324,4 @@ class CausalPost:
         return out
 
 
-__all__ = ["CausalPost", "SpeedShaper", "speed_map", "speeds", "SPEED_QUANTILES", "SPEED_MAX_GAIN", "BandSplit", "band_variance", "band_gains", "BAND_EDGES_HZ", "BAND_CAP", "GV_CAP", "within_sd", "gv_ratio", "restore_variance", "ou_process", "add_drift"]
+__all__ = ["CausalPost", "SpeedShaper", "speed_map", "speeds", "SPEED_QUANTILES", "SPEED_MAX_GAIN", "SHAPING_LAG_S", "SHAPING_FOLLOW_S", "BandSplit", "band_variance", "band_gains", "BAND_EDGES_HZ", "BAND_CAP", "GV_CAP", "within_sd", "gv_ratio", "restore_variance", "ou_process", "add_drift"]

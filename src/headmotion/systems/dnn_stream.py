@@ -53,6 +53,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..types import Audio, Motion
+from . import dnn_post
 
 #: analysis window of the pause detector's energy (s)
 ENERGY_WINDOW_S = 0.025
@@ -121,7 +122,6 @@ class DnnPostStages:
 
     def __init__(self, system, seed: int | None):
         from ..motion.pauses import CausalPauseWeight, PauseSettler
-        from . import dnn_post
         from .tws.speech import SpeechDetector
 
         fps = float(system.model_fps)
@@ -130,9 +130,8 @@ class DnnPostStages:
         table = getattr(system, "speed_map_", None)
         self.shaper = None
         if system.speed_shaping and table is not None:
-            from .dnn import SHAPING_FOLLOW_S
-
-            self.shaper = dnn_post.SpeedShaper(table, fps=fps, follow_s=SHAPING_FOLLOW_S, lag=system.shaping_lag)
+            self.shaper = dnn_post.SpeedShaper(table, fps=fps, follow_s=dnn_post.SHAPING_FOLLOW_S,
+                                               lag=system.shaping_lag)
         idle = system.idle
         self.settle = idle is not None and float(idle) < 1.0
         if self.settle:
@@ -147,8 +146,6 @@ class DnnPostStages:
         """The variance-restoring and drift stage of ``system`` (:class:`~headmotion.systems.
         dnn_post.CausalPost`): per-band gains when ``restore_bands`` and the model has them, else
         the global ratio; drift seeded with ``seed`` (default: the system's ``seed``)."""
-        from . import dnn_post
-
         rng = None
         share = float(system.drift_share)
         if share > 0:
