@@ -96,6 +96,13 @@ async def _participant(client, pnum, sent, errors, *, demographics, token=None, 
         return registered.get(pnum)
 
 
+async def _finish_intro(client, token, stage):
+    if stage == "demographics":
+        return await client.post(f"/api/p/{token}/demographics", json={"answers": {
+            "native_language": "yes", "listening": "speakers", "gender": "other"}})
+    return await client.post(f"/api/p/{token}/start")
+
+
 async def _participant_steps(client, pnum, sent, errors, *, demographics, token, stop_after,
                              registered):
     if token is None:
@@ -106,8 +113,7 @@ async def _participant_steps(client, pnum, sent, errors, *, demographics, token,
         token = r.json()["token"]
         registered[pnum] = token
         if demographics:
-            r = await client.post(f"/api/p/{token}/demographics", json={"answers": {
-                "native_language": "yes", "listening": "speakers", "gender": "other"}})
+            r = await _finish_intro(client, token, "demographics")
             if r.status_code != 200:
                 errors.append((pnum, "demographics", r.status_code, r.text))
         r = await client.post(f"/api/p/{token}/start")
@@ -122,6 +128,14 @@ async def _participant_steps(client, pnum, sent, errors, *, demographics, token,
         st = r.json()
         if st["stage"] == "done":
             return token
+        if st["stage"] in ("demographics", "instructions"):
+            # a participant resuming (the server was killed between registration and the first
+            # trial) carries on from the stage the server reports, as the browser page does
+            r = await _finish_intro(client, token, st["stage"])
+            if r.status_code != 200:
+                errors.append((pnum, st["stage"], r.status_code, r.text))
+                return token
+            continue
         trial = st["trial"]
         body = {"trial_index": trial["index"], **driver.answer_for(trial, pnum)}
         r = await client.post(f"/api/p/{token}/answer", json=body)
@@ -244,8 +258,9 @@ def test_sigkill_mid_test_keeps_acknowledged_answers_and_participants_resume(tes
             assert st["progress"]["done"] >= acked  # an unacknowledged commit may also be there
         sent2: dict = {}
         errors2: list = []
-        asyncio.run(_run_panel(srv.url, len(tokens), demographics=False, sent=sent2,
-                               errors=errors2, tokens=tokens))
+        toks = asyncio.run(_run_panel(srv.url, len(tokens), demographics=False, sent=sent2,
+                                      errors=errors2, tokens=tokens))
+        assert not [t for t in toks if isinstance(t, BaseException)], toks
         assert errors2 == []
         answers = srv.answers()
         _check_stored(answers, {**sent, **sent2}, pid_by_token)
@@ -321,5 +336,35 @@ def test_load_concurrent_participants_postgres(test_dir, postgres_url):
         srv.kill()
         srv.start()
         assert len(srv.answers()) == len(answers)
+    finally:
+        srv.stop()
+
+
+def test_participants_killed_before_their_first_trial_resume_from_their_stage(test_dir, tmp_path):
+    """A kill between registration and the first trial leaves participants at ``demographics`` or
+    ``instructions``; on the restarted server they carry on from there to the end."""
+    srv = Server(test_dir / "mushra.yaml", f"sqlite:///{tmp_path / 'intro.sqlite'}")
+    try:
+        at_demographics = httpx.post(f"{srv.url}/api/participants", json={"consent": True}).json()
+        at_instructions = httpx.post(f"{srv.url}/api/participants", json={"consent": True}).json()
+        tokens = [at_demographics["token"], at_instructions["token"]]
+        async def demographics_only():
+            async with httpx.AsyncClient(base_url=srv.url) as client:
+                return await _finish_intro(client, tokens[1], "demographics")
+
+        assert asyncio.run(demographics_only()).status_code == 200
+        srv.kill()
+        srv.start()
+        assert [httpx.get(f"{srv.url}/api/p/{t}/state").json()["stage"] for t in tokens] == [
+            "demographics", "instructions"]
+        sent: dict = {}
+        errors: list = []
+        toks = asyncio.run(_run_panel(srv.url, 2, demographics=False, sent=sent, errors=errors,
+                                      tokens=tokens))
+        assert errors == [] and toks == tokens
+        assert len(sent) == 2 * 4
+        for t in tokens:
+            st = httpx.get(f"{srv.url}/api/p/{t}/state").json()
+            assert st["stage"] == "done" and st["progress"]["done"] == 4
     finally:
         srv.stop()
