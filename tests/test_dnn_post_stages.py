@@ -75,3 +75,23 @@ def test_speed_shaper_identity_halving_and_chunking():
     sh2 = dnn_post.SpeedShaper(half, fps=FPS, follow_s=2.0, lag=4)
     parts = np.concatenate([sh2.push(x[a:b]) for a, b in ((0, 2), (2, 333), (333, len(x)))])
     np.testing.assert_array_equal(parts, out)
+
+
+def test_speed_shaper_adaptation_takes_out_the_input_s_speed_scale():
+    """An identity map measured on a sinusoid; fed the same sinusoid twice as fast (twice the
+    amplitude), the adapting shaper's running liveliness ratio tends to 2 and the output moves at
+    the map's speeds again (the sinusoid's own amplitude)."""
+    x = sine(1.0, 60.0, amp=0.1)
+    table = dnn_post.speed_map([x], [x], lag=4)
+    sh = dnn_post.SpeedShaper(table, fps=FPS, follow_s=5.0, lag=4, adapt_s=1.0)
+    out = sh.push(2.0 * x)
+    late = slice(len(x) // 2, None)
+    speed_in = dnn_post.speeds(x, 4)[late].mean()
+    assert dnn_post.speeds(out, 4)[late].mean() / speed_in == pytest.approx(1.0, abs=0.1)
+    assert sh.sum_sp / sh.n_sp / sh.ref_mean == pytest.approx(2.0, abs=0.05)
+    # on an input at the map's own scale the adaptation changes nothing
+    same = dnn_post.SpeedShaper(table, fps=FPS, follow_s=5.0, lag=4, adapt_s=1.0).push(x)
+    np.testing.assert_allclose(same[late], x[late], atol=0.02 * np.ptp(x))
+    sh2 = dnn_post.SpeedShaper(table, fps=FPS, follow_s=5.0, lag=4, adapt_s=1.0)
+    parts = np.concatenate([sh2.push(2.0 * x[a:b]) for a, b in ((0, 3), (3, 777), (777, len(x)))])
+    np.testing.assert_array_equal(parts, out)

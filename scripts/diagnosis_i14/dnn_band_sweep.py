@@ -6,6 +6,8 @@ normalised output cached, and post stages are compared on the same output, 4 syn
     PYTHONPATH=src nice python scripts/diagnosis_i14/dnn_band_sweep.py [--variants a,b] [--seeds 4]
     # the product's networks (two training seeds) with other drift settings:
     PYTHONPATH=src nice python scripts/diagnosis_i14/dnn_band_sweep.py --variants drift:0.2:4:zero,drift:0.2:8:zero,drift:0.2:4:eval,drift:0.2:8:eval
+    # the shaper's liveliness adaptation (prior seconds, 0 = off) and largest speed-up (fourth session):
+    PYTHONPATH=src nice python scripts/diagnosis_i14/dnn_band_sweep.py --variants adapt:0:1.2:zero,adapt:5:1.2:zero,adapt:0:1.2:eval,adapt:5:1.2:eval
 
 Prints one line per variant: band shares, L1, SD ratios, H speed (per recording median and
 pooled over the corpus, GENEA-style), LC, pause ratio, diversity, pooled FCCA p per seed.
@@ -158,7 +160,7 @@ def predict_held_out(models, recs, a):
 def product(tag, recs, ctx, a):
     """``prod:zero|eval``: the product code end to end, networks fitted afresh."""
     t0 = time.time()
-    report(tag, *predict_held_out(product_models(tag.split(":")[1], cached=False), recs, a), ctx, a, t0)
+    report(tag, *predict_held_out(product_models(tag.split(":")[-1], cached=False), recs, a), ctx, a, t0)
 
 
 def drift(tag, recs, ctx, a):
@@ -186,6 +188,9 @@ def report(v, refs, first, samples, ctx, a, t0):
           f"div={s.get('diversity', float('nan')):.2f} FCCAx={s['fcca_excess']:+.3f} "
           f"p={s['fcca_p_pooled']:.3f} " + " ".join(f"{p:.3f}" for p in ps)
           + f" lccax={s['lcca_excess']:+.3f} p={s['lcca_p_pooled']:.3f}  ({time.time() - t0:.0f} s)", flush=True)
+    qs = [5, 10, 25, 50, 75, 90, 95, 99]
+    print(f"{'':10s} speed quantiles {qs} °/s: recorded " + " ".join(f"{x:.1f}" for x in np.percentile(sp_r, qs))
+          + " | system " + " ".join(f"{x:.1f}" for x in np.percentile(sp_c, qs)), flush=True)
 
 
 def main():
@@ -226,6 +231,14 @@ def main():
         "band_cap10": dict(kind="band", share=0.15, tau=4.0, cap=10.0),
     }
     for v in a.variants.split(","):
+        if v.startswith("adapt:"):  # adapt:SECONDS:GAIN:zero|eval — the shaper's liveliness
+            # adaptation prior (0: off) and largest speed-up
+            keep = dnn_post.SHAPING_ADAPT_S, dnn_post.SPEED_MAX_GAIN
+            _, sec, gain, _ = v.split(":")
+            dnn_post.SHAPING_ADAPT_S, dnn_post.SPEED_MAX_GAIN = float(sec) or None, float(gain)
+            product(v, recs, ctx, a)
+            dnn_post.SHAPING_ADAPT_S, dnn_post.SPEED_MAX_GAIN = keep
+            continue
         if v.startswith("prod"):
             product(v, recs, ctx, a)
             continue

@@ -664,7 +664,7 @@ class _DnnSystem(Synthesizer):
             z = DnnPostStages.make_post(self, k).push(np.asarray(y, dtype=np.float64))
             pred.append(np.asarray(self.motion_norm_.inverse_transform(z), dtype=np.float64))
             targ.append(np.asarray(self.motion_norm_.inverse_transform(t), dtype=np.float64))
-        return dnn_post.speed_map(pred, targ, lag=lag, starts=starts)
+        return dnn_post.speed_map(pred, targ, lag=lag, starts=starts, max_gain=dnn_post.SPEED_MAX_GAIN)
 
     @property
     def shaping_lag(self) -> int:

@@ -131,7 +131,7 @@ class DnnPostStages:
         self.shaper = None
         if system.speed_shaping and table is not None:
             self.shaper = dnn_post.SpeedShaper(table, fps=fps, follow_s=dnn_post.SHAPING_FOLLOW_S,
-                                               lag=system.shaping_lag)
+                                               lag=system.shaping_lag, adapt_s=dnn_post.SHAPING_ADAPT_S)
         idle = system.idle
         self.settle = idle is not None and float(idle) < 1.0
         if self.settle:
