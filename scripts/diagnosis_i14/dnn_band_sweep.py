@@ -231,6 +231,14 @@ def main():
         "band_cap10": dict(kind="band", share=0.15, tau=4.0, cap=10.0),
     }
     for v in a.variants.split(","):
+        if v.startswith("b0:"):  # b0:FACTOR:zero|eval — the cached product networks, slow band's gain × FACTOR
+            t0 = time.time()
+            models = product_models(v.split(":")[2], cached=True)
+            for m in models:
+                m.band_gains_ = m.band_gains_.copy()
+                m.band_gains_[0] *= float(v.split(":")[1])
+            report(v, *predict_held_out(models, recs, a), ctx, a, t0)
+            continue
         if v.startswith("adapt:"):  # adapt:SECONDS:GAIN:zero|eval — the shaper's liveliness
             # adaptation prior (0: off) and largest speed-up
             keep = dnn_post.SHAPING_ADAPT_S, dnn_post.SPEED_MAX_GAIN
