@@ -274,17 +274,42 @@ def test_min_swing_stored_and_old_files(train, tmp_path):
     assert load_model(p).min_swing_deg == 2.0
     # a file written before the parameters existed: thesis segmentation, no soft limit, no settling
     cfg, arrays = load_model_file(p)
-    for k in ("min_swing_deg", "soft_limit", "idle", "log_params"):
+    for k in ("min_swing_deg", "soft_limit", "idle", "log_params", "speed_shaping"):
         cfg["params"].pop(k)
-    arrays = {k: v for k, v in arrays.items() if not k.startswith("vad_")}
+    arrays = {k: v for k, v in arrays.items() if not k.startswith("vad_") and k != "speed_map"}
     old = save_model_file(tmp_path / "old.hmz", system="tws-basic", config=cfg, arrays=arrays)
     o = load_model(old)
     assert (o.min_swing_deg, o.soft_limit, o.idle, o.speech_detector_) == (0.0, False, 1.0, None)
+    assert (o.speed_shaping, o.speed_map_) == (False, None)
     assert len(o.predict(sub[0].audio.slice_seconds(0, 2.0))) == 200
     with pytest.raises(ParameterError, match="min_swing_deg"):
         TwsBasic(min_swing_deg=-1).fit(sub)
     with pytest.raises(ParameterError, match="idle"):
         TwsBasic(idle=1.5).fit(sub)
+    with pytest.raises(ParameterError, match="speed_shaping"):
+        TwsBasic(speed_shaping="yes").fit(sub)
+
+
+@pytest.mark.parametrize("name", ["basic", "hier"])
+def test_speed_shaping_moves_the_speeds_onto_the_training_heads(name, request, train, test_rec, tmp_path):
+    """The map is fitted on the system's own synthesis of its training speech; shaped, that
+    synthesis's speed histogram is nearer the training heads' (Hellinger) than unshaped, and the
+    map survives saving."""
+    from headmotion.evaluation.realism import hellinger_values, speed
+    from headmotion.systems.dnn_post import SPEED_QUANTILES
+
+    model = request.getfixturevalue(name)
+    assert model.speed_map_.shape == (2, len(SPEED_QUANTILES))
+    assert np.all(np.diff(model.speed_map_[0]) > 0) and np.all(model.speed_map_[1] <= 2.0 * model.speed_map_[0] + 1e-12)
+    ref = np.concatenate([speed(r.motion) for r in train])
+    try:
+        shaped = np.concatenate([speed(model.predict(r.audio, seed=0)) for r in train])
+        plain = np.concatenate([speed(model.set_params(speed_shaping=False).predict(r.audio, seed=0)) for r in train])
+    finally:
+        model.set_params(speed_shaping=True)
+    assert hellinger_values(ref, shaped) < hellinger_values(ref, plain)
+    again = load_model(model.save(tmp_path / "m.hmz"))
+    np.testing.assert_array_equal(again.speed_map_, model.speed_map_)
 
 
 def _with_silence(audio, t0, t1):
@@ -299,19 +324,22 @@ def test_pauses_settle_causally_and_stream_equals_offline(name, request, test_re
     model = request.getfixturevalue(name)
     speech = test_rec.audio.slice_seconds(0, 12.0)
     audio = _with_silence(speech, 5.0, 8.0)  # 3 s of silence
-    model.set_params(blocked=True)
+    model.set_params(blocked=True, speed_shaping=False)  # the settling alone: its known ratio
     try:
         on = model.predict(audio, seed=4).rotvec
         off = model.set_params(idle=1.0).predict(audio, seed=4).rotvec
         model.set_params(idle=0.4)
-        # causal: the same as without the silence until the feature block before it (frame 450)
-        np.testing.assert_allclose(on[:450], model.predict(speech, seed=4).rotvec[:450], rtol=0, atol=1e-12)
         sp = lambda x: np.abs(np.diff(x[560:800], axis=0)).sum(axis=1).mean()  # noqa: E731
         assert sp(on) == pytest.approx(0.4 * sp(off), rel=0.05)   # settled from 0.6 s into the pause
         assert sp(on) < 0.5 * sp(off)
+        # the product (settling, then speed shaping): causal — the same as without the silence
+        # until the feature block before it (frame 450) — and the stream gives the offline frames
+        on = model.set_params(speed_shaping=True).predict(audio, seed=4).rotvec
+        assert model.speed_map_ is not None
+        np.testing.assert_allclose(on[:450], model.predict(speech, seed=4).rotvec[:450], rtol=0, atol=1e-12)
         st = model.stream(seed=4)
         parts = [st.push(audio.samples[i:i + 777]) for i in range(0, len(audio.samples), 777)]
         parts.append(st.flush())
         np.testing.assert_allclose(np.vstack([p.rotvec for p in parts]), on, rtol=0, atol=1e-12)
     finally:
-        model.set_params(blocked=False, idle=0.4)
+        model.set_params(blocked=False, idle=0.4, speed_shaping=True)

@@ -231,6 +231,15 @@ def main():
         "band_cap10": dict(kind="band", share=0.15, tau=4.0, cap=10.0),
     }
     for v in a.variants.split(","):
+        if v.startswith("param:"):  # param:KEY=VALUE[;KEY=VALUE]:zero|eval — the cached product networks
+            import json
+            t0 = time.time()
+            models = product_models(v.split(":")[2], cached=True)
+            kv = dict(x.split("=", 1) for x in v.split(":")[1].split(";"))
+            for m in models:
+                m.set_params(**{k: json.loads(x) for k, x in kv.items()})
+            report(v, *predict_held_out(models, recs, a), ctx, a, t0)
+            continue
         if v.startswith("b0:"):  # b0:FACTOR:zero|eval — the cached product networks, slow band's gain × FACTOR
             t0 = time.time()
             models = product_models(v.split(":")[2], cached=True)

@@ -26,6 +26,15 @@ Product defaults and the thesis's literal behaviour (issue 14; measured in
   (:mod:`headmotion.motion.pauses`, causal mode; the ZEGGS mocap's pause/speech speed ratio is
   0.39); 1 = no settling (the thesis).  Model files written before these parameters load with
   ``soft_limit=False`` and ``idle=1`` (they have no speech detector), i.e. as they behaved.
+* ``speed_shaping=True`` (fourth session) — the generator's frames pass through the DNN product's
+  speed shaper (:class:`headmotion.systems.dnn_post.SpeedShaper`, before the pause settling) with a
+  quantile map fitted at training: the system's own synthesis of its training speech (seed 0, no
+  shaping) against the training heads, speeds over 40 ms, at most :data:`SPEED_MAX_GAIN` × faster.
+  Warped half-cosine templates move evenly; recorded heads hold and then move fast.  Held-out
+  speakers of the video corpus (3 folds, `scripts/diagnosis_i14/tws_shaper_sweep.py`): pooled
+  speed Hellinger tws-basic 0.111 → 0.037, tws-hier 0.092 → 0.046 (bar 0.061); spectral L1
+  0.23 → 0.29 and 0.28 → 0.30 (faster moves put more power above 0.5 Hz); speech coupling unchanged
+  (none).  False (and model files without a map) = the generator's frames as they are.
 """
 
 from __future__ import annotations
@@ -39,12 +48,18 @@ from ...motion.control import mean_pose_of
 from ...motion.segmentation import min_segment_frames
 from ...rotations import rotvec_to_pitch_yaw_roll
 from ...types import Audio, Motion
+from .. import dnn_post
 from ..base import CAUSAL, Synthesizer, check_stochastic
 from .features import extract_blocked, make_feature_config
 from .generator import LIVE_FEATURES, Generator, TwsStream
 from .limits import Limits
 from .speech import SpeechDetector
 from .vectors import collect
+
+
+#: largest speed-up of the template systems' speed map (their syntheses are too slow in the fast
+#: tail: 95th percentile 39–43 °/s against 56 recorded; the sweep's best bound, 3 gives the same)
+SPEED_MAX_GAIN = 2.0
 
 
 class TwsBase(Synthesizer):
@@ -79,6 +94,9 @@ class TwsBase(Synthesizer):
         if not isinstance(self.log_params, (bool, np.bool_)):
             raise ParameterError(f"the 'log_params' parameter of {self.name} must be True or False; "
                                  f"got {self.log_params!r}")
+        if not isinstance(self.speed_shaping, (bool, np.bool_)):
+            raise ParameterError(f"the 'speed_shaping' parameter of {self.name} must be True or False; "
+                                 f"got {self.speed_shaping!r}")
         if not isinstance(self.soft_limit, (bool, np.bool_)):
             raise ParameterError(f"the 'soft_limit' parameter of {self.name} must be True or False; "
                                  f"got {self.soft_limit!r}")
@@ -139,7 +157,7 @@ class TwsBase(Synthesizer):
         total = len(recs) + 2
         from ...features.vad import speaking_mask
 
-        motions, raw, names, masks = [], [], [], []
+        motions, raw, names, masks, kept = [], [], [], [], []
         for i, r in enumerate(recs):
             m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
             T = len(m)
@@ -147,6 +165,7 @@ class TwsBase(Synthesizer):
                 continue
             tr = self.feature_config_.extract(r.audio, n_frames=T)
             motions.append(np.asarray(m.rotvec))
+            kept.append(r)
             raw.append(np.asarray(tr.values, dtype=np.float64))
             masks.append(speaking_mask(r.audio, fps=self.fps_, n_frames=T))
             names = list(tr.names)
@@ -177,10 +196,30 @@ class TwsBase(Synthesizer):
             progress(len(recs) + 1, total, "models")
         self._fit_axes(data, progress=progress)
         self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
+        self.speed_map_ = None
         self.fitted_ = True
+        if self.speed_shaping:
+            self.speed_map_ = self._fit_speed_map(kept, motions)
         if progress:
             progress(total, total, "done")
         return self
+
+    @property
+    def shaping_lag(self) -> int:
+        """The speed shaper's window in frames (:data:`~headmotion.systems.dnn_post.SHAPING_LAG_S`)."""
+        return max(1, int(round(dnn_post.SHAPING_LAG_S * float(self.fps_))))
+
+    def _fit_speed_map(self, recs, motions) -> np.ndarray:
+        """The speed shaper's map: this system's synthesis of the speech of the training
+        recordings ``recs`` (seed 0, no shaping: ``speed_map_`` is None while it runs) against
+        their motion ``motions`` (rotation vectors at ``fps_``)."""
+        pred, targ = [], []
+        for r, m in zip(recs, motions):
+            x = np.asarray(self._predict(r.audio, seed=0).rotvec)
+            k = min(len(x), len(m))
+            pred.append(x[:k])
+            targ.append(np.asarray(m)[:k])
+        return dnn_post.speed_map(pred, targ, lag=self.shaping_lag, max_gain=SPEED_MAX_GAIN)
 
     # -- synthesis ----------------------------------------------------------------------------
     def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
@@ -231,6 +270,8 @@ class TwsBase(Synthesizer):
         arrays.update(self.normalizer_.to_arrays("norm_"))
         if getattr(self, "speech_detector_", None) is not None:
             arrays.update(self.speech_detector_.to_arrays())
+        if getattr(self, "speed_map_", None) is not None:
+            arrays["speed_map"] = np.asarray(self.speed_map_, dtype=np.float64)
         return cfg, arrays
 
     def _set_state(self, config, arrays):
@@ -243,6 +284,7 @@ class TwsBase(Synthesizer):
         params.setdefault("soft_limit", False)
         params.setdefault("idle", 1.0)
         params.setdefault("log_params", False)
+        params.setdefault("speed_shaping", False)  # older files: no speed map
         self.__init__(**params)
         self.fps_ = float(config["fps"])
         self.sample_rate_ = int(config["sample_rate"])
@@ -252,6 +294,7 @@ class TwsBase(Synthesizer):
         self.limits_ = Limits.from_arrays(arrays)
         self.normalizer_ = Normalizer.from_arrays(arrays, "norm_")
         self.speech_detector_ = SpeechDetector.from_arrays(arrays)
+        self.speed_map_ = np.asarray(arrays["speed_map"], dtype=np.float64) if "speed_map" in arrays else None
         self._load_model_state(config, arrays)
 
 

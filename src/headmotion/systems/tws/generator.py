@@ -20,6 +20,7 @@ from ...align import n_frames as _n_frames
 from ...motion.pauses import CausalPauseWeight, PauseSettler
 from ...motion.templates import template_shape
 from ...types import Audio, Motion
+from ..dnn_post import SHAPING_FOLLOW_S, SpeedShaper
 from .limits import Limits
 
 
@@ -110,6 +111,10 @@ class Generator:
         det = getattr(system, "speech_detector_", None)
         idle = float(getattr(system, "idle", 1.0))
         self.settled = 0
+        table = getattr(system, "speed_map_", None)
+        self.shaper = None
+        if getattr(system, "speed_shaping", False) and table is not None:
+            self.shaper = SpeedShaper(table, fps=fps, follow_s=SHAPING_FOLLOW_S, lag=system.shaping_lag)
         if det is not None and idle < 1.0:
             self.detector = det.start()
             self.weigher = CausalPauseWeight(fps=fps)
@@ -208,28 +213,38 @@ class Generator:
         shape = 0.5 * (1.0 - np.cos(np.pi * np.array(ph)))
         return [c + s * float(k) for (s, c), k in zip(rows, shape)]
 
+    @property
+    def _stateful(self) -> bool:
+        return self.detector is not None or self.shaper is not None
+
     def render_settled(self, a: int, b: int) -> np.ndarray:
-        """Frames [a, b) after settling in pauses; calls must cover the utterance in order
-        (``a`` = the previous call's ``b``) and the features of frames < b must be pushed."""
+        """Frames [a, b) after settling in pauses and speed shaping; calls must cover the utterance
+        in order (``a`` = the previous call's ``b``) and the features of frames < b must be pushed."""
         x = self.render(a, b)
         self.rendered = max(self.rendered, b)
-        if self.detector is None or b <= a:
+        if not self._stateful or b <= a:
             return x
         if a != self.settled:
             raise RuntimeError(f"render_settled: frames must come in order (expected {self.settled}, got {a})")
         self.settled = b
-        w = self.weigher.push(self.detector.push(self.F[a:b]))
-        return self.settler.push(x, w)
+        if self.detector is not None:
+            x = self.settler.push(x, self.weigher.push(self.detector.push(self.F[a:b])))
+        return x if self.shaper is None else self.shaper.push(x)
 
     def render_settled_one(self, a: int) -> list[float]:
-        """Frame ``a`` after settling (:meth:`render_settled` of ``[a, a + 1)``) on scalars."""
+        """Frame ``a`` after settling and shaping (:meth:`render_settled` of ``[a, a + 1)``) on scalars."""
         x = self.render_one(a)
         self.rendered = max(self.rendered, a + 1)
-        if self.detector is None:
+        if not self._stateful:
             return x
         if a != self.settled:
             raise RuntimeError(f"render_settled: frames must come in order (expected {self.settled}, got {a})")
         self.settled = a + 1
+        if self.detector is not None:
+            x = self._settle_one(a, x)
+        return x if self.shaper is None else self.shaper.push(np.asarray(x, dtype=np.float64)[None])[0].tolist()
+
+    def _settle_one(self, a: int, x: list[float]) -> list[float]:
         row = self.F.buf[a - self.F.off]
         tracker = self.detector
         if tracker.n >= tracker.update_frames - 1:
