@@ -33,12 +33,13 @@ from headmotion.systems import dnn_post  # noqa: E402
 from headmotion.types import Motion  # noqa: E402
 
 HOME = Path.home() / ".cache/headmotion/i14_tws"
+TAG = ""  # the cache's tag (--tag: which product settings the syntheses were made with)
 
 
-def syntheses(system: str):
+def syntheses(system: str, seed: int = 0):
     """Per fold: the training recordings' synthesis and motion, the held-out ones' synthesis (rotation
-    vectors at the system's rate; seed 0) and ids."""
-    f = HOME / f"{system}.pkl"
+    vectors at the system's rate; synthesis seed ``seed``) and ids."""
+    f = HOME / f"{system}{'' if seed == 0 else f'_seed{seed}'}{TAG}.pkl"
     if f.exists():
         return pickle.loads(f.read_bytes())
     HOME.mkdir(parents=True, exist_ok=True)
@@ -50,7 +51,7 @@ def syntheses(system: str):
         tr = [(np.asarray(model.predict(r.audio, seed=0).rotvec),
                np.asarray((r.motion if abs(r.motion.fps - fps) < 1e-9 else r.motion.resample(fps)).rotvec))
               for r in train]
-        te = [(r.id, np.asarray(model.predict(r.audio, seed=0).rotvec)) for r in test]
+        te = [(r.id, np.asarray(model.predict(r.audio, seed=seed).rotvec)) for r in test]
         out.append({"fps": fps, "train": tr, "test": te})
         print(f"{system} fold {name}: fitted and synthesised in {time.time() - t:.0f} s", flush=True)
     f.write_bytes(pickle.dumps(out))
@@ -62,11 +63,18 @@ def main():
     ap.add_argument("--systems", default="tws-basic,tws-hier")
     ap.add_argument("--gains", default="0,1.2,2")
     ap.add_argument("--follow", type=float, default=dnn_post.SHAPING_FOLLOW_S)
+    ap.add_argument("--seed", type=int, default=0, help="synthesis seed of the held-out speech")
+    ap.add_argument("--tag", default="", help="cache tag: the product settings the syntheses are made with")
+    ap.add_argument("--adapt", type=float, default=0.0, help="the tws shaper's liveliness adaptation (s; 0 off)")
     a = ap.parse_args()
+    global TAG
+    TAG = a.tag
+    from headmotion.systems.tws import generator
+    generator.SHAPING_ADAPT_S = a.adapt or None
     recs = {r.id: r for r in corpus()}
     ctx: dict = {}
     for system in a.systems.split(","):
-        folds = syntheses(system)
+        folds = syntheses(system, a.seed)
         for g in (float(x) for x in a.gains.split(",")):
             t0 = time.time()
             refs, first = [], []
