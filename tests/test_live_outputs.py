@@ -411,3 +411,23 @@ def test_stream_live_refuses_a_non_causal_model_and_bad_addresses():
         open_outputs(websocket="nowhere")
     with pytest.raises(NetworkError, match="--vmc.*port must be a number"):
         open_outputs(vmc="127.0.0.1:http")
+
+
+def test_a_file_at_full_speed_is_resampled_as_synth_does_paced_with_low_latency(tmp_path):
+    """A 48 kHz file streamed at full speed arrives at 16 kHz exactly as ``synth`` resamples it
+    (soxr HQ; its stream resampler gives the one-shot samples), so ``stream --input FILE`` gives
+    ``synth``'s frames; paced (``--realtime``) it keeps the low-latency resampler."""
+    import soundfile as sf
+
+    from headmotion.io.audio import resample
+
+    t = np.arange(48000 * 2) / 48000.0
+    x = (0.3 * np.sin(2 * np.pi * 220.0 * t) * (1 + np.sin(2 * np.pi * 3.0 * t))).astype(np.float32)
+    wav = tmp_path / "tone48k.wav"
+    sf.write(wav, x, 48000, subtype="FLOAT")
+    got = np.concatenate(list(open_input(str(wav), out_rate=SR)))
+    want = resample(x, 48000, SR)
+    assert len(got) == len(want)
+    np.testing.assert_array_equal(got, want)
+    paced = FileSource(wav, out_rate=SR, realtime=True, clock=lambda: 0.0, sleep=lambda _s: None)
+    assert paced.resampler._rs is not None and not np.array_equal(np.concatenate(list(paced)), want)

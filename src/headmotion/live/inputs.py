@@ -19,7 +19,8 @@ file).  The end-to-end latency of a frame at audio time ``τ`` is ``emit_wall �
 
 Resampling latency (measured here with 10 ms chunks, 48 kHz → 16 kHz): soxr releases output in
 internal blocks, so the stream's output trails its input by a median 11 ms (max 20 ms) at quality
-``"LQ"`` — the default here — and 21 ms (max 37 ms) at ``"HQ"``; ``"QQ"`` (cubic, no anti-alias
+``"LQ"`` — the default for stdin, the microphone and a paced file — and 21 ms (max 37 ms) at
+``"HQ"`` (a file read at full speed: the samples ``synth`` resamples, so the same frames); ``"QQ"`` (cubic, no anti-alias
 filter) adds nothing.  LQ's pass band (to ~0.8 · Nyquist = 6.4 kHz at 16 kHz out) covers the F0
 and energy the features use.  Same rate in and out: no resampler, no delay.
 
@@ -142,11 +143,16 @@ class FileSource(AudioSource):
     out_rate : int
     chunk_ms : float
     realtime : bool, release each chunk when its last sample would have been spoken
+    quality : soxr quality; default ``"LQ"`` when ``realtime`` (latency), else ``"HQ"`` — the
+        resampling :func:`headmotion.io.audio.resample` does for ``synth``, and soxr's stream
+        resampler gives its samples exactly, so a file streamed at full speed gives ``synth``'s
+        frames (with ``"LQ"`` the template systems' choices diverge on the tiny feature
+        differences: 0.35 rad within 9 s)
     clock, sleep : injectable time functions (tests)
     """
 
     def __init__(self, path, *, out_rate: int, chunk_ms: float = 10.0, realtime: bool = False,
-                 quality: str = "LQ", clock=time.monotonic, sleep=time.sleep):
+                 quality: str | None = None, clock=time.monotonic, sleep=time.sleep):
         from ..io import load_audio
 
         if chunk_ms <= 0:
@@ -155,6 +161,8 @@ class FileSource(AudioSource):
         self.audio = load_audio(self.path)
         self.out_rate = int(out_rate)
         self.chunk = max(1, int(round(self.audio.sample_rate * chunk_ms / 1000.0)))
+        if quality is None:  # paced: low latency; at full speed: synth's resampling, so the frames are synth's
+            quality = "LQ" if realtime else "HQ"
         self.resampler = Resampler(self.audio.sample_rate, self.out_rate, quality=quality)
         self.paced = bool(realtime)
         self.clock, self.sleep = clock, sleep
@@ -312,16 +320,17 @@ class MicSource(AudioSource):
 
 
 def open_input(spec: str, *, out_rate: int, sample_rate: int | None = None, realtime: bool = False,
-               device=None, chunk_ms: float = 10.0, quality: str = "LQ", stdin=None,
+               device=None, chunk_ms: float = 10.0, quality: str | None = None, stdin=None,
                on_message: Message = _stderr, sd=None) -> AudioSource:
     """The source for ``--input``: ``-`` (PCM on stdin at ``sample_rate``, default ``out_rate``),
-    ``mic``, or a file path."""
+    ``mic``, or a file path.  ``quality``: soxr's, by default ``"LQ"`` for stdin and the microphone
+    (latency) and :class:`FileSource`'s choice for a file."""
     if spec == "-":
         return PcmSource(stdin, sample_rate=sample_rate or out_rate, out_rate=out_rate, chunk_ms=chunk_ms,
-                          quality=quality, on_message=on_message)
+                          quality=quality or "LQ", on_message=on_message)
     if spec == "mic":
         return MicSource(device, out_rate=out_rate, chunk_ms=chunk_ms, sample_rate=sample_rate,
-                          quality=quality, sd=sd, on_message=on_message)
+                          quality=quality or "LQ", sd=sd, on_message=on_message)
     return FileSource(spec, out_rate=out_rate, chunk_ms=chunk_ms, realtime=realtime, quality=quality)
 
 
