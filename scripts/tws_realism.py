@@ -30,7 +30,7 @@ from realism_report import (HOME, at_rate, limits_of, log, print_table, rows_for
 from headmotion.corpus import Corpus  # noqa: E402
 from headmotion.systems import create  # noqa: E402
 
-LITERAL = dict(stochastic="none", min_swing_deg=0.0, soft_limit=False, idle=1.0)
+LITERAL = dict(stochastic="none", min_swing_deg=0.0, soft_limit=False, idle=1.0, speed_shaping=False)
 VARIANTS = {
     "before": LITERAL,
     "after": {},

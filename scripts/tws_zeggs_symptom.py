@@ -27,7 +27,7 @@ from headmotion.io.audio import load_audio  # noqa: E402
 from headmotion.rotations import rotvec_to_pitch_yaw_roll  # noqa: E402
 from headmotion.systems import create  # noqa: E402
 
-LITERAL = dict(stochastic="none", min_swing_deg=0.0, soft_limit=False, idle=1.0)
+LITERAL = dict(stochastic="none", min_swing_deg=0.0, soft_limit=False, idle=1.0, speed_shaping=False)
 
 
 def longest_run(mask):

@@ -216,14 +216,14 @@ class TwsBase(Synthesizer):
     def _fit_speed_map(self, recs, motions) -> np.ndarray:
         """The speed shaper's map: this system's synthesis of the speech of the training
         recordings ``recs`` (recording k with seed k, so that the map is not one seed's draws; no
-        shaping: ``speed_map_`` is None while it runs) against
-        their motion ``motions`` (rotation vectors at ``fps_``)."""
+        shaping: ``speed_map_`` is None while it runs) against their motion ``motions`` (rotation
+        vectors at ``fps_``)."""
         pred, targ = [], []
         for k, (r, m) in enumerate(zip(recs, motions)):
             x = np.asarray(self._predict(r.audio, seed=k).rotvec)
-            k = min(len(x), len(m))
-            pred.append(x[:k])
-            targ.append(np.asarray(m)[:k])
+            n = min(len(x), len(m))
+            pred.append(x[:n])
+            targ.append(np.asarray(m)[:n])
         return dnn_post.speed_map(pred, targ, lag=self.shaping_lag, max_gain=SPEED_MAX_GAIN)
 
     # -- synthesis ----------------------------------------------------------------------------
