@@ -3,17 +3,6 @@ module for the tests that drive the server the same way (it is not part of the p
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
+from repo_scripts import load_script
 
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def _load():
-    spec = importlib.util.spec_from_file_location("listening_load", ROOT / "benchmarks" / "listening_load.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-driver = _load()
+driver = load_script("benchmarks/listening_load.py", "listening_load")

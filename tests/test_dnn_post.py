@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from headmotion.motion import speed_shaping
 from headmotion.systems import dnn_post
 
 torch = pytest.importorskip("torch")
@@ -104,8 +105,8 @@ def test_speed_shaping_gives_the_training_speed_distribution(fitted):
     for shaping in (False, True):
         m.set_params(variance_restore=True, restore_bands=True, speed_shaping=shaping, drift_share=0.15, idle=None)
         preds = [m.predict(r.audio, seed=k).rotvec for k, r in enumerate(train)]
-        h[shaping] = hellinger_values(np.concatenate([dnn_post.speeds(t, lag) for t in truth]),
-                                      np.concatenate([dnn_post.speeds(q, lag) for q in preds]))
+        h[shaping] = hellinger_values(np.concatenate([speed_shaping.speeds(t, lag) for t in truth]),
+                                      np.concatenate([speed_shaping.speeds(q, lag) for q in preds]))
     assert h[True] < h[False]
 
 

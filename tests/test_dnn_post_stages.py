@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from headmotion.motion import speed_shaping
 from headmotion.systems import dnn_post
 
 FPS = 100.0
@@ -54,25 +55,25 @@ def test_causal_post_with_unit_band_gains_is_the_identity_about_the_running_mean
 
 def test_speed_map_of_one_set_is_the_identity_and_speeds_over_a_lag():
     x = np.cumsum(np.random.default_rng(3).standard_normal((3000, 3)), axis=0)
-    t = dnn_post.speed_map([x], [x])
+    t = speed_shaping.speed_map([x], [x])
     np.testing.assert_allclose(t[0], t[1], atol=1e-9)
-    fast = dnn_post.speed_map([x], [3.0 * x], max_gain=None)
+    fast = speed_shaping.speed_map([x], [3.0 * x], max_gain=None)
     np.testing.assert_allclose(fast[1], 3.0 * fast[0], rtol=1e-6)
-    np.testing.assert_allclose(dnn_post.speed_map([x], [3.0 * x])[1], dnn_post.SPEED_MAX_GAIN * fast[0], rtol=1e-6)
+    np.testing.assert_allclose(speed_shaping.speed_map([x], [3.0 * x])[1], speed_shaping.SPEED_MAX_GAIN * fast[0], rtol=1e-6)
     line = np.arange(10.0)[:, None] * np.array([[3.0, 4.0, 0.0]])  # speed 5 per frame
-    np.testing.assert_allclose(dnn_post.speeds(line, 4)[4:], 5.0)
+    np.testing.assert_allclose(speed_shaping.speeds(line, 4)[4:], 5.0)
 
 
 def test_speed_shaper_identity_halving_and_chunking():
     x = sine(2.0, 20.0, amp=0.1)
     ident = np.stack([np.linspace(0, 1, 11)] * 2)
-    np.testing.assert_allclose(dnn_post.SpeedShaper(ident, fps=FPS).push(x), x, atol=1e-12)
+    np.testing.assert_allclose(speed_shaping.SpeedShaper(ident, fps=FPS).push(x), x, atol=1e-12)
     half = np.stack([np.linspace(0, 1, 11), 0.5 * np.linspace(0, 1, 11)])
-    sh = dnn_post.SpeedShaper(half, fps=FPS, follow_s=2.0, lag=4)
+    sh = speed_shaping.SpeedShaper(half, fps=FPS, follow_s=2.0, lag=4)
     out = sh.push(x)
     # every increment halved, a slow leak back onto the path: the 2 Hz swing is about half as large
     assert out[500:].std() / x[500:].std() == pytest.approx(0.5, abs=0.06)
-    sh2 = dnn_post.SpeedShaper(half, fps=FPS, follow_s=2.0, lag=4)
+    sh2 = speed_shaping.SpeedShaper(half, fps=FPS, follow_s=2.0, lag=4)
     parts = np.concatenate([sh2.push(x[a:b]) for a, b in ((0, 2), (2, 333), (333, len(x)))])
     np.testing.assert_array_equal(parts, out)
 
@@ -82,16 +83,16 @@ def test_speed_shaper_adaptation_takes_out_the_input_s_speed_scale():
     amplitude), the adapting shaper's running liveliness ratio tends to 2 and the output moves at
     the map's speeds again (the sinusoid's own amplitude)."""
     x = sine(1.0, 60.0, amp=0.1)
-    table = dnn_post.speed_map([x], [x], lag=4)
-    sh = dnn_post.SpeedShaper(table, fps=FPS, follow_s=5.0, lag=4, adapt_s=1.0)
+    table = speed_shaping.speed_map([x], [x], lag=4)
+    sh = speed_shaping.SpeedShaper(table, fps=FPS, follow_s=5.0, lag=4, adapt_s=1.0)
     out = sh.push(2.0 * x)
     late = slice(len(x) // 2, None)
-    speed_in = dnn_post.speeds(x, 4)[late].mean()
-    assert dnn_post.speeds(out, 4)[late].mean() / speed_in == pytest.approx(1.0, abs=0.1)
+    speed_in = speed_shaping.speeds(x, 4)[late].mean()
+    assert speed_shaping.speeds(out, 4)[late].mean() / speed_in == pytest.approx(1.0, abs=0.1)
     assert sh.sum_sp / sh.n_sp / sh.ref_mean == pytest.approx(2.0, abs=0.05)
     # on an input at the map's own scale the adaptation changes nothing
-    same = dnn_post.SpeedShaper(table, fps=FPS, follow_s=5.0, lag=4, adapt_s=1.0).push(x)
+    same = speed_shaping.SpeedShaper(table, fps=FPS, follow_s=5.0, lag=4, adapt_s=1.0).push(x)
     np.testing.assert_allclose(same[late], x[late], atol=0.02 * np.ptp(x))
-    sh2 = dnn_post.SpeedShaper(table, fps=FPS, follow_s=5.0, lag=4, adapt_s=1.0)
+    sh2 = speed_shaping.SpeedShaper(table, fps=FPS, follow_s=5.0, lag=4, adapt_s=1.0)
     parts = np.concatenate([sh2.push(2.0 * x[a:b]) for a, b in ((0, 3), (3, 777), (777, len(x)))])
     np.testing.assert_array_equal(parts, out)

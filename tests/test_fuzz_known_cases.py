@@ -396,14 +396,11 @@ def test_default_model_still_loads():
 
 # -------------------------------------------------------------------------------------- C3D
 def test_c3d_header_declaring_more_frames_than_the_file(tmp_path):
-    import importlib.util
-    from pathlib import Path
+    from repo_scripts import load_script
 
     from headmotion.io.c3d import load_c3d
 
-    spec = importlib.util.spec_from_file_location("fz", Path(__file__).resolve().parents[1] / "scripts" / "fuzz.py")
-    fz = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(fz)
+    fz = load_script("scripts/fuzz.py", "fz")
     p = fz.make_seed("c3d", tmp_path)
     assert len(load_c3d(p)) == 40
     b = bytearray(p.read_bytes())

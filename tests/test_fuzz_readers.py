@@ -15,7 +15,6 @@ runs deeper.
 
 from __future__ import annotations
 
-import importlib.util
 import random
 from pathlib import Path
 
@@ -24,19 +23,13 @@ import pytest
 hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
+from repo_scripts import load_script  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT / "tests" / "data" / "fuzz" / "crashes"
 
 
-def _load_fuzz():
-    spec = importlib.util.spec_from_file_location("headmotion_fuzz", ROOT / "scripts" / "fuzz.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-fuzz = _load_fuzz()
+fuzz = load_script("scripts/fuzz.py", "headmotion_fuzz")
 MINE = [f for f in fuzz.FORMATS if f != "openface"]
 PAIRS = [(f, c) for f in MINE for c in fuzz.classes_for(f)]
 

@@ -296,7 +296,7 @@ def test_speed_shaping_moves_the_speeds_onto_the_training_heads(name, request, t
     synthesis's speed histogram is nearer the training heads' (Hellinger) than unshaped, and the
     map survives saving."""
     from headmotion.evaluation.realism import hellinger_values, speed
-    from headmotion.systems.dnn_post import SPEED_QUANTILES
+    from headmotion.motion.speed_shaping import SPEED_QUANTILES
 
     model = request.getfixturevalue(name)
     assert model.speed_map_.shape == (2, len(SPEED_QUANTILES))

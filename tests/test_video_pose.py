@@ -195,14 +195,9 @@ def test_bad_files_give_clear_errors(tmp_path):
 
 
 def test_real_corpus_speaker_names():
-    import importlib.util
-    from pathlib import Path
+    from repo_scripts import load_script
 
-    p = Path(__file__).resolve().parents[1] / "scripts" / "build_real_corpus.py"
-    spec = importlib.util.spec_from_file_location("build_real_corpus", p)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    f = mod.speaker_for
+    f = load_script("scripts/build_real_corpus.py", "build_real_corpus").speaker_for
     assert f("styletalk", "andrew_clip_2") == "andrew"
     assert f("styletalk", "feifeili_clip2_short") == "feifeili"
     assert f("dfrf", "french") == "french"

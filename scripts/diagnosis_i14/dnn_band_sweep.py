@@ -29,6 +29,7 @@ from realism_report import at_rate, rows_for  # noqa: E402
 from headmotion.corpus import Corpus  # noqa: E402
 from headmotion.evaluation import realism as R  # noqa: E402
 from headmotion.evaluation.protocols import make_folds  # noqa: E402
+from headmotion.motion import speed_shaping  # noqa: E402
 from headmotion.systems import create, load_model  # noqa: E402
 from headmotion.systems import dnn_post  # noqa: E402
 from headmotion.systems.dnn_stream import DnnPostStages  # noqa: E402
@@ -108,7 +109,7 @@ def synth(model, y, e, seed, spec, bank=None, table=None):
         return stages.push(y, e)
     z = stages.post.push(y)
     rv = np.asarray(model.motion_norm_.inverse_transform(z), dtype=np.float64)
-    rv = dnn_post.SpeedShaper(table, fps=100.0, follow_s=spec.get("follow", 0.5), lag=spec.get("lag", 1)).push(rv)
+    rv = speed_shaping.SpeedShaper(table, fps=100.0, follow_s=spec.get("follow", 0.5), lag=spec.get("lag", 1)).push(rv)
     flags = stages.tracker.push(np.asarray(e, dtype=np.float64)[:, None])
     return stages.settler.push(rv, stages.weight.push(flags))
 
@@ -121,7 +122,7 @@ def shaping_table(model, fd, spec, bank):
                                dtype=np.float64))
         targ.append(np.asarray(model.motion_norm_.inverse_transform(m), dtype=np.float64))
     # the variants were measured before the product bounded the speed-up (SPEED_MAX_GAIN): unbounded
-    return dnn_post.speed_map(pred, targ, lag=spec.get("lag", 1), max_gain=spec.get("max_gain"))
+    return speed_shaping.speed_map(pred, targ, lag=spec.get("lag", 1), max_gain=spec.get("max_gain"))
 
 
 def product_models(which: str, *, cached: bool) -> list:
@@ -250,11 +251,11 @@ def main():
             continue
         if v.startswith("adapt:"):  # adapt:SECONDS:GAIN:zero|eval — the shaper's liveliness
             # adaptation prior (0: off) and largest speed-up
-            keep = dnn_post.SHAPING_ADAPT_S, dnn_post.SPEED_MAX_GAIN
+            keep = speed_shaping.SHAPING_ADAPT_S, speed_shaping.SPEED_MAX_GAIN
             _, sec, gain, _ = v.split(":")
-            dnn_post.SHAPING_ADAPT_S, dnn_post.SPEED_MAX_GAIN = float(sec) or None, float(gain)
+            speed_shaping.SHAPING_ADAPT_S, speed_shaping.SPEED_MAX_GAIN = float(sec) or None, float(gain)
             product(v, recs, ctx, a)
-            dnn_post.SHAPING_ADAPT_S, dnn_post.SPEED_MAX_GAIN = keep
+            speed_shaping.SHAPING_ADAPT_S, speed_shaping.SPEED_MAX_GAIN = keep
             continue
         if v.startswith("prod"):
             product(v, recs, ctx, a)

@@ -1,5 +1,5 @@
 """Speed shaping for the template systems (issue 14, fourth session): the DNN product's speed shaper
-(:class:`headmotion.systems.dnn_post.SpeedShaper`) with a quantile map fitted on each fold's
+(:class:`headmotion.motion.speed_shaping.SpeedShaper`) with a quantile map fitted on each fold's
 *training* speech (the system's own synthesis against the training heads), applied to the held-out
 speakers' synthesis — same folds as ``headmotion evaluate --protocol speakers --speaker-folds 3
 --seed 0``.  Fitted systems and their syntheses are cached under ~/.cache/headmotion/i14_tws.
@@ -29,7 +29,7 @@ from realism_report import at_rate, rows_for  # noqa: E402
 from headmotion.evaluation import realism as R  # noqa: E402
 from headmotion.evaluation.protocols import _sub_seed, make_folds  # noqa: E402
 from headmotion.systems import create  # noqa: E402
-from headmotion.systems import dnn_post  # noqa: E402
+from headmotion.motion import speed_shaping  # noqa: E402
 from headmotion.types import Motion  # noqa: E402
 
 HOME = Path.home() / ".cache/headmotion/i14_tws"
@@ -62,15 +62,15 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--systems", default="tws-basic,tws-hier")
     ap.add_argument("--gains", default="0,1.2,2")
-    ap.add_argument("--follow", type=float, default=dnn_post.SHAPING_FOLLOW_S)
+    ap.add_argument("--follow", type=float, default=speed_shaping.SHAPING_FOLLOW_S)
     ap.add_argument("--seed", type=int, default=0, help="synthesis seed of the held-out speech")
     ap.add_argument("--tag", default="", help="cache tag: the product settings the syntheses are made with")
-    ap.add_argument("--adapt", type=float, default=0.0, help="the tws shaper's liveliness adaptation (s; 0 off)")
+    ap.add_argument("--adapt", type=float, default=speed_shaping.SHAPING_ADAPT_S,
+                    help="the shaper's liveliness adaptation (s; 0 off; default the product's)")
     a = ap.parse_args()
     global TAG
     TAG = a.tag
-    from headmotion.systems.tws import generator
-    generator.SHAPING_ADAPT_S = a.adapt or None
+    speed_shaping.SHAPING_ADAPT_S = a.adapt or None  # the template systems' shaper reads it when built
     recs = {r.id: r for r in corpus()}
     ctx: dict = {}
     for system in a.systems.split(","):
@@ -80,13 +80,13 @@ def main():
             refs, first = [], []
             for fd in folds:
                 fps = fd["fps"]
-                lag = max(1, int(round(dnn_post.SHAPING_LAG_S * fps)))
+                lag = speed_shaping.shaping_lag(fps)
                 n = [min(len(x), len(y)) for x, y in fd["train"]]
-                table = dnn_post.speed_map([x[:k] for (x, _), k in zip(fd["train"], n)],
+                table = speed_shaping.speed_map([x[:k] for (x, _), k in zip(fd["train"], n)],
                                            [y[:k] for (_, y), k in zip(fd["train"], n)], lag=lag, max_gain=g) if g else None
                 for rid, x in fd["test"]:
                     r = recs[rid]
-                    y = x if table is None else dnn_post.SpeedShaper(table, fps=fps, follow_s=a.follow, lag=lag).push(x)
+                    y = x if table is None else speed_shaping.SpeedShaper(table, fps=fps, follow_s=a.follow, lag=lag).push(x)
                     refs.append(r)
                     first.append(at_rate(Motion(y, fps), r.motion.fps, len(r.motion)))
             s = rows_for(system, refs, first, ctx, n_shifts=100)[-1]

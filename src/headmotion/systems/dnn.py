@@ -55,7 +55,7 @@ them), applied at synthesis in this order, each a parameter:
   validation frames, which the weights never fitted), so that the slow posture band — which an
   MMSE regressor averages away most — is restored more than the syllable-rate band.  Without it,
   one global ratio ``gv_`` per axis (global-variance scaling, the earlier behaviour);
-* ``speed_shaping`` (default True): :class:`~headmotion.systems.dnn_post.SpeedShaper` re-times the
+* ``speed_shaping`` (default True): :class:`~headmotion.motion.speed_shaping.SpeedShaper` re-times the
   motion so that its speed over 40 ms follows the training heads' speed distribution (quantile
   map ``speed_map_``, measured at fit on the post stage's output): faster moves and longer holds,
   as recorded heads have, pulled back onto the path within 0.25 s; with it, pauses also pull the
@@ -177,6 +177,7 @@ from ..errors import ParameterError
 from ..motion.control import mean_pose_of
 from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, FeatureTrack, Motion
+from ..motion import speed_shaping
 from . import dnn_post
 from .base import EMBEDDING, STREAMING, Synthesizer
 from .dnn_stream import DnnPostStages, DnnStream, frame_energy_db
@@ -508,7 +509,7 @@ class _DnnSystem(Synthesizer):
         self.autoencoder_ = ae
         self.regressor_ = reg
         self.postfilter_ = pf
-        self.speed_map_ = self._fit_speed_map(hraw, hy, [0] * len(hraw))  # needs the stages above
+        self.speed_map_ = self._fit_speed_map(hraw, hy)  # needs the stages above
         fps_list = sorted({float(r.motion.fps) for r in train_recs})
         self.output_fps_ = fps_list[0] if len(fps_list) == 1 else float(self.model_fps)  # informational
         self.splits_ = {r.id: split[r.id] for r in corpus}
@@ -654,23 +655,21 @@ class _DnnSystem(Synthesizer):
             x = np.asarray(self.embedding_norm_.transform(self._embed_values(x)), dtype=np.float32)
         return self._network_output(x, self.regressor_, self.postfilter_)
 
-    def _fit_speed_map(self, raw, targets, starts) -> np.ndarray:
+    def _fit_speed_map(self, raw, targets) -> np.ndarray:
         """The speed shaper's quantile map: the post stage's output (variance restoration and
         drift as the parameters say, recording k drawn with seed k; no pauses) against the
-        motion, both as rotation vectors at the model rate, over the frames from ``starts`` on."""
+        motion, both as rotation vectors at the model rate."""
         pred, targ = [], []
-        lag = self.shaping_lag
         for k, (y, t) in enumerate(zip(raw, targets)):
             z = DnnPostStages.make_post(self, k).push(np.asarray(y, dtype=np.float64))
             pred.append(np.asarray(self.motion_norm_.inverse_transform(z), dtype=np.float64))
             targ.append(np.asarray(self.motion_norm_.inverse_transform(t), dtype=np.float64))
-        return dnn_post.speed_map(pred, targ, lag=lag, starts=starts, max_gain=dnn_post.SPEED_MAX_GAIN)
+        return speed_shaping.speed_map(pred, targ, lag=self.shaping_lag, max_gain=speed_shaping.SPEED_MAX_GAIN)
 
     @property
     def shaping_lag(self) -> int:
-        """The speed shaper's window in frames (:data:`~headmotion.systems.dnn_post.SHAPING_LAG_S` at the
-        model rate)."""
-        return max(1, int(round(dnn_post.SHAPING_LAG_S * float(self.model_fps))))
+        """The speed shaper's window in frames at the model rate."""
+        return speed_shaping.shaping_lag(self.model_fps)
 
     def _predict_values(self, feats: np.ndarray, *, seed: int | None = None, post: bool = True) -> np.ndarray:
         """Model-rate features ``(T, D)`` → rotation vectors ``(T, 3)`` at the model rate; with

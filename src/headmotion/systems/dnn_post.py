@@ -31,10 +31,10 @@ head rotations of a few degrees are pitch, yaw and roll to within a fraction of 
   :func:`band_gains` gives each band of each axis its own training ratio, so the slow posture band
   is restored more than the syllable-rate band (a global ratio scales both alike, which left the
   default with too much 1.5–4 Hz and too little < 0.5 Hz motion).
-* **Speed shaping** (third session): :class:`SpeedShaper` re-times the trajectory through the
-  quantile map of its speeds onto the training heads' (:func:`speed_map`): recorded heads hold
-  still and then move fast (speed quantiles 5/50/95 % of the video corpus: 3.6 / 16 / 56 °/s), a
-  regressor's output moves evenly (5.2 / 19 / 45 °/s after variance restoration).
+* **Speed shaping** (third session) lives in :mod:`headmotion.motion.speed_shaping` (the template
+  systems use it too): recorded heads hold still and then move fast (speed quantiles 5/50/95 % of
+  the video corpus: 3.6 / 16 / 56 °/s), a regressor's output moves evenly (5.2 / 19 / 45 °/s after
+  variance restoration).
 
 Causal centre (issue 16): for the DNN systems' product output (and their stream), the centre
 about which both steps scale is the **running mean** of the network output so far,
@@ -183,110 +183,6 @@ def band_gains(predicted, target, *, fps: float, share: float = 0.0, cap: float 
     return np.minimum(g, cap)
 
 
-#: the speed shaper's window (s) and follow time (s) in the product
-SHAPING_LAG_S = 0.04
-SHAPING_FOLLOW_S = 0.25
-#: prior (s) of the shaper's liveliness adaptation in the product (:class:`SpeedShaper`)
-SHAPING_ADAPT_S = 5.0
-#: quantiles at which the speed map is tabulated
-SPEED_QUANTILES = np.linspace(0.0, 1.0, 51)
-
-
-def speeds(rv: np.ndarray, lag: int = 1) -> np.ndarray:
-    """Per-frame speed ``|x_t − x_{t−lag}| / lag`` of a ``(T, D)`` array (the first ``lag``
-    frames: against frame 0)."""
-    rv = np.asarray(rv, dtype=np.float64)
-    lag = max(int(lag), 1)
-    if len(rv) == 0:
-        return np.zeros(0)
-    prev = np.vstack([np.repeat(rv[:1], min(lag, len(rv)), 0), rv[:-lag] if len(rv) > lag else rv[:0]])
-    return np.linalg.norm(rv - prev, axis=1) / lag
-
-
-#: largest speed-up of the speed map: a network's output on new speech has sharper transitions
-#: than on its training frames, and mapping them up as well gives speeds no recorded head reaches
-#: (held-out speakers: speed 99th percentile 175 °/s against 92 °/s recorded; 88 °/s with 1.2)
-SPEED_MAX_GAIN = 1.2
-
-
-def speed_map(predicted, target, *, lag: int = 1, quantiles=SPEED_QUANTILES, starts=None,
-              max_gain: float | None = SPEED_MAX_GAIN) -> np.ndarray:
-    """``(2, Q)`` table mapping the predicted motion's speed quantiles (row 0) to the target
-    motion's (row 1), pooled over the lists of ``(T, D)`` arrays (quantile mapping); speeds over
-    ``lag`` frames (:func:`speeds`), counted from frame ``max(lag, starts[i])`` on; a speed is
-    mapped to at most ``max_gain`` times itself (None: no bound)."""
-    st0 = _starts(predicted, starts)
-    sp = np.concatenate([speeds(a, lag)[max(lag, s):] for a, s in zip(predicted, st0)])
-    st = np.concatenate([speeds(a, lag)[max(lag, s):] for a, s in zip(target, st0)])
-    if len(sp) < 2 or len(st) < 2:
-        raise ValueError("speed_map needs at least two speeds on each side")
-    qp, qt = np.quantile(sp, quantiles), np.quantile(st, quantiles)
-    qp = np.maximum.accumulate(qp + 1e-12 * np.arange(len(qp)))       # strictly increasing for interp
-    if max_gain is not None:
-        qt = np.minimum(qt, float(max_gain) * qp)
-    return np.stack([qp, qt])
-
-
-class SpeedShaper:
-    """Causal re-timing of a trajectory so that its speed distribution becomes the target's:
-    ``x'_t = x'_{t−1} + s_t (x_t − x_{t−1}) + κ (x_{t−1} − x'_{t−1})`` with ``s_t = Q(|v_t|) / |v_t|`` the
-    quantile map of :func:`speed_map` and ``κ = 1 / (follow_s · fps)``: fast moves are made
-    faster and slow ones slower (holds), and the leak pulls the result back onto the path within
-    ``follow_s``.  A first-order recursion run with state (``lfilter`` with ``zi``), so chunked
-    pushes give what one push gives.
-
-    With ``adapt_s`` (the product: :data:`SHAPING_ADAPT_S`), the map is looked up at
-    ``|v_t| / α_t``, ``α_t`` the running mean of the input's speeds so far (with ``adapt_s``
-    seconds of prior at the map's own input mean) over that mean: the map was measured on the
-    network's output on training speakers' validation frames, and on a new speaker's speech the
-    same network is 10–15 % slower or faster depending on its training seed (held-out speakers of
-    the video corpus, median speed 14.1 or 17.1 °/s against 16.2 recorded); the adaptation takes
-    that scale out, so what the map sets is the speed distribution (pooled speed Hellinger over
-    the held-out speakers 0.074 → 0.064 and 0.066 → 0.058 for the two training seeds)."""
-
-    def __init__(self, table, *, fps: float, follow_s: float = 0.5, lag: int = 1, adapt_s: float | None = None):
-        self.table = np.asarray(table, dtype=np.float64)
-        self.k = 1.0 / max(float(follow_s) * float(fps), 1.0)
-        self.lag = max(int(lag), 1)
-        self.hist = None      # the last ``lag`` input frames
-        self.zi = None        # lfilter state: (1 − κ) x'_{t−1}
-        #: liveliness adaptation: the input's speeds are divided by the ratio of their running mean
-        #: (with ``adapt_s`` seconds of prior at the map's own mean) to the map's input mean
-        self.prior_n = 0.0 if adapt_s is None else float(adapt_s) * float(fps)
-        q = self.table[0]
-        self.ref_mean = float((q.sum() - 0.5 * (q[0] + q[-1])) / max(len(q) - 1, 1))  # mean of the quantile function
-        self.sum_sp = self.prior_n * self.ref_mean
-        self.n_sp = self.prior_n
-
-    def push(self, x: np.ndarray) -> np.ndarray:
-        x = np.asarray(x, dtype=np.float64)
-        n = len(x)
-        if n == 0:
-            return x.copy()
-        if self.hist is None:
-            self.hist = np.repeat(x[:1], self.lag, 0)
-        ext = np.vstack([self.hist, x])                       # ext[lag + t] = x_t
-        L = self.lag
-        prev = ext[L - 1:L - 1 + n]
-        v = x - prev
-        sp = speeds(ext, L)[L:]                                # speed over the last ``lag`` frames
-        if self.prior_n > 0:
-            cs = np.cumsum(np.concatenate([[self.sum_sp], sp]))[1:]   # sequential: chunking-invariant
-            alpha = cs / (self.n_sp + np.arange(1, n + 1)) / max(self.ref_mean, 1e-12)
-            self.sum_sp, self.n_sp = float(cs[-1]), self.n_sp + n
-            ratio = np.interp(sp / alpha, self.table[0], self.table[1]) / np.maximum(sp, 1e-12)
-        else:
-            ratio = np.interp(sp, self.table[0], self.table[1]) / np.maximum(sp, 1e-12)
-        s = np.where(sp > 1e-12, ratio, 1.0)
-        u = self.k * prev + s[:, None] * v
-        if self.zi is None:
-            self.zi = ((1.0 - self.k) * x[0])[None]
-        out, self.zi = lfilter([1.0], [1.0, -(1.0 - self.k)], u, axis=0, zi=self.zi)
-        self.zi = self.zi.reshape(1, -1)
-        self.hist = ext[-L:].copy()
-        return out
-
-
 class CausalPost:
     """Variance restoration and posture drift about the running mean, with state (see the module
     docstring): ``push(y)`` takes the next frames ``(n, D)`` of normalised network output and
@@ -348,4 +244,4 @@ class CausalPost:
         return out
 
 
-__all__ = ["CausalPost", "SpeedShaper", "speed_map", "SHAPING_ADAPT_S", "speeds", "SPEED_QUANTILES", "SPEED_MAX_GAIN", "SHAPING_LAG_S", "SHAPING_FOLLOW_S", "BandSplit", "band_variance", "band_gains", "BAND_EDGES_HZ", "BAND_CAP", "GV_CAP", "within_sd", "gv_ratio", "restore_variance", "ou_process", "add_drift"]
+__all__ = ["CausalPost", "BandSplit", "band_variance", "band_gains", "BAND_EDGES_HZ", "BAND_CAP", "GV_CAP", "within_sd", "gv_ratio", "restore_variance", "ou_process", "add_drift"]

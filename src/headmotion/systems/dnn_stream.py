@@ -53,6 +53,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..types import Audio, Motion
+from ..motion.speed_shaping import product_shaper
 from . import dnn_post
 
 #: analysis window of the pause detector's energy (s)
@@ -130,8 +131,7 @@ class DnnPostStages:
         table = getattr(system, "speed_map_", None)
         self.shaper = None
         if system.speed_shaping and table is not None:
-            self.shaper = dnn_post.SpeedShaper(table, fps=fps, follow_s=dnn_post.SHAPING_FOLLOW_S,
-                                               lag=system.shaping_lag, adapt_s=dnn_post.SHAPING_ADAPT_S)
+            self.shaper = product_shaper(table, fps)
         idle = system.idle
         self.settle = idle is not None and float(idle) < 1.0
         if self.settle:

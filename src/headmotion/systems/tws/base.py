@@ -27,8 +27,8 @@ Product defaults and the thesis's literal behaviour (issue 14; measured in
   0.39); 1 = no settling (the thesis).  Model files written before these parameters load with
   ``soft_limit=False`` and ``idle=1`` (they have no speech detector), i.e. as they behaved.
 * ``speed_shaping=True`` (fourth session) — after the pause settling, the generator's frames pass
-  through the DNN product's speed shaper (:class:`headmotion.systems.dnn_post.SpeedShaper`, with
-  its liveliness adaptation) with a quantile map fitted at training: the system's own synthesis of
+  through the speed shaper the DNN product uses (:func:`headmotion.motion.speed_shaping.product_shaper`,
+  with its liveliness adaptation) with a quantile map fitted at training: the system's own synthesis of
   its training speech (recording k with seed k, no shaping) against the training heads, speeds over
   40 ms, at most :data:`SPEED_MAX_GAIN` × faster.  Warped half-cosine templates move evenly
   (held-out 95th percentile 39–43 °/s against 56 recorded); recorded heads hold and then move fast.
@@ -49,10 +49,10 @@ from ...align import n_frames as _n_frames
 from ...errors import ParameterError
 from ...features import ANALYSIS_RATE
 from ...motion.control import mean_pose_of
+from ...motion import speed_shaping
 from ...motion.segmentation import min_segment_frames
 from ...rotations import rotvec_to_pitch_yaw_roll
 from ...types import Audio, Motion
-from .. import dnn_post
 from ..base import CAUSAL, Synthesizer, check_stochastic
 from .features import extract_blocked, make_feature_config
 from .generator import LIVE_FEATURES, Generator, TwsStream
@@ -208,11 +208,6 @@ class TwsBase(Synthesizer):
             progress(total, total, "done")
         return self
 
-    @property
-    def shaping_lag(self) -> int:
-        """The speed shaper's window in frames (:data:`~headmotion.systems.dnn_post.SHAPING_LAG_S`)."""
-        return max(1, int(round(dnn_post.SHAPING_LAG_S * float(self.fps_))))
-
     def _fit_speed_map(self, recs, motions) -> np.ndarray:
         """The speed shaper's map: this system's synthesis of the speech of the training
         recordings ``recs`` (recording k with seed k, so that the map is not one seed's draws; no
@@ -224,7 +219,7 @@ class TwsBase(Synthesizer):
             n = min(len(x), len(m))
             pred.append(x[:n])
             targ.append(np.asarray(m)[:n])
-        return dnn_post.speed_map(pred, targ, lag=self.shaping_lag, max_gain=SPEED_MAX_GAIN)
+        return speed_shaping.speed_map(pred, targ, lag=speed_shaping.shaping_lag(self.fps_), max_gain=SPEED_MAX_GAIN)
 
     # -- synthesis ----------------------------------------------------------------------------
     def _predict(self, audio: Audio, *, seed: int | None) -> Motion:

@@ -18,15 +18,10 @@ import numpy as np
 
 from ...align import n_frames as _n_frames
 from ...motion.pauses import CausalPauseWeight, PauseSettler
+from ...motion.speed_shaping import product_shaper
 from ...motion.templates import template_shape
 from ...types import Audio, Motion
-from ..dnn_post import SHAPING_ADAPT_S as SHAPING_ADAPT_S_DNN
-from ..dnn_post import SHAPING_FOLLOW_S, SpeedShaper
 from .limits import Limits
-
-
-#: the speed shaper's liveliness adaptation (s of prior; None: off) — the DNN product's; see :mod:`.base`
-SHAPING_ADAPT_S = SHAPING_ADAPT_S_DNN
 
 
 class FeatureFrames:
@@ -119,8 +114,7 @@ class Generator:
         table = getattr(system, "speed_map_", None)
         self.shaper = None
         if getattr(system, "speed_shaping", False) and table is not None:
-            self.shaper = SpeedShaper(table, fps=fps, follow_s=SHAPING_FOLLOW_S, lag=system.shaping_lag,
-                                      adapt_s=SHAPING_ADAPT_S)
+            self.shaper = product_shaper(table, fps)
         if det is not None and idle < 1.0:
             self.detector = det.start()
             self.weigher = CausalPauseWeight(fps=fps)
