@@ -96,3 +96,28 @@ def test_speed_shaper_adaptation_takes_out_the_input_s_speed_scale():
     sh2 = speed_shaping.SpeedShaper(table, fps=FPS, follow_s=5.0, lag=4, adapt_s=1.0)
     parts = np.concatenate([sh2.push(2.0 * x[a:b]) for a, b in ((0, 3), (3, 777), (777, len(x)))])
     np.testing.assert_array_equal(parts, out)
+
+
+def test_slow_band_gain_scales_the_slow_band_only():
+    from types import SimpleNamespace
+
+    from headmotion.errors import ParameterError
+    from headmotion.systems import create
+    from headmotion.systems.dnn_stream import DnnPostStages
+
+    gains = np.full((4, 3), 2.0)
+    system = SimpleNamespace(drift_share=0.0, seed=0, band_gains_=gains, variance_restore=True, restore_bands=True,
+                             gv_=np.ones(3), motion_sd_=np.ones(3), model_fps=FPS, drift_tau_s=4.0,
+                             slow_band_gain=1.5)
+    post = DnnPostStages.make_post(system, 0)
+    np.testing.assert_allclose(post.band_gains[0], 3.0)
+    np.testing.assert_allclose(post.band_gains[1:], 2.0)
+    assert np.all(gains == 2.0)  # the model's own gains are left alone
+    # a slow sinusoid about its mean comes out ≈ 1.5 × 2 larger, a fast one 2 ×
+    for f_hz, factor in ((0.05, 3.0), (7.0, 2.0)):
+        y = sine(f_hz, seconds=200.0)
+        out = DnnPostStages.make_post(system, 0).push(y)[-4000:]
+        assert out.std(axis=0) / y[-4000:].std(axis=0) == pytest.approx(np.full(3, factor), rel=0.08)
+    for bad in (0, -1.0, "2", True, float("nan")):
+        with pytest.raises(ParameterError, match="slow_band_gain"):
+            create("mfcc-dnn", slow_band_gain=bad).fit(None)

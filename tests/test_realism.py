@@ -29,6 +29,29 @@ def test_sinusoid_band_share_is_one():
     assert R.spectral_distance(R.band_shares(sine(1.0)), R.band_shares(sine(2.5))) == pytest.approx(2.0, abs=0.05)
 
 
+def test_pooled_spectral_distance_compares_the_sets_mean_shares():
+    slow, mid = sine(0.25), sine(1.0)
+    assert R.pooled_spectral_distance([slow, mid], [mid, slow]) == pytest.approx(0.0, abs=1e-12)
+    assert R.pooled_spectral_distance([slow], [mid]) == pytest.approx(2.0, abs=0.05)
+    # half the set moved from the slow band to the mid band: L1 = 2 x 0.5
+    assert R.pooled_spectral_distance([slow, slow], [slow, mid]) == pytest.approx(1.0, abs=0.03)
+    # amplitude does not weigh: a recording 10x louder counts as one recording
+    loud = sine(1.0, amp_deg=30.0)
+    assert R.pooled_spectral_distance([slow, slow], [slow, loud]) == pytest.approx(1.0, abs=0.03)
+    with pytest.raises(ParameterError):
+        R.pooled_spectral_distance([], [slow])
+
+
+def test_realism_rows_summary_has_the_pooled_spectral_distance():
+    slow, mid = sine(0.25, seconds=20), sine(1.0, seconds=20)
+    rows = R.realism_rows({"same": [slow, mid], "swapped": [mid, slow]}, [slow, mid])
+    summ = {r["condition"]: r for r in rows if r["recording"] == "ALL"}
+    assert summ["same"]["spectral_l1_pooled"] == pytest.approx(0.0, abs=1e-12)
+    # every recording is wrong (per-recording L1 ≈ 2), the set's shares are right
+    assert summ["swapped"]["spectral_l1"] == pytest.approx(2.0, abs=0.1)
+    assert summ["swapped"]["spectral_l1_pooled"] == pytest.approx(0.0, abs=0.05)
+
+
 def test_still_motion_has_no_shares():
     assert np.all(R.band_shares(Motion(np.zeros((300, 3)), FPS)) == 0)
 
@@ -115,6 +138,24 @@ def test_stouffer():
     assert R.stouffer([0.5, 0.5, 0.5]) == pytest.approx(0.5)
     assert R.stouffer([0.01] * 4) < 0.01
     assert R.stouffer([0.9] * 4) > 0.9
+
+
+def test_stouffer_of_circular_shift_p_values_uses_mid_p():
+    from scipy.stats import norm
+
+    n = 100
+    best, worst = 1 / (n + 1), 1.0  # every shift below the score / every shift above it
+    # the best and the worst possible recordings cancel
+    assert R.stouffer([best, worst], n_shifts=n) == pytest.approx(0.5, abs=1e-12)
+    z1 = norm.isf(0.5 / (n + 1))
+    assert R.stouffer([best] * 4, n_shifts=n) == pytest.approx(norm.sf(4 * z1 / 2), rel=1e-9)
+    # three perfectly coupled recordings and one at the bottom: z = 2 z1 / 2 (the clipped p = 1
+    # used to weigh −7 and hide the three)
+    assert R.stouffer([best] * 3 + [worst], n_shifts=n) == pytest.approx(norm.sf(z1), rel=1e-9)
+    assert R.stouffer([best] * 3 + [worst]) > 0.4
+    # a uniform spread of shift p-values is no evidence either way
+    ks = np.arange(n + 1)
+    assert R.stouffer((1 + ks) / (n + 1), n_shifts=n) == pytest.approx(0.5, abs=1e-9)
 
 
 def test_realism_row_and_rows(rng):

@@ -181,9 +181,12 @@ def report(v, refs, first, samples, ctx, a, t0):
     sp_r = np.concatenate([R.speed(r.motion) for r in refs])
     sp_c = np.concatenate([R.speed(Motion(m, r.motion.fps)) for m, r in zip(first, refs)])
     hp = R.hellinger_values(sp_r, sp_c)
+    rec_rows = [r for r in rows if r.get("recording") != "ALL"]
+    l1p = R.spectral_distance(*[np.mean([[r[f"band_{b}{x}"] for b in R.BAND_NAMES] for r in rec_rows], axis=0)
+                                for x in ("_ref", "")])
     ps = [rows_for(v, refs, [x[sd] for x in samples], ctx, n_shifts=a.shifts)[-1]["fcca_p_pooled"]
           for sd in range(1, a.seeds)]
-    print(f"{v:10s} 1.5-4={s['band_1.5_4']:.3f} <0.5={s['band_0_0.5']:.2f} L1={s['spectral_l1']:.2f} "
+    print(f"{v:10s} 1.5-4={s['band_1.5_4']:.3f} <0.5={s['band_0_0.5']:.2f} L1={s['spectral_l1']:.2f} L1pool={l1p:.3f} "
           f"SD={s['sd_ratio_pitch']:.2f}/{s['sd_ratio_yaw']:.2f}/{s['sd_ratio_roll']:.2f} "
           f"Hs={s['speed_hellinger']:.2f} Hpool={hp:.3f} LC={s['limit_cycle']:.2f} pause={s['pause_ratio']:.2f} "
           f"div={s.get('diversity', float('nan')):.2f} FCCAx={s['fcca_excess']:+.3f} "
@@ -241,12 +244,11 @@ def main():
                 m.set_params(**{k: json.loads(x) for k, x in kv.items()})
             report(v, *predict_held_out(models, recs, a), ctx, a, t0)
             continue
-        if v.startswith("b0:"):  # b0:FACTOR:zero|eval — the cached product networks, slow band's gain × FACTOR
+        if v.startswith("b0:"):  # b0:FACTOR:zero|eval — the cached product networks, slow_band_gain = FACTOR
             t0 = time.time()
             models = product_models(v.split(":")[2], cached=True)
             for m in models:
-                m.band_gains_ = m.band_gains_.copy()
-                m.band_gains_[0] *= float(v.split(":")[1])
+                m.set_params(slow_band_gain=float(v.split(":")[1]))
             report(v, *predict_held_out(models, recs, a), ctx, a, t0)
             continue
         if v.startswith("adapt:"):  # adapt:SECONDS:GAIN:zero|eval — the shaper's liveliness

@@ -487,7 +487,9 @@ def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references:
     """Per condition, recording ``ALL``: Hellinger distance of the speed and acceleration
     histograms pooled over every held-out recording (``speed_hellinger_pooled``,
     ``accel_hellinger_pooled``) — the GENEA numerical evaluations' form, one histogram per
-    condition over the whole test set — next to the per-recording medians."""
+    condition over the whole test set — and the spectral L1 between the test set's mean band
+    shares (``spectral_l1_pooled``, :func:`~headmotion.evaluation.realism.pooled_spectral_distance`),
+    next to the per-recording medians."""
     from . import realism as R
 
     out = []
@@ -500,13 +502,16 @@ def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references:
             ref = np.concatenate([fn(references[r]) for r in rids])
             cand = np.concatenate([fn(Motion(np.asarray(d[r], dtype=float), float(references[r].fps))) for r in rids])
             vals[f"{name}_hellinger_pooled"] = R.hellinger_values(ref, cand)
+        vals["spectral_l1_pooled"] = R.pooled_spectral_distance(
+            [references[r] for r in rids], [Motion(np.asarray(d[r], dtype=float), float(references[r].fps)) for r in rids])
         out += _rows(cond, "ALL", vals)
     return out
 
 
-def pooled_rows(rows: list[dict], systems: Sequence[str]) -> list[dict]:
+def pooled_rows(rows: list[dict], systems: Sequence[str], *, n_shifts: int | None = None) -> list[dict]:
     """Per system, recording ``ALL``: mean FCCA / local-FCCA excess over the held-out recordings and
-    the Stouffer-combined p-value of their circular-shift tests."""
+    the Stouffer-combined p-value of their circular-shift tests (their mid-p values with
+    ``n_shifts``, :func:`~headmotion.evaluation.realism.stouffer`)."""
     from .realism import stouffer
 
     out = []
@@ -518,7 +523,7 @@ def pooled_rows(rows: list[dict], systems: Sequence[str]) -> list[dict]:
             ex = [v for v in ex if np.isfinite(v)]
             if not ex:
                 continue
-            out += _rows(s, "ALL", {f"{m}_excess_pooled": float(np.mean(ex)), f"{m}_p_pooled": stouffer(ps),
+            out += _rows(s, "ALL", {f"{m}_excess_pooled": float(np.mean(ex)), f"{m}_p_pooled": stouffer(ps, n_shifts=n_shifts),
                                     f"{m}_n_pooled": float(len(ex))})
     return out
 
@@ -737,7 +742,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     warns += table_warns
     if fig48:
         rows += _fig48_rows(gt)
-    rows += pooled_rows(rows, [GROUND_TRUTH] + [n for n, _ in specs])
+    rows += pooled_rows(rows, [GROUND_TRUTH] + [n for n, _ in specs], n_shifts=n_shifts)
     recs = [rid for rid in corpus.ids if rid in gt]
     if motions:
         rows += pooled_histogram_rows(motions, {rid: Motion(g[0], g[3]) for rid, g in gt.items()})

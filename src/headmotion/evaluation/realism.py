@@ -12,7 +12,15 @@ roll for small angles) with ``fps`` given.
   0–0.5, 0.5–1.5, 1.5–4 and 4–10 Hz (Welch periodogram, ``scipy.signal.welch``, 8 s Hann
   segments, mean removed); :func:`spectral_distance` is the L1 distance of two share vectors
   (0…2).  Chosen here: real heads have most power below 0.5 Hz (posture shifts), a bobbing
-  system in 1.5–4 Hz.
+  system in 1.5–4 Hz.  :func:`pooled_spectral_distance` is the same L1 between two *sets* of
+  motions (a test set's ground truths and a condition's output): each set's shares are the mean
+  of its recordings' shares (every recording weighs alike, whatever its amplitude).  Chosen here
+  (fifth session), as the speed histograms are pooled over a test set: on clips of 4–20 s the
+  share below 0.5 Hz of *one* recording rests on 2–4 Welch bins and scatters widely (video
+  corpus: 0.52–0.88, 10th–90th percentile, for the recorded heads), so the per-recording L1 is
+  mostly that scatter — a constant share vector at the recorded heads' median scores a median
+  per-recording L1 of 0.19, another speaker's recorded head 0.20–0.37 — while the pooled L1 says
+  whether a system's spectrum has the recorded heads' shape.
 * :func:`sd_ratio` — SD per axis over the reference's (paper Fig 2 reports the SD itself).
 * :func:`drift` — SD of the 5 s running mean per axis (slow wandering of the mean pose).
 * :func:`speed`, :func:`acceleration`, :func:`hellinger` — the per-frame angular speed (°/s) and
@@ -42,7 +50,8 @@ roll for small angles) with ``fps`` given.
   into one p-value by Stouffer's method (z_i = Φ⁻¹(1 − p_i), Z = Σ z_i / √n).
 * :func:`realism_rows` — the one-liner for ``evaluate``: ``{condition: [motion per recording]}``
   and the ground truths → a list of metrics.csv rows (one per condition and recording) plus one
-  ``recording="ALL"`` summary row per condition (medians, the pooled p-values);
+  ``recording="ALL"`` summary row per condition (medians, the pooled p-values, the pooled
+  spectral L1 ``spectral_l1_pooled``);
   :func:`long_rows` turns them into ``evaluate``'s long ``{system, recording, metric, value}``
   rows.
 
@@ -108,6 +117,16 @@ def band_shares(motion, *, fps: float | None = None, bands=BANDS, fmax: float = 
 def spectral_distance(shares_ref, shares_cand) -> float:
     """L1 distance of two band-share vectors (0 identical … 2 disjoint)."""
     return float(np.abs(np.asarray(shares_ref, float) - np.asarray(shares_cand, float)).sum())
+
+
+def pooled_spectral_distance(references: Sequence, candidates: Sequence, *, fps: float | None = None) -> float:
+    """L1 distance between the mean band shares of two sets of motions (see the module
+    docstring); 0 for the same set, 2 for sets whose power lies in disjoint bands."""
+    if not len(references) or not len(candidates):
+        raise ParameterError("pooled_spectral_distance needs at least one motion in each set")
+    ref = np.mean([band_shares(m, fps=fps) for m in references], axis=0)
+    cand = np.mean([band_shares(m, fps=fps) for m in candidates], axis=0)
+    return spectral_distance(ref, cand)
 
 
 # -- amplitude ---------------------------------------------------------------------------------------
@@ -342,25 +361,37 @@ def coupling(reference, features, candidate, *, window_s: float = 3.0, n_shifts:
     return {"fcca": fr.score, **fr.as_dict("fcca_"), "lcca": lr.score, **lr.as_dict("lcca_")}
 
 
-def stouffer(p_values) -> float:
-    """One-sided combined p-value of independent tests (Stouffer's Z)."""
+def stouffer(p_values, *, n_shifts: int | None = None) -> float:
+    """One-sided combined p-value of independent tests (Stouffer's Z).
+
+    With ``n_shifts``, the p-values are circular-shift p-values ``(1 + k) / (n_shifts + 1)``
+    (:mod:`headmotion.evaluation.chance`; ``k`` shifts scored at least as high) and each is
+    replaced by its mid-p ``(k + 0.5) / (n_shifts + 1)`` before the normal quantile: a discrete
+    p-value of 1 (every shift scored higher) then counts as z = −Φ⁻¹(1 − 0.5/(n + 1)), the mirror
+    of the best possible recording, instead of the −7 that clipping at 1 − 1e-12 gave it (one
+    such recording outweighed three perfectly coupled ones; mid-p values are uniform-centred
+    under the null, Lancaster 1961).  Without it, continuous p-values clipped to (1e-12, 1 − 1e-12)."""
     from scipy.stats import norm
 
-    p = np.clip(np.asarray([x for x in p_values if np.isfinite(x)], float), 1e-12, 1 - 1e-12)
+    p = np.asarray([x for x in p_values if np.isfinite(x)], float)
     if len(p) == 0:
         return float("nan")
+    if n_shifts is not None:
+        p = np.clip(p - 0.5 / (int(n_shifts) + 1), 0.5 / (int(n_shifts) + 1), 1 - 0.5 / (int(n_shifts) + 1))
+    p = np.clip(p, 1e-12, 1 - 1e-12)
     z = norm.isf(p).sum() / np.sqrt(len(p))
     return float(norm.sf(z))
 
 
-def pooled_coupling(rows: Sequence[Mapping]) -> dict:
-    """Mean FCCA/local-CCA excess over recordings and the Stouffer-combined p-values."""
+def pooled_coupling(rows: Sequence[Mapping], *, n_shifts: int | None = None) -> dict:
+    """Mean FCCA/local-CCA excess over recordings and the Stouffer-combined p-values (mid-p of
+    the circular-shift p-values when ``n_shifts`` is given, see :func:`stouffer`)."""
     out = {}
     for k in ("fcca", "lcca"):
         ex = [r[f"{k}_excess"] for r in rows if f"{k}_excess" in r]
         ps = [r[f"{k}_p"] for r in rows if f"{k}_p" in r]
         out[f"{k}_excess"] = float(np.mean(ex)) if ex else float("nan")
-        out[f"{k}_p_pooled"] = stouffer(ps)
+        out[f"{k}_p_pooled"] = stouffer(ps, n_shifts=n_shifts)
     return out
 
 
@@ -472,8 +503,10 @@ def realism_rows(conditions: Mapping[str, Sequence], references: Sequence, *, re
         for k in keys:
             vals = np.array([r.get(k, np.nan) for r in rows], float)
             summ[k] = float(np.nanmedian(vals)) if np.isfinite(vals).any() else float("nan")
+        summ["spectral_l1_pooled"] = spectral_distance(
+            *[np.mean([[r[f"band_{b}{x}"] for b in BAND_NAMES] for r in rows], axis=0) for x in ("_ref", "")])
         if features is not None:
-            summ.update(pooled_coupling(rows))
+            summ.update(pooled_coupling(rows, n_shifts=n_shifts))
         out.append(summ)
     return out
 
@@ -495,7 +528,7 @@ def long_rows(rows: Sequence[Mapping], *, prefix: str = "realism_") -> list[dict
 
 
 __all__ = [
-    "long_rows", "BANDS", "BAND_NAMES", "psd", "band_shares", "spectral_distance", "sd_ratio", "drift", "speed", "acceleration",
+    "long_rows", "BANDS", "BAND_NAMES", "psd", "band_shares", "spectral_distance", "pooled_spectral_distance", "sd_ratio", "drift", "speed", "acceleration",
     "histogram_edges", "histogram", "hellinger", "hellinger_values", "autocorrelation", "limit_cycle_index",
     "saturation", "speech_mask_for", "pause_mask", "pause_speed_ratio", "diversity", "speech_onsets",
     "motion_beats", "beat_consistency", "coupling", "stouffer", "pooled_coupling", "realism", "realism_rows",

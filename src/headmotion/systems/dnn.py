@@ -188,6 +188,9 @@ MODEL_FPS = 100.0
 DEFAULT_DRIFT_SHARE = 0.2
 #: its time constant (s)
 DEFAULT_DRIFT_TAU_S = 4.0
+#: product default factor on the slow (< 0.5 Hz) band's restoring gain at synthesis (fifth session,
+#: chosen on held-out speakers of the video corpus, see the module docstring)
+DEFAULT_SLOW_BAND_GAIN = 1.15
 #: parameters that switch every addition to the paper off (the paper's protocols use them)
 PAPER_PARAMS = {"variance_restore": False, "drift_share": 0.0, "idle": None, "speed_shaping": False}
 #: product default idle level in pauses for the DNN systems
@@ -284,7 +287,7 @@ class _DnnSystem(Synthesizer):
                  valid_fraction: float = 0.15, holdout_test: bool = True, random_state: int = 0,
                  n_threads: int | None = 1, variance_restore: bool = True, restore_bands: bool = True,
                  drift_share: float = DEFAULT_DRIFT_SHARE, drift_tau_s: float = DEFAULT_DRIFT_TAU_S,
-                 speed_shaping: bool = True, idle: float | None = DNN_IDLE, seed: int | None = 0):
+                 slow_band_gain: float = DEFAULT_SLOW_BAND_GAIN, speed_shaping: bool = True, idle: float | None = DNN_IDLE, seed: int | None = 0):
         self.features = features
         self.feature_params = feature_params
         self.alpha = alpha
@@ -316,6 +319,7 @@ class _DnnSystem(Synthesizer):
         self.restore_bands = restore_bands
         self.drift_share = drift_share
         self.drift_tau_s = drift_tau_s
+        self.slow_band_gain = slow_band_gain
         self.speed_shaping = speed_shaping
         self.idle = idle
         self.seed = seed
@@ -387,6 +391,10 @@ class _DnnSystem(Synthesizer):
         v = self.drift_tau_s
         if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise ParameterError(f"the 'drift_tau_s' parameter of {self.name} must be a positive number (s); got {v!r}")
+        v = self.slow_band_gain
+        if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and 0 < v <= 4):
+            raise ParameterError(
+                f"the 'slow_band_gain' parameter of {self.name} must be a number in (0, 4]; got {v!r}")
         v = self.idle
         if v is not None and (isinstance(v, bool) or not (isinstance(v, (int, float)) and 0 <= v <= 1)):
             raise ParameterError(f"the 'idle' parameter of {self.name} must be None or a number in [0, 1]; got {v!r}")
@@ -903,4 +911,4 @@ class WavDnnSystem(_DnnSystem):
 
 
 __all__ = ["CccaeSystem", "AeDnnSystem", "MfccDnnSystem", "FbankDnnSystem", "F0eDnnSystem", "WavDnnSystem",
-           "MODEL_FPS", "PAPER_PARAMS", "DEFAULT_DRIFT_SHARE", "DEFAULT_DRIFT_TAU_S", "DNN_IDLE"]
+           "MODEL_FPS", "PAPER_PARAMS", "DEFAULT_DRIFT_SHARE", "DEFAULT_DRIFT_TAU_S", "DEFAULT_SLOW_BAND_GAIN", "DNN_IDLE"]

@@ -144,8 +144,9 @@ class DnnPostStages:
     @staticmethod
     def make_post(system, seed: int | None):
         """The variance-restoring and drift stage of ``system`` (:class:`~headmotion.systems.
-        dnn_post.CausalPost`): per-band gains when ``restore_bands`` and the model has them, else
-        the global ratio; drift seeded with ``seed`` (default: the system's ``seed``)."""
+        dnn_post.CausalPost`): per-band gains when ``restore_bands`` and the model has them (the
+        slowest band's times ``slow_band_gain``), else the global ratio; drift seeded with ``seed``
+        (default: the system's ``seed``)."""
         rng = None
         share = float(system.drift_share)
         if share > 0:
@@ -153,6 +154,9 @@ class DnnPostStages:
             rng = np.random.default_rng(None if s is None else int(s))
         bands = getattr(system, "band_gains_", None)
         use_bands = bool(system.variance_restore and system.restore_bands and bands is not None)
+        if use_bands:  # the slow band's held-out correction (``slow_band_gain``, dnn.py's docstring)
+            bands = np.asarray(bands, dtype=np.float64).copy()
+            bands[0] *= float(system.slow_band_gain)
         return dnn_post.CausalPost(gv=system.gv_ if system.variance_restore and not use_bands else None,
                                    band_gains=bands if use_bands else None, share=share, sd=system.motion_sd_,
                                    fps=float(system.model_fps), tau_s=float(system.drift_tau_s), rng=rng)
