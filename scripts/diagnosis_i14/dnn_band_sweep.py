@@ -182,8 +182,7 @@ def report(v, refs, first, samples, ctx, a, t0):
     sp_c = np.concatenate([R.speed(Motion(m, r.motion.fps)) for m, r in zip(first, refs)])
     hp = R.hellinger_values(sp_r, sp_c)
     rec_rows = [r for r in rows if r.get("recording") != "ALL"]
-    l1p = R.spectral_distance(*[np.mean([[r[f"band_{b}{x}"] for b in R.BAND_NAMES] for r in rec_rows], axis=0)
-                                for x in ("_ref", "")])
+    l1p = R.mean_shares_distance(*[[[r[f"band_{b}{x}"] for b in R.BAND_NAMES] for r in rec_rows] for x in ("_ref", "")])
     ps = [rows_for(v, refs, [x[sd] for x in samples], ctx, n_shifts=a.shifts)[-1]["fcca_p_pooled"]
           for sd in range(1, a.seeds)]
     print(f"{v:10s} 1.5-4={s['band_1.5_4']:.3f} <0.5={s['band_0_0.5']:.2f} L1={s['spectral_l1']:.2f} L1pool={l1p:.3f} "

@@ -124,9 +124,14 @@ def pooled_spectral_distance(references: Sequence, candidates: Sequence, *, fps:
     docstring); 0 for the same set, 2 for sets whose power lies in disjoint bands."""
     if not len(references) or not len(candidates):
         raise ParameterError("pooled_spectral_distance needs at least one motion in each set")
-    ref = np.mean([band_shares(m, fps=fps) for m in references], axis=0)
-    cand = np.mean([band_shares(m, fps=fps) for m in candidates], axis=0)
-    return spectral_distance(ref, cand)
+    return mean_shares_distance([band_shares(m, fps=fps) for m in references],
+                                [band_shares(m, fps=fps) for m in candidates])
+
+
+def mean_shares_distance(ref_shares, cand_shares) -> float:
+    """L1 distance between the means of two lists of band-share vectors (the pooled spectral
+    distance from shares already computed)."""
+    return spectral_distance(np.mean(np.asarray(ref_shares, float), axis=0), np.mean(np.asarray(cand_shares, float), axis=0))
 
 
 # -- amplitude ---------------------------------------------------------------------------------------
@@ -503,8 +508,8 @@ def realism_rows(conditions: Mapping[str, Sequence], references: Sequence, *, re
         for k in keys:
             vals = np.array([r.get(k, np.nan) for r in rows], float)
             summ[k] = float(np.nanmedian(vals)) if np.isfinite(vals).any() else float("nan")
-        summ["spectral_l1_pooled"] = spectral_distance(
-            *[np.mean([[r[f"band_{b}{x}"] for b in BAND_NAMES] for r in rows], axis=0) for x in ("_ref", "")])
+        summ["spectral_l1_pooled"] = mean_shares_distance(
+            *[[[r[f"band_{b}{x}"] for b in BAND_NAMES] for r in rows] for x in ("_ref", "")])
         if features is not None:
             summ.update(pooled_coupling(rows, n_shifts=n_shifts))
         out.append(summ)
@@ -528,7 +533,7 @@ def long_rows(rows: Sequence[Mapping], *, prefix: str = "realism_") -> list[dict
 
 
 __all__ = [
-    "long_rows", "BANDS", "BAND_NAMES", "psd", "band_shares", "spectral_distance", "pooled_spectral_distance", "sd_ratio", "drift", "speed", "acceleration",
+    "long_rows", "BANDS", "BAND_NAMES", "psd", "band_shares", "spectral_distance", "pooled_spectral_distance", "mean_shares_distance", "sd_ratio", "drift", "speed", "acceleration",
     "histogram_edges", "histogram", "hellinger", "hellinger_values", "autocorrelation", "limit_cycle_index",
     "saturation", "speech_mask_for", "pause_mask", "pause_speed_ratio", "diversity", "speech_onsets",
     "motion_beats", "beat_consistency", "coupling", "stouffer", "pooled_coupling", "realism", "realism_rows",

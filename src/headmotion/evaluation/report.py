@@ -244,7 +244,7 @@ def realism_summary(result: EvaluationResult) -> dict[str, dict[str, float]]:
 def _pooled_l1_from_rows(result: EvaluationResult, system: str, recs) -> float:
     """``spectral_l1_pooled`` from the per-recording band shares of metrics.csv (the mean shares of
     the recordings scored, the system's and their ground truths'); nan when they are missing."""
-    from .realism import BAND_NAMES
+    from .realism import BAND_NAMES, mean_shares_distance
 
     by_rec: dict = {}
     for r in result.rows:
@@ -254,9 +254,8 @@ def _pooled_l1_from_rows(result: EvaluationResult, system: str, recs) -> float:
     full = [v for v in by_rec.values() if all(k in v and np.isfinite(v[k]) for k in keys)]
     if not full:
         return float("nan")
-    m = np.mean([[v[k] for k in keys] for v in full], axis=0)
     nb = len(BAND_NAMES)
-    return float(np.abs(m[:nb] - m[nb:]).sum())
+    return mean_shares_distance([[v[k] for k in keys[nb:]] for v in full], [[v[k] for k in keys[:nb]] for v in full])
 
 
 def realism_targets(summary: dict[str, dict[str, float]]) -> dict[str, dict[str, bool | None]]:
