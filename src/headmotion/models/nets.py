@@ -13,9 +13,15 @@
   relative ridge 1e-3; the reasons are in that module).
 * :class:`ContextRegressor` — Fig. 1 (B): a feed-forward net from ``2C + 1 = 51`` frames
   (``C = 25``, ±25 frames, paper §3.2) of any feature set, flattened, to the 3 rotation-vector
-  components.  Windows are gathered on the fly from edge-padded sequences
-  (:func:`gather_windows`), so a 30-minute corpus never materialises its ``(N, 51·D)`` design
-  matrix.  Trained with MSE on z-scored motion (:func:`train_regressor`).
+  components.  Windows are gathered on the fly from padded sequences (:func:`gather_windows`),
+  so a 30-minute corpus never materialises its ``(N, 51·D)`` design matrix.  Trained with MSE on
+  z-scored motion (:func:`train_regressor`).  Training pads each sequence's ends by repeating its
+  edge frame; synthesis (:func:`predict_regressor`) mirrors the frames about the edge instead
+  (:func:`pad_indices`, issue 14, sixth session): the paper is silent, and an edge frame held for
+  the 25 frames of context is a sound no speech makes — on real speech cut mid-utterance
+  (4 files, 31 cuts, ``python scripts/diagnosis_i14/edge_padding.py``) the default's last 0.25 s
+  strayed from what the uncut file gives by 2.0° on average (up to 14°, a visible turn as the
+  clip ends) with the edge held, 1.3° (up to 9°) mirrored.
 * :class:`StackedAutoencoder` again as the post-filter, Fig. 1 (C): a denoising autoencoder on
   50-frame segments of the 3 rotation components (150 inputs), trained to map clean motion plus
   white noise back to the clean motion (:func:`train_postfilter`, after Lu & Shimodaira 2019,
@@ -298,19 +304,38 @@ class ContextRegressor(nn.Module):
         return self.net(x)
 
 
+#: how sequences are padded beyond their ends: the edge frame repeated, or mirrored about it
+PAD_MODES = ("edge", "reflect")
+
+
+def pad_indices(idx, n: int, mode: str = "edge") -> np.ndarray:
+    """Frame numbers ``idx`` (any integers) of a sequence of ``n`` frames mapped into ``[0, n)``:
+    ``"edge"`` clips to the end frames; ``"reflect"`` mirrors about them (``-1 → 1``,
+    ``n → n − 2``, as ``numpy.pad(mode="reflect")``; periodic for indices beyond one length)."""
+    idx = np.asarray(idx, dtype=np.int64)
+    if n <= 1 or mode == "edge":
+        return np.clip(idx, 0, max(n - 1, 0))
+    if mode != "reflect":
+        raise ValueError(f"padding mode must be one of {PAD_MODES}; got {mode!r}")
+    period = 2 * (n - 1)
+    i = np.mod(idx, period)
+    return np.where(i > n - 1, period - i, i)
+
+
 class PaddedSequences:
-    """Several ``(T_i, D)`` sequences stored edge-padded by ``context`` frames on both sides and
-    concatenated, so that the window of any frame is a contiguous slice.
+    """Several ``(T_i, D)`` sequences padded by ``context`` frames on both sides (``mode``: see
+    :func:`pad_indices`) and concatenated, so that the window of any frame is a contiguous slice.
 
-    ``centres(i, frames)`` maps frame numbers of sequence ``i`` to window start rows."""
+    ``starts(i, frames)`` maps frame numbers of sequence ``i`` to window start rows."""
 
-    def __init__(self, sequences: Sequence[np.ndarray], context: int):
+    def __init__(self, sequences: Sequence[np.ndarray], context: int, *, mode: str = "edge"):
         self.context = int(context)
         parts, self.offsets, self.lengths = [], [], []
         off = 0
         for s in sequences:
             s = np.asarray(s, dtype=np.float32)
-            parts.append(np.pad(s, ((self.context, self.context), (0, 0)), mode="edge") if len(s) else s)
+            c = self.context
+            parts.append(s[pad_indices(np.arange(-c, len(s) + c), len(s), mode)] if len(s) else s)
             self.offsets.append(off)
             self.lengths.append(len(s))
             off += len(parts[-1])
@@ -327,12 +352,19 @@ def gather_windows(data: torch.Tensor, starts: torch.Tensor, width: int) -> torc
     return data[idx].reshape(len(starts), -1)
 
 
-def predict_regressor(net: ContextRegressor, features: np.ndarray, *, chunk: int = 4096) -> np.ndarray:
-    """Apply the regressor to every frame of one sequence: ``(T, D) -> (T, out_dim)``."""
+#: how :func:`predict_regressor` pads a sequence's ends (module docstring)
+SYNTHESIS_PAD = "reflect"
+
+
+def predict_regressor(net: ContextRegressor, features: np.ndarray, *, chunk: int = 4096,
+                      pad: str | None = None) -> np.ndarray:
+    """Apply the regressor to every frame of one sequence: ``(T, D) -> (T, out_dim)``; the
+    context beyond the ends padded as ``pad`` says (:func:`pad_indices`; None:
+    :data:`SYNTHESIS_PAD`, read when called)."""
     feats = np.asarray(features, dtype=np.float32)
     if len(feats) == 0:
         return np.zeros((0, net.out_dim), dtype=np.float32)
-    seq = PaddedSequences([feats], net.context)
+    seq = PaddedSequences([feats], net.context, mode=SYNTHESIS_PAD if pad is None else pad)
     width = 2 * net.context + 1
     net.eval()
     out = []

@@ -234,9 +234,10 @@ class DnnStream:
 
         fb = max(end + ctx, fa + count_frames(len(x), self.sr, self.fps)) if T is None else T
         feats = self.sys._extract(Audio(x, self.sr), fb - fa)
-        # the features of frames v0 − ctx … end + ctx − 1, edge-padded outside [0, T) as offline
+        # the features of frames v0 − ctx … end + ctx − 1, padded outside [0, T) as offline
+        # (mirrored; mid-stream only the start is padded, every later frame the windows use exists)
         idx = np.arange(v0 - ctx, end + ctx)
-        idx = np.clip(idx, 0, (T if T is not None else fb) - 1) - fa
+        idx = nets.pad_indices(idx, T if T is not None else fb, nets.SYNTHESIS_PAD) - fa
         F = np.asarray(feats, dtype=np.float32)[idx]
         self.sys._check_features(F, "the feature track")
         z = np.asarray(self.sys.feature_norm_.transform(F), dtype=np.float32)
