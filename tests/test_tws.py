@@ -312,6 +312,66 @@ def test_speed_shaping_moves_the_speeds_onto_the_training_heads(name, request, t
     np.testing.assert_array_equal(again.speed_map_, model.speed_map_)
 
 
+@pytest.mark.parametrize("name", ["basic", "hier"])
+def test_slow_band_restore_raises_the_slow_band_and_streams(name, request, test_rec, tmp_path):
+    """The slow band's gains are fitted in [1, SLOW_BAND_CAP], the faster bands' in (0, 1], and saved; with given gains the
+    output is the unrestored output through the causal band split with those gains (known answer:
+    a linear stage on the same frames), the change lies in the slow band, and the stream equals
+    offline synthesis frame for frame."""
+    from headmotion.systems.dnn_post import BAND_EDGES_HZ, BandSplit, CausalPost
+    from headmotion.systems.tws.base import SLOW_BAND_CAP
+
+    model = request.getfixturevalue(name)
+    g = model.slow_band_gains_
+    assert g.shape == (2, 3) and np.all((g[0] >= 1.0) & (g[0] <= SLOW_BAND_CAP))
+    assert np.all((g[1] > 0.0) & (g[1] <= 1.0))
+    np.testing.assert_array_equal(load_model(model.save(tmp_path / "m.hmz")).slow_band_gains_, g)
+    audio = test_rec.audio.slice_seconds(0, 8.0)
+    keep = model.slow_band_gains_
+    model.slow_band_gains_ = np.array([[1.6, 1.3, 1.9], [1.0, 1.0, 1.0]])
+    model.set_params(blocked=True)
+    try:
+        on = model.predict(audio, seed=3).rotvec
+        off = model.set_params(slow_band_restore=False).predict(audio, seed=3).rotvec
+        model.set_params(slow_band_restore=True)
+        bank = np.ones((len(BAND_EDGES_HZ) + 1, 3))
+        bank[0] = model.slow_band_gains_[0]
+        np.testing.assert_allclose(on, CausalPost(band_gains=bank, fps=model.fps_).push(off), atol=1e-12)
+        c = np.cumsum(off, axis=0) / np.arange(1, len(off) + 1)[:, None]        # the running mean
+        slow = BandSplit(fps=model.fps_, dims=3).push(off - c)[:, 0]
+        np.testing.assert_allclose(on - off, slow * (model.slow_band_gains_[0] - 1.0), atol=1e-12)
+        from scipy.signal import welch
+
+        f, pxx = welch(on - off, fs=model.fps_, nperseg=256, axis=0)
+        assert pxx[f < 1.5].sum() > 0.9 * pxx.sum() and not np.allclose(on, off)
+        st = model.stream(seed=3)
+        parts = [st.push(audio.samples[i:i + 441]) for i in range(0, len(audio.samples), 441)]
+        parts.append(st.flush())
+        np.testing.assert_allclose(np.vstack([p.rotvec for p in parts]), on, atol=1e-12)
+    finally:
+        model.slow_band_gains_ = keep
+        model.set_params(blocked=False, slow_band_restore=True)
+    with pytest.raises(ParameterError, match="slow_band_restore"):
+        TwsBasic(slow_band_restore="yes").fit(request.getfixturevalue("train"))
+
+
+def test_slow_band_bank_moves_the_slow_share_and_keeps_the_variance():
+    """Known answer: equal power in four bands (slow share 1/4) against heads with 4:1:1:1 (share
+    4/7) gives a slow gain sqrt((4/7) / (1/4)) and faster gains that keep the total (4); a slow
+    share already above the heads' is left alone (gains 1), and the cap bounds the slow gain."""
+    from headmotion.systems.tws.base import slow_band_bank
+
+    vs = np.ones((4, 3))
+    vh = np.array([[4.0] * 3, [1.0] * 3, [1.0] * 3, [1.0] * 3])
+    g = slow_band_bank(vs, vh)
+    np.testing.assert_allclose(g[0], np.sqrt((4 / 7) / 0.25))
+    np.testing.assert_allclose(g[0] ** 2 * 1.0 + g[1] ** 2 * 3.0, 4.0)
+    np.testing.assert_allclose(slow_band_bank(vh, vs), np.ones((2, 3)))
+    capped = slow_band_bank(vs, np.array([[100.0] * 3, [1.0] * 3, [1.0] * 3, [1.0] * 3]), cap=1.5)
+    np.testing.assert_allclose(capped[0], 1.5)
+    np.testing.assert_allclose(capped[0] ** 2 + capped[1] ** 2 * 3.0, 4.0)
+
+
 def _with_silence(audio, t0, t1):
     x = np.array(audio.samples, copy=True)
     sr = audio.sample_rate

@@ -54,6 +54,9 @@ class TwsBasic(TwsBase):
     log_params : regress and sample (d, a) in log space (False = linear, the thesis)
     speed_shaping : re-time the output so that its speeds are the training heads' (True; False = the
         thesis; see :mod:`headmotion.systems.tws.base`)
+    slow_band_restore : move the output's share of slow (< 0.5 Hz) posture motion up to the training heads',
+        keeping its variance
+        (True; False = the thesis; see :mod:`headmotion.systems.tws.base`)
     feature_block, feature_context : frames per feature block and audio context (streaming)
     seed : default synthesis seed (``predict(seed=None)``)
     random_state : EM initialisation seed (training)
@@ -66,6 +69,7 @@ class TwsBasic(TwsBase):
     def __init__(self, features="f0e-live", *, fps: float | None = None, n_components: int = 4,
                  method: str = "mmse", stochastic: str = "params", min_swing_deg: float = 0.5,
                  soft_limit: bool = True, idle: float = 0.4, log_params: bool = False, speed_shaping: bool = True,
+                 slow_band_restore: bool = True,
                  feature_block: int = 50, feature_context: int = 20, seed: int | None = 0,
                  random_state: int = 0, n_init: int = 2, blocked: bool = False):
         self.features = features
@@ -78,6 +82,7 @@ class TwsBasic(TwsBase):
         self.idle = idle
         self.log_params = log_params
         self.speed_shaping = speed_shaping
+        self.slow_band_restore = slow_band_restore
         self.feature_block = feature_block
         self.feature_context = feature_context
         self.seed = seed

@@ -115,6 +115,15 @@ class Generator:
         self.shaper = None
         if getattr(system, "speed_shaping", False) and table is not None:
             self.shaper = product_shaper(table, fps)
+        #: the slow band's restoration after the shaper (``slow_band_restore``; base.py docstring)
+        self.post = None
+        gains = getattr(system, "slow_band_gains_", None)
+        if getattr(system, "slow_band_restore", False) and gains is not None:
+            from ..dnn_post import BAND_EDGES_HZ, CausalPost
+
+            g = np.asarray(gains, dtype=np.float64).reshape(2, -1)
+            bank = np.vstack([g[:1], np.repeat(g[1:], len(BAND_EDGES_HZ), axis=0)])
+            self.post = CausalPost(band_gains=bank, fps=fps)
         if det is not None and idle < 1.0:
             self.detector = det.start()
             self.weigher = CausalPauseWeight(fps=fps)
@@ -215,7 +224,7 @@ class Generator:
 
     @property
     def _stateful(self) -> bool:
-        return self.detector is not None or self.shaper is not None
+        return self.detector is not None or self.shaper is not None or self.post is not None
 
     def render_settled(self, a: int, b: int) -> np.ndarray:
         """Frames [a, b) after settling in pauses and speed shaping; calls must cover the utterance
@@ -229,7 +238,9 @@ class Generator:
         self.settled = b
         if self.detector is not None:
             x = self.settler.push(x, self.weigher.push(self.detector.push(self.F[a:b])))
-        return x if self.shaper is None else self.shaper.push(x)
+        if self.shaper is not None:
+            x = self.shaper.push(x)
+        return x if self.post is None else self.post.push(x)
 
     def render_settled_one(self, a: int) -> list[float]:
         """Frame ``a`` after settling and shaping (:meth:`render_settled` of ``[a, a + 1)``) on scalars."""
@@ -242,7 +253,12 @@ class Generator:
         self.settled = a + 1
         if self.detector is not None:
             x = self._settle_one(a, x)
-        return x if self.shaper is None else self.shaper.push(np.asarray(x, dtype=np.float64)[None])[0].tolist()
+        if self.shaper is None and self.post is None:
+            return x
+        y = np.asarray(x, dtype=np.float64)[None]
+        if self.shaper is not None:
+            y = self.shaper.push(y)
+        return (y if self.post is None else self.post.push(y))[0].tolist()
 
     def _settle_one(self, a: int, x: list[float]) -> list[float]:
         row = self.F.buf[a - self.F.off]
