@@ -161,6 +161,23 @@ def unseen_speech_check(model, speech_dir: Path, pooled_heads, *, samples: int =
     return hdr + body, rows
 
 
+def provenance(a, fit_s: float) -> str:
+    """The card's provenance line.  A model loaded with ``--from-model`` keeps the provenance of the
+    card beside it (when there is one), and the line adds when and from which commit this card was
+    written; a model trained here gets a fresh line."""
+    now = f"{_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC"
+    cmd = f"`python scripts/train_default_model.py {shown_args(sys.argv[1:])}`"
+    if fit_s == fit_s:
+        return f"* **Provenance**: trained {now} from commit {git_commit()} ({fit_s:.0f} s) by {cmd}."
+    old_card = Path(a.from_model).with_suffix(".md")
+    earlier = [ln for ln in (old_card.read_text().splitlines() if old_card.is_file() else [])
+               if ln.startswith("* **Provenance**:")]
+    if earlier:
+        kept = earlier[0].split("; card rewritten")[0].rstrip(".")
+        return f"{kept}; card rewritten {now} from commit {git_commit()} (model unchanged) by {cmd}."
+    return f"* **Provenance**: trained before (no card beside it); card written {now} from commit {git_commit()} by {cmd}."
+
+
 def shown_args(args: list[str]) -> str:
     """The command line for the card, without the note's text and the path of a model trained before."""
     out, skip = [], False
@@ -254,10 +271,7 @@ def main(argv=None) -> int:
           "* **Licences**: as stated by each source repository (`../shared/data/README.md`); the clips behind "
           "them (HDTF, VoxCeleb2, GRID, …) carry their own terms. No clip is in this repository — only the model "
           "learnt from poses estimated from them.",
-          f"* **Provenance**: trained {_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC from commit "
-          f"{git_commit()} ({'trained before, card written with --from-model' if fit_s != fit_s else f'{fit_s:.0f} s'})"
-          f" by `python scripts/train_default_model.py {shown_args(sys.argv[1:])}`.",
-          ""]
+          provenance(a, fit_s), ""]
     if a.note:
         md += ["## Why this system\n", a.note, ""]
     if a.evaluation is not None:
