@@ -10,8 +10,8 @@ from headmotion.systems.le2012 import Le2012
 
 pytestmark = pytest.mark.slow
 
-#: the literal system of Le et al. (no pull, no seeded start, no pauses)
-LITERAL = dict(pull_tau_s=None, start_sd=0.0, idle=None)
+#: the literal system of Le et al. (no pull, no seeded start, no pauses, no post stages)
+LITERAL = dict(pull_tau_s=None, start_sd=0.0, idle=None, post_restore=False)
 
 
 @pytest.fixture(scope="module")
@@ -55,6 +55,37 @@ def test_le2012_learns_the_planted_relation():
     nz = np.mean([fcca(ref, feats, noise.motion_for(rec, seed=s).rotvec) for s in range(10)])
     # measured: le2012 0.129, shaped noise 0.059 on average (0.008-0.147 over seeds), ground truth 0.173
     assert got > nz + 0.04, (got, nz)
+
+
+def test_le2012_post_restore_is_the_chain_on_the_plain_output_and_moves_the_bands(corpus, tmp_path):
+    """``post_restore``: the output is the plain output through the band gains and the speed
+    shaper (known answer: the same stateful stages on the same frames), the tables are saved,
+    and on the training speech the restored synthesis's band variances are nearer the training
+    heads' than the plain synthesis's."""
+    from headmotion.systems.dnn_post import band_variance
+    from headmotion.systems.le2012 import POST_BAND_CAP, _PostChain
+
+    train = corpus.subset([0, 1])
+    m = create("le2012", n_components=4, max_train_frames=3000).fit(train)
+    assert m.post_bank_.shape == (4, 3) and np.all((m.post_bank_ > 0) & (m.post_bank_ <= POST_BAND_CAP))
+    audio = corpus[2].audio.slice_seconds(0, 6.0)
+    on = m.predict(audio, seed=1).rotvec
+    again = load_model(m.save(tmp_path / "le.hmz"))
+    np.testing.assert_array_equal(again.predict(audio, seed=1).rotvec, on)
+    off = m.set_params(post_restore=False).predict(audio, seed=1).rotvec
+    np.testing.assert_allclose(on, _PostChain(m.post_bank_, m.speed_map_, m.fps_).push(off), atol=1e-12)
+
+    def band_error(restore):
+        m.set_params(post_restore=restore)
+        pred = [m.predict(r.audio, seed=k).rotvec for k, r in enumerate(train)]
+        heads = [r.motion.rotvec[:len(x)] for r, x in zip(train, pred)]
+        vp, vt = band_variance(pred, fps=m.fps_), band_variance(heads, fps=m.fps_)
+        return float(np.mean(np.abs(np.log(vp / vt))))
+
+    assert band_error(True) < band_error(False)
+    m.set_params(post_restore=True)
+    with pytest.raises(ParameterError, match="post_restore"):
+        create("le2012", post_restore=1).fit(train)
 
 
 def test_le2012_bad_input(corpus):

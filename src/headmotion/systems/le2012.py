@@ -26,12 +26,31 @@ parameter whose "off" value gives the literal system (``pull_tau_s=None, start_s
   of ``start_sd`` × the training motion's mean per-frame speed per angle, drawn from
   ``numpy.random.default_rng(seed)``, so the ascent ends in different local maxima for different
   seeds; the same seed gives the same motion.
-* ``idle`` (default 0.4): pauses — :func:`headmotion.motion.pauses.settle_in_pauses` in its
+* ``idle`` (default 0.6; 0.4 before ``post_restore``): pauses — :func:`headmotion.motion.pauses.settle_in_pauses` in its
   *causal* mode (the synthesis is causal, so a pause is recognised once it has lasted 0.5 s).
   Speech flags: with the live feature set, the adaptive causal energy detector of
   :mod:`headmotion.systems.tws.speech` (the one implementation template warping uses) on the
   loudness column converted back to dB; older model files (``prosody``) keep
   :func:`headmotion.features.vad.speaking_mask`, whose thresholds use the whole clip.
+
+* ``post_restore`` (default True; seventh session): after the settling, the product's two post
+  stages, both fitted at training on this system's own synthesis of the training speech (recording
+  k with seed k) against the training heads: per-band variance restoration about the running mean
+  (:class:`headmotion.systems.dnn_post.CausalPost`, gains ``sqrt(var_heads / var_synthesis)`` per
+  band and axis, at most :data:`POST_BAND_CAP`; as the DNN's ``restore_bands``), then the speed
+  shaper of :mod:`headmotion.motion.speed_shaping` (as the template systems').  The ascent settles
+  into the GMMs' modes and moves at 0.4–0.6 of the recorded SD on the video corpus with too few
+  fast frames (pooled speed Hellinger 0.25–0.27 held out, bar 0.06; fifth session).  Both stages
+  are causal and stateful, so the stream still equals offline synthesis.  Model files without the
+  tables load with it off.  Held out (``headmotion evaluate``; ``docs/eval/s7_le2012_video_s0``,
+  ``s7_le2012_zeggs_s0``; before: ``s5_all_video_s0``, ``s5_all_zeggs_s0``): video pooled spectral
+  L1 0.338 → 0.130 (bar 0.213), SD ratios 0.57 / 0.38 / 0.41 → 1.20 / 1.02 / 0.92, pooled speed
+  Hellinger 0.247 → 0.080 (bar 0.061), 4 → 6 of 7 targets; ZEGGS L1 0.176 → 0.029, but pitch SD
+  0.83 → 1.55 (bar 1.5) and the pause ratio 0.46 → 0.55 (0.26–0.48), 5 → 4 of 7.  The cost: the
+  weak speech coupling le2012 had on video is gone (pooled FCCA p 0.047 → 0.73; the restored slow
+  band is mostly the seeded start's wander, which the gains amplify with the rest).
+  ``idle`` is 0.6 with it (0.4 before): the shaper maps the slow pause motion slower still (video
+  pause ratio 0.33 at 0.4, 0.43 at 0.6; recorded 0.58).
 
 Streaming (issue 16): new models use the ``prosody-live`` feature set
 (:class:`headmotion.features.streaming.StreamingProsody`: YIN pitch + cIntensity loudness,
@@ -43,7 +62,7 @@ frames with a latency of the features alone (``latency_ms`` = 24.2 ms).  Model f
 whole-clip ``prosody`` set load and predict as before but cannot stream (their ``capabilities``
 lack "causal"; retrain with ``features="prosody-live"``).
 
-Defaults chosen on held-out data (``scripts/p2dnn_measure.py le2012``; ZEGGS 4 folds / video
+Defaults chosen on held-out data before ``post_restore`` (``scripts/p2dnn_measure.py le2012``; ZEGGS 4 folds / video
 corpus 2 speaker-disjoint folds, 2 seeds): the pull alone stops the wandering (ZEGGS saturation
 11 % → 0, SD ratio 1.6–1.8 → 0.5–0.6) but makes pull + momentum a damped oscillator (limit-cycle
 index 0.31, 1.5–4 Hz share 0.14 on video); the seeded start (0.5) breaks it (ZEGGS: spectral L1
@@ -76,6 +95,8 @@ from .tws.generator import LIVE_FEATURES, LiveFeatures
 
 
 _LOG2PI = float(np.log(2.0 * np.pi))
+#: largest per-band gain of ``post_restore`` (the held-out SD deficit is 2–2.5×; the DNN's cap is 8)
+POST_BAND_CAP = 3.0
 
 
 def _fit_gmm(Z: np.ndarray, n_dims_z: int, n_components: int, random_state) -> GMMRegression:
@@ -127,6 +148,8 @@ class Le2012(Synthesizer):
         motion's mean per-frame speed (0: deterministic, as in the paper)
     idle : float in [0, 1] or None, speed in pauses as a fraction of the motion's own (None: no
         pause handling, as in the paper)
+    post_restore : bool, restore the training heads' band variances and speed distribution after
+        synthesis (module docstring; False: as in the paper)
     """
 
     name = "le2012"
@@ -137,8 +160,9 @@ class Le2012(Synthesizer):
                  joint: bool = False, n_steps: int = 12, step: float = 0.05,
                  max_train_frames: int = 10000, random_state: int = 0, seed: int | None = 0,
                  compiled: bool = True, pull_tau_s: float | None = 2.0, start_sd: float = 0.5,
-                 idle: float | None = 0.4):
+                 idle: float | None = 0.6, post_restore: bool = True):
         self.features = features
+        self.post_restore = post_restore
         self.pull_tau_s = pull_tau_s
         self.start_sd = start_sd
         self.idle = idle
@@ -168,6 +192,8 @@ class Le2012(Synthesizer):
         v = self.idle
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v <= 1):
             raise ParameterError(f"the 'idle' parameter of le2012 must be None or a number in [0, 1]; got {v!r}")
+        if not isinstance(self.post_restore, (bool, np.bool_)):
+            raise ParameterError(f"the 'post_restore' parameter of le2012 must be True or False; got {self.post_restore!r}")
         if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
             raise ParameterError(f"the 'fps' parameter of le2012 must be a positive number or None; got {self.fps!r}")
 
@@ -226,8 +252,36 @@ class Le2012(Synthesizer):
         self.lo_, self.hi_ = allA.min(axis=0), allA.max(axis=0)
         self.mean_pose_ = mean_pose_of(rvs)
         self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
+        self.post_bank_ = self.speed_map_ = None
         self.fitted_ = True
+        if self.post_restore:
+            self._fit_post_stages([r for r in recs if len(r.motion) >= 3], rvs)
         return self
+
+    def _fit_post_stages(self, recs, motions) -> None:
+        """``post_restore``'s tables from this system's synthesis of the training speech (recording
+        k with seed k; made while both tables are None, i.e. without the stages) against the
+        training heads ``motions`` (rotation vectors at ``fps_``): the band gains, then the speed
+        map on that synthesis passed through the band stage as synthesis will pass it."""
+        from . import dnn_post
+        from ..motion import speed_shaping
+
+        pred, targ = [], []
+        for k, (r, m) in enumerate(zip(recs, motions)):
+            x = np.asarray(self._predict(r.audio, seed=k).rotvec)
+            n = min(len(x), len(m))
+            pred.append(x[:n])
+            targ.append(np.asarray(m)[:n])
+        self.post_bank_ = dnn_post.band_gains(pred, targ, fps=self.fps_, cap=POST_BAND_CAP)
+        pred = [dnn_post.CausalPost(band_gains=self.post_bank_, fps=self.fps_).push(x) for x in pred]
+        self.speed_map_ = speed_shaping.speed_map(pred, targ, lag=speed_shaping.shaping_lag(self.fps_),
+                                                  max_gain=speed_shaping.SPEED_MAX_GAIN)
+
+    def _post_chain(self):
+        """The post stages with fresh state (:class:`_PostChain`), or None without them."""
+        if not self.post_restore or getattr(self, "post_bank_", None) is None:
+            return None
+        return _PostChain(self.post_bank_, self.speed_map_, self.fps_)
 
     # -- synthesis ----------------------------------------------------------------------------
     def _conditionals(self, Fs: np.ndarray):
@@ -447,6 +501,9 @@ class Le2012(Synthesizer):
                 mask = np.asarray(speaking_mask(audio, fps=self.fps_, n_frames=T), dtype=bool)
             out = settle_in_pauses(out, mask, fps=self.fps_, idle=float(self.idle), mean_pose=pose, causal=True)
         rv = pitch_yaw_roll_to_rotvec(out[:, 0], out[:, 1], out[:, 2])
+        chain = self._post_chain()
+        if chain is not None:
+            rv = chain.push(rv)
         return Motion(rv, self.fps_, meta={"system": self.name})
 
     def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0):
@@ -479,6 +536,8 @@ class Le2012(Synthesizer):
             w, mu, cov = _joint_arrays(g)
             arrays.update({f"{k}_w": w, f"{k}_mu": mu, f"{k}_cov": cov})
         arrays.update(self.normalizer_.to_arrays("norm_"))
+        if getattr(self, "post_bank_", None) is not None:
+            arrays.update(post_bank=np.asarray(self.post_bank_, np.float64), speed_map=np.asarray(self.speed_map_, np.float64))
         return {"params": self.get_params(), "fps": self.fps_, "sample_rate": self.sample_rate_,
                 "gmms": sorted(self.gmms_), "features": make_feature_config(self.features, self.fps_).to_dict()}, arrays
 
@@ -488,6 +547,7 @@ class Le2012(Synthesizer):
         params = dict(config["params"])
         if "pull_tau_s" not in params:  # files written before these options: the paper's system
             params.update(pull_tau_s=None, start_sd=0.0, idle=None)
+        params.setdefault("post_restore", False)  # older files: no post tables
         self.__init__(**params)
         self.fps_ = float(config["fps"])
         self.sample_rate_ = int(config["sample_rate"])
@@ -496,7 +556,25 @@ class Le2012(Synthesizer):
         self.gmms_ = {k: _as_regression(arrays[f"{k}_w"], arrays[f"{k}_mu"], arrays[f"{k}_cov"], 5 if k == "joint" else 1)
                       for k in config["gmms"]}
         self.normalizer_ = Normalizer.from_arrays(arrays, "norm_")
+        self.post_bank_ = np.asarray(arrays["post_bank"], np.float64) if "post_bank" in arrays else None
+        self.speed_map_ = np.asarray(arrays["speed_map"], np.float64) if "speed_map" in arrays else None
         self._set_capabilities(self._config())
+
+
+class _PostChain:
+    """``post_restore``'s stages with their state: per-band gains about the running mean, then the
+    speed shaper; ``push`` takes the next rotation vectors ``(n, 3)`` and returns as many (chunking
+    does not change the output)."""
+
+    def __init__(self, bank, table, fps: float):
+        from ..motion.speed_shaping import product_shaper
+        from .dnn_post import CausalPost
+
+        self.post = CausalPost(band_gains=bank, fps=fps)
+        self.shaper = product_shaper(table, fps)
+
+    def push(self, rv: np.ndarray) -> np.ndarray:
+        return self.shaper.push(self.post.push(np.asarray(rv, dtype=np.float64)))
 
 
 class Le2012Stream:
@@ -526,6 +604,7 @@ class Le2012Stream:
         self.scale = float(model.start_sd) * float(model.z_mu_[3])
         self.t = 0                        # frames produced so far
         self.last = np.zeros((0, 3))      # the last (up to) two frames, before settling
+        self.chain = model._post_chain()
         self.settle = model._settle()
         if self.settle:
             self.tracker = model._speech_tracker()
@@ -562,11 +641,13 @@ class Le2012Stream:
             row = x[0].tolist()
             if self.settle:
                 row = self.settler.push_one(row, self.weigher.push_one(self._speech_one(float(F_raw[0, 1]))))
-            return Motion(np.array([pitch_yaw_roll_to_rotvec_one(*row)]), self.fps)
+            rv = np.array([pitch_yaw_roll_to_rotvec_one(*row)])
+            return Motion(rv if self.chain is None else self.chain.push(rv), self.fps)
         if self.settle:
             w = self.weigher.push(self.tracker.push_db(m._loudness_db(F_raw)))
             x = self.settler.push(x, w)
-        return Motion(pitch_yaw_roll_to_rotvec(x[:, 0], x[:, 1], x[:, 2]), self.fps)
+        rv = pitch_yaw_roll_to_rotvec(x[:, 0], x[:, 1], x[:, 2])
+        return Motion(rv if self.chain is None else self.chain.push(rv), self.fps)
 
     def _speech_one(self, loudness: float) -> bool:
         """The speech flag of one frame from its raw loudness (:meth:`Le2012._loudness_db` on a scalar)."""

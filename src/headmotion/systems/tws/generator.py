@@ -119,11 +119,9 @@ class Generator:
         self.post = None
         gains = getattr(system, "slow_band_gains_", None)
         if getattr(system, "slow_band_restore", False) and gains is not None:
-            from ..dnn_post import BAND_EDGES_HZ, CausalPost
+            from .base import slow_band_post
 
-            g = np.asarray(gains, dtype=np.float64).reshape(2, -1)
-            bank = np.vstack([g[:1], np.repeat(g[1:], len(BAND_EDGES_HZ), axis=0)])
-            self.post = CausalPost(band_gains=bank, fps=fps)
+            self.post = slow_band_post(gains, fps)
         if det is not None and idle < 1.0:
             self.detector = det.start()
             self.weigher = CausalPauseWeight(fps=fps)
