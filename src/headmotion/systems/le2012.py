@@ -581,9 +581,10 @@ class Le2012Stream:
     """:meth:`Le2012.stream`: push float samples at the model's ``sample_rate``; every frame is
     final once its ``prosody-live`` features are (``latency_ms``, 24.2 ms at 100 fps), and the
     frames equal offline ``predict``'s (module docstring).  State: the feature extractor, the last
-    two frames, the noise generator, the speech tracker and the pause settler — bounded.
+    two frames, the noise generator, the speech tracker, the pause settler and the post stages — bounded.
 
-    Cost per 10 ms chunk (one frame; ``benchmarks/run.py --only stream``): ~0.15 ms of CPU — the
+    Cost per 10 ms chunk (one frame; ``benchmarks/run.py --only stream``): ~0.15 ms of CPU (0.23 ms
+    with ``post_restore``'s band split and speed shaper, seventh session) — the
     features ~0.06, the compiled conditioning and ascent, then the speech flag, pause weight,
     settling and Euler → rotation vector on scalars (the one-frame paths of
     :mod:`headmotion.motion.pauses`, :mod:`headmotion.systems.tws.speech` and
