@@ -200,6 +200,19 @@ class Synthesizer(ABC):
     def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
         """The system's motion before gain and offset."""
 
+    def _own_synthesis(self, recs, motions) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """This system's synthesis of the speech of the training recordings ``recs`` (recording k
+        with seed k, so that it is not one seed's draws) and their motion ``motions`` (rotation
+        vectors at the model's rate), each pair cut to the shorter: what the post stages of the
+        template systems and le2012 are fitted on."""
+        pred, targ = [], []
+        for k, (r, m) in enumerate(zip(recs, motions)):
+            x = np.asarray(self._predict(r.audio, seed=k).rotvec)
+            n = min(len(x), len(m))
+            pred.append(x[:n])
+            targ.append(np.asarray(m)[:n])
+        return pred, targ
+
     def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0) -> MotionStream:
         """Incremental synthesis (systems with the CAUSAL or STREAMING capability)."""
         if not self.can_stream:

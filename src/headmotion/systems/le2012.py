@@ -266,12 +266,7 @@ class Le2012(Synthesizer):
         from . import dnn_post
         from ..motion import speed_shaping
 
-        pred, targ = [], []
-        for k, (r, m) in enumerate(zip(recs, motions)):
-            x = np.asarray(self._predict(r.audio, seed=k).rotvec)
-            n = min(len(x), len(m))
-            pred.append(x[:n])
-            targ.append(np.asarray(m)[:n])
+        pred, targ = self._own_synthesis(recs, motions)
         self.post_bank_ = dnn_post.band_gains(pred, targ, fps=self.fps_, cap=POST_BAND_CAP)
         pred = [dnn_post.CausalPost(band_gains=self.post_bank_, fps=self.fps_).push(x) for x in pred]
         self.speed_map_ = speed_shaping.speed_map(pred, targ, lag=speed_shaping.shaping_lag(self.fps_),

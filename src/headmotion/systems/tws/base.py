@@ -272,12 +272,7 @@ class TwsBase(Synthesizer):
         their motion ``motions`` (rotation vectors at ``fps_``): the speed shaper's map
         (``speed_shaping``), then the slow band's gains (``slow_band_restore``) on that synthesis
         shaped as synthesis will shape it."""
-        pred, targ = [], []
-        for k, (r, m) in enumerate(zip(recs, motions)):
-            x = np.asarray(self._predict(r.audio, seed=k).rotvec)
-            n = min(len(x), len(m))
-            pred.append(x[:n])
-            targ.append(np.asarray(m)[:n])
+        pred, targ = self._own_synthesis(recs, motions)
         if self.speed_shaping:
             self.speed_map_ = speed_shaping.speed_map(pred, targ, lag=speed_shaping.shaping_lag(self.fps_),
                                                       max_gain=SPEED_MAX_GAIN)
