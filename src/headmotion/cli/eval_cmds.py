@@ -20,7 +20,9 @@ from .app import app, console, progress_bar
 def evaluate_cmd(
     corpus_dir: Path = typer.Argument(..., help="corpus directory (with corpus.csv)"),
     systems: str = typer.Option(..., "--systems", "-s",
-                                help="comma-separated systems and anchors, e.g. tws-hier,tws-basic,shaped-noise,desync"),
+                                help="comma-separated systems and anchors, e.g. tws-hier,tws-basic,shaped-noise,desync; "
+                                     "a system with parameters as NAME[KEY=VALUE;...], e.g. "
+                                     "'mfcc-dnn,mfcc-dnn[drift_share=0.3]' (same training and synthesis seeds)"),
     output: Path = typer.Option(..., "-o", "--output", help="report directory (metrics.csv, report.md, figures/)"),
     protocol: str = typer.Option("loo", "--protocol",
                                  help="loo (leave one recording out, thesis §5.9), split (paper §4.1) or speakers "
@@ -51,7 +53,9 @@ def evaluate_cmd(
     from ..evaluation.protocols import evaluate
     from ..evaluation.report import write_report
 
-    names = [s.strip() for s in systems.split(",") if s.strip()]
+    from ..systems.spec import split_systems
+
+    names = split_systems(systems)
     if not names:
         raise ParameterError("--systems needs at least one system name")
     if protocol not in ("loo", "split", "speakers"):

@@ -66,7 +66,8 @@ def parse_triple(text: Optional[str], what: str, *, default: float, degrees: boo
 @app.command()
 def train(
     corpus: Path = typer.Argument(..., help="Corpus directory (with corpus.csv)."),
-    system: str = typer.Option(..., "--system", "-s", help="System name, e.g. tws-hier, tws-basic, le2012, cccae."),
+    system: str = typer.Option(..., "--system", "-s", help="System name, e.g. tws-hier, tws-basic, le2012, cccae; "
+                               "with parameters as NAME[KEY=VALUE;...], e.g. 'tws-hier[fps=100;idle=0.5]'."),
     output: Path = typer.Option(..., "-o", "--output", help="Model file to write (.hmz)."),
     speaker: Optional[str] = typer.Option(None, "--speaker", help="Train on this speaker only."),
     features: Optional[str] = typer.Option(None, "--features", help="Feature set (f0e, mfcc, lsp, ...)."),
@@ -77,8 +78,11 @@ def train(
     """Train a synthesis system on a corpus and save it."""
     from ..corpus import Corpus
     from ..systems.base import create
+    from ..systems.spec import parse_system
 
-    model = create(system)
+    name, set_params = parse_system(system)
+    model = create(name, **set_params)
+    system = name
     params = model.get_params()
     given = {"features": features, "random_state": seed, "fps": fps}
     for k, v in given.items():

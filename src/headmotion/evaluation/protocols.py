@@ -175,10 +175,23 @@ class EvaluationResult:
 
 def _system_spec(s) -> tuple[str, Any]:
     if isinstance(s, str):
+        if "[" in s:  # NAME[KEY=VALUE;...] (headmotion.systems.spec)
+            from ..systems.spec import SystemFactory, label, parse_system
+
+            name, params = parse_system(s)
+            return label(name, params), SystemFactory(name, params)
         return s, None
     if isinstance(s, tuple) and len(s) == 2 and isinstance(s[0], str):
         return s[0], s[1]
     raise ParameterError(f"a system must be a registry name or a (name, factory) pair; got {s!r}")
+
+
+def _seed_name(name: str, factory) -> str:
+    """The name the condition's seeds derive from: a system given with parameters
+    (:class:`~headmotion.systems.spec.SystemFactory`, ``mfcc-dnn[drift_share=0.3]``) draws the
+    training and synthesis seeds of its plain name, so settings compared in one evaluation differ
+    only by the setting (a paired comparison)."""
+    return getattr(factory, "name", None) or name
 
 
 def _make_condition(name: str, factory, seed: int):
@@ -344,7 +357,7 @@ def _score_ground_truth(task: FoldTask, rec, feats, out: dict) -> None:
 
 def _fit_condition(task: FoldTask, name: str, factory, out: dict):
     """The fitted system or anchor for this fold, or None (skipped or failed, with a warning)."""
-    model = _make_condition(name, factory, _sub_seed(task.seed, task.fold, name))
+    model = _make_condition(name, factory, _sub_seed(task.seed, task.fold, _seed_name(name, factory)))
     train = task.train
     if _needs_other_speakers(model):
         if task.others is None or not len(task.others):
@@ -393,8 +406,9 @@ def _run_condition(task: FoldTask, name: str, factory, tests, feats, out: dict) 
     if model is None:
         return
     t0 = time.perf_counter()
+    seed_name = _seed_name(name, factory)
     for rec in tests:
-        rseed = _sub_seed(task.seed, rec.id, name)
+        rseed = _sub_seed(task.seed, rec.id, seed_name)
         try:
             pred = _conform(_make_motion(model, rec, rseed), rec.motion, name, rec.id)
         except Exception as exc:
@@ -406,7 +420,7 @@ def _run_condition(task: FoldTask, name: str, factory, tests, feats, out: dict) 
                                seed=rseed)
         if task.realism:
             try:
-                samples = _samples(task, model, name, rec, pred)
+                samples = _samples(task, model, name, rec, pred, seed_name=seed_name)
                 vals.update(_realism_scores(rec, pred, out["context"][rec.id], limits=_limits_deg(model),
                                             samples=samples))
             except Exception as exc:
@@ -467,9 +481,10 @@ def _limits_deg(model) -> np.ndarray | None:
     return None if r is None else np.degrees(np.asarray(r, dtype=float).reshape(3, 2))
 
 
-def _samples(task: FoldTask, model, name: str, rec, first: np.ndarray) -> list[np.ndarray] | None:
+def _samples(task: FoldTask, model, name: str, rec, first: np.ndarray, *, seed_name: str | None = None
+             ) -> list[np.ndarray] | None:
     """``task.samples`` predictions for the recording's speech (the scored one first), or None for
-    anchors and systems declared deterministic."""
+    anchors and systems declared deterministic; seeds from ``seed_name`` (default ``name``)."""
     from ..systems.base import Synthesizer
 
     if task.samples < 2 or not isinstance(model, Synthesizer):
@@ -478,7 +493,7 @@ def _samples(task: FoldTask, model, name: str, rec, first: np.ndarray) -> list[n
         return None
     out = [first]
     for k in range(1, task.samples):
-        m = _make_motion(model, rec, _sub_seed(task.seed, rec.id, name, k))
+        m = _make_motion(model, rec, _sub_seed(task.seed, rec.id, seed_name or name, k))
         out.append(_conform(m, rec.motion, name, rec.id))
     return out
 
