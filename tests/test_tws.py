@@ -251,6 +251,29 @@ def test_soft_limit_known_answers():
             assert soft_dev < 0.8 * np.mean(dev)
 
 
+def test_fast_moves_are_lengthened_not_cut():
+    from dataclasses import replace
+
+    lim = replace(_limits(), v_max=np.full(3, 0.02), v_fast=np.full(3, 0.01))
+    # 0.1 rad asked in 6 frames (peak pi * 0.1 / 12 = 0.026 rad/frame): lengthened to the frames
+    # whose half-cosine peaks at v_fast, ceil(pi * 0.1 / 0.02) = 16, the whole amplitude kept
+    n, s = lim.clip(0, 0.06, 0.1, 0.1, +1.0, 100.0)
+    assert (n, s) == (16, pytest.approx(0.1))
+    assert np.pi * s / (2 * n) <= 0.01 + 1e-12
+    # a slow segment is not touched; the longest duration caps the lengthening, then the old clip
+    assert lim.clip(0, 0.5, 0.1, 0.1, +1.0, 100.0) == (50, pytest.approx(0.1))
+    short = replace(lim, d_max=np.full(3, 0.1))
+    assert short.clip(0, 0.06, 0.1, 0.1, +1.0, 100.0) == (10, pytest.approx(0.1))
+    n, s = short.clip(0, 0.06, 0.2, 0.1, +1.0, 100.0)
+    assert n == 10 and s == pytest.approx(2 * 10 * 0.02 / np.pi)
+    # without v_fast (model files before it): the amplitude is cut at v_max as before
+    old = replace(lim, v_fast=None)
+    n, s = old.clip(0, 0.06, 0.1, 0.1, +1.0, 100.0)
+    assert n == 6 and s == pytest.approx(2 * 6 * 0.02 / np.pi)
+    assert Limits.from_arrays(old.to_arrays()).v_fast is None
+    np.testing.assert_array_equal(Limits.from_arrays(lim.to_arrays()).v_fast, lim.v_fast)
+
+
 def test_defaults_sample_seeded_and_literal_option(hier, test_rec):
     assert hier.stochastic == "params" and hier.min_swing_deg == 0.5 and hier.soft_limit and hier.idle == 0.4
     audio = test_rec.audio.slice_seconds(0, 8.0)

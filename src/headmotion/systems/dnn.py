@@ -81,7 +81,7 @@ them), applied at synthesis in this order, each a parameter:
   map ``speed_map_``, measured at fit on the post stage's output): faster moves and longer holds,
   as recorded heads have, pulled back onto the path within 0.25 s; with it, pauses also pull the
   head towards the mean pose at 0.3 /s (:data:`~headmotion.systems.dnn_stream.PAUSE_PULL`);
-* ``drift_share`` (default :data:`DEFAULT_DRIFT_SHARE` = 0.2; 0.15 until the third session, raised so that 4 samples keep a diversity ≥ 0.5 with the band restoration) and ``drift_tau_s``
+* ``drift_share`` (default :data:`DEFAULT_DRIFT_SHARE` = 0.3; 0.15 until the third session, 0.2 until the eighth, each raised so that 4 samples keep a diversity ≥ 0.5; see the eighth-session table below) and ``drift_tau_s``
   (:data:`DEFAULT_DRIFT_TAU_S` = 4 s): a seeded Ornstein–Uhlenbeck posture component carrying
   that share of the training variance; ``seed`` (default 0) is the synthesis seed,
   ``predict(seed=…)`` overrides it;
@@ -93,6 +93,26 @@ them), applied at synthesis in this order, each a parameter:
 :data:`PAPER_PARAMS` (``variance_restore=False, drift_share=0, idle=None``) gives the paper's
 output bit for bit and makes the synthesis deterministic; the paper's protocols must set it.
 Model files written before these options load with :data:`PAPER_PARAMS` (they have no ``gv_``).
+
+Eighth session — the drift share, all post stages as shipped, paired seeds (``headmotion evaluate
+… --systems "mfcc-dnn,mfcc-dnn[drift_share=0.25],mfcc-dnn[drift_share=0.3]"``: the same training
+and synthesis seeds for every setting; video: ``--exclude mead_lrs3 --min-seconds 4 --protocol
+speakers --speaker-folds 3 --seed 0|1``, 37 held-out recordings; ZEGGS: ``--folds-at-pauses 4``;
+report directories ``docs/eval/s8_drift_*``).  0.2 left the ZEGGS diversity at 0.44 (samples
+differed in pitch and roll, hardly in yaw) and, on the rebuilt video corpus, seed 1's pooled
+spectral L1 above its bar; 0.3 meets both and keeps the coupling::
+
+    drift share   diversity       L1 pooled         H speed pooled    FCCA p              targets
+                  v0 / v1 / Z     v0 / v1 / Z       v0 / v1 / Z       v0 / v1 / Z         v0 / v1 / Z
+    0.2           .52/.52/.44     .186/.221/.099    .047/.072/.101    <.001/<.001/.33     6 / 4 / 5 of 6
+    0.25          .58/.58/.46†    .177/.207/.127†   .047/.073/.103†   <.001/.001/.38†     6 / 5 / 4
+    0.3           .64/.63/.54     .168/.194/.062    .049/.071/.105    <.001/.001/.31      6 / 5 / 5
+    bars          ≥ 0.5           .213/.213/.109    .061/.061/.058    < .05
+
+(† ZEGGS with ``drift_tau_s=8``; 0.3 with 8 s: diversity .50, L1 .116 ✗.)  The speed-histogram
+miss on video seed 1 and ZEGGS is not moved by the share: held out, the output has too many frames
+at 5–12 °/s and too few at 15–35 °/s; two random halves of the recorded heads are 0.084 apart on
+video and 0.166 on ZEGGS (``scripts/diagnosis_i14/realisation_floor.py``).
 
 Third session (``scripts/diagnosis_i14/dnn_band_sweep.py``: the network trained once per fold of
 the 3 speaker-disjoint folds ``headmotion evaluate --protocol speakers --speaker-folds 3 --seed 0``
@@ -206,7 +226,7 @@ from .dnn_stream import DnnPostStages, DnnStream, frame_energy_db
 MODEL_FPS = 100.0
 #: product default share of the training variance carried by the slow posture component
 #: (chosen on held-out speakers of the video corpus, see the module docstring)
-DEFAULT_DRIFT_SHARE = 0.2
+DEFAULT_DRIFT_SHARE = 0.3
 #: its time constant (s)
 DEFAULT_DRIFT_TAU_S = 4.0
 #: product default factor on the slow (< 0.5 Hz) band's restoring gain at synthesis (fifth session,

@@ -6,6 +6,19 @@ training maximum, to the fastest per-frame change seen in (smoothed) training da
 of amplitude ``a`` over ``n`` frames changes by at most ``pi a / (2 n)`` per frame), and so that
 the segment's end stays within the training range widened by 10 % on each side.
 
+Fast moves take time (eighth session; not in the thesis): a large, short segment is *lengthened*
+until its peak speed ``pi a / (2 n)`` is at most ``v_fast``, the 99.9th percentile of the
+smoothed training motion's per-frame change per axis (at most to the longest duration), before the
+amplitude clip above.  Real heads make large turns more slowly than small ones; with the
+amplitude clip alone at the training maximum (one frame, an outlier: yaw 1.67 °/frame at 100 fps
+on the video corpus against 1.20 at the 99.9th percentile) the streaming default turned 6–9° in
+40–50 ms between held postures, a visible snap (largest step 1.94 → 1.27 °/frame on scott's unseen
+speech, frames above 1 °/frame 28 → 11 of 2,870; recorded video heads: 0.25 % of frames).  Held out
+(``docs/eval/s8_tws_*`` against ``s7_tws_*``, same seeds): targets unchanged on video (tws-basic 7/7
+and 7/7, tws-hier 7/7 and 6/7); on ZEGGS tws-hier's pooled L1 0.274 → 0.182 and speed Hellinger
+0.156 → 0.109, but its SD ratios rise to 1.51 / 1.34 / 1.45 (pitch just over the 1.5 bar: the
+amplitudes are no longer cut), 5 → 4 of 7.  Model files without ``v_fast`` keep the old clip.
+
 Soft limit (``soft=True``; issue 14, diagnosis §3.4 — not in the thesis, which had no limits): before
 the hard clip, a segment that moves *away* from the training mean pose has its amplitude scaled by
 ``max(0, 1 - (c - mean) / (edge - mean))``, ``c`` the current position and ``edge`` the training
@@ -28,6 +41,10 @@ from ...motion.segmentation import min_segment_frames, smooth
 from .vectors import AxisData
 
 
+#: percentile of the training motion's per-frame change above which a segment is lengthened
+FAST_PERCENTILE = 99.9
+
+
 @dataclass
 class Limits:
     """Per-axis limits learned from the training data (see the module docstring)."""
@@ -41,12 +58,14 @@ class Limits:
     mean: np.ndarray        # (3,) mean position
     d_mean: np.ndarray      # (3,)
     a_mean: np.ndarray      # (3,)
+    v_fast: np.ndarray | None = None   # (3,) radians per frame: lengthen faster segments (docstring)
 
     @classmethod
     def from_training(cls, motions, data: list[AxisData], fps: float) -> "Limits":
         allr = np.vstack(motions)
         sm = [smooth(m, fps=fps) for m in motions]
-        v = np.max(np.vstack([np.abs(np.diff(s, axis=0)) for s in sm if len(s) > 1]), axis=0)
+        steps = np.vstack([np.abs(np.diff(s, axis=0)) for s in sm if len(s) > 1])
+        v = np.max(steps, axis=0)
         d_max, a_max, d_mean, a_mean = [], [], [], []
         for j in range(3):
             y = np.asarray(data[j].y).reshape(-1, 2)
@@ -59,14 +78,16 @@ class Limits:
         lo, hi = allr.min(axis=0), allr.max(axis=0)
         return cls(d_min=min_segment_frames(fps) / fps, d_max=np.asarray(d_max), a_max=np.asarray(a_max),
                    v_max=v, lo=lo, hi=hi, mean=allr.mean(axis=0), d_mean=np.asarray(d_mean),
-                   a_mean=np.asarray(a_mean))
+                   a_mean=np.asarray(a_mean), v_fast=np.percentile(steps, FAST_PERCENTILE, axis=0))
 
     def to_arrays(self) -> dict:
-        return {f"lim_{k}": np.asarray(getattr(self, k), dtype=np.float64) for k in self.__dataclass_fields__}
+        return {f"lim_{k}": np.asarray(getattr(self, k), dtype=np.float64) for k in self.__dataclass_fields__
+                if getattr(self, k) is not None}
 
     @classmethod
     def from_arrays(cls, arrays) -> "Limits":
-        kw = {k: np.asarray(arrays[f"lim_{k}"], dtype=np.float64) for k in cls.__dataclass_fields__}
+        kw = {k: np.asarray(arrays[f"lim_{k}"], dtype=np.float64) for k in cls.__dataclass_fields__
+              if f"lim_{k}" in arrays}
         kw["d_min"] = float(kw["d_min"])
         return cls(**kw)
 
@@ -84,10 +105,14 @@ class Limits:
              soft: bool = False) -> tuple[int, float]:
         """Frames and signed amplitude of a new segment after applying the limits (with ``soft``,
         the soft limit first)."""
+        n_cap = max(int(round(max(self.d_max[j], self.d_min) * fps)), 1)
         n = int(round(min(max(d, self.d_min), max(self.d_max[j], self.d_min)) * fps))
         n = max(n, 1)
         if soft:
             a = self.soften(j, max(a, 0.0), c, sign)
+        if self.v_fast is not None and self.v_fast[j] > 0:  # fast moves take time (module docstring)
+            a = min(max(a, 0.0), self.a_max[j])
+            n = max(n, min(int(math.ceil(math.pi * a / (2.0 * self.v_fast[j]) - 1e-9)), n_cap))
         a = min(max(a, 0.0), self.a_max[j], 2.0 * n * self.v_max[j] / math.pi)
         span = self.hi[j] - self.lo[j]
         lo, hi = self.lo[j] - 0.1 * span, self.hi[j] + 0.1 * span
@@ -98,4 +123,4 @@ class Limits:
         return n, s
 
 
-__all__ = ["Limits"]
+__all__ = ["Limits", "FAST_PERCENTILE"]
