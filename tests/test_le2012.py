@@ -148,3 +148,50 @@ def test_seeds_differ_and_the_same_seed_repeats(corpus):
     np.testing.assert_array_equal(a, m.predict(audio, seed=1).rotvec)
     assert np.abs(a - b).mean() > 0.2 * a.std()
     np.testing.assert_array_equal(m.predict(audio).rotvec, m.predict(audio, seed=0).rotvec)  # the seed parameter
+
+
+def test_idle_auto_matches_the_training_heads_pause_ratio(corpus, tmp_path):
+    """``idle="auto"``: heads that hold still in pauses give a low idle level, heads that carry on
+    a high one, and the synthesis of the training speech has the training heads' pause/speech
+    speed ratio (pooled) within the grid's reach."""
+    from headmotion.corpus import Corpus, Recording
+    from headmotion.features.vad import speaking_mask
+    from headmotion.motion.pauses import pause_speech_speeds, pooled_pause_ratio, settle_in_pauses
+
+    train = corpus.subset([0, 1])
+
+    def heads(idle):  # the planted heads with their pause speed scaled by ``idle``
+        recs = []
+        for r in train:
+            mask = speaking_mask(r.audio, fps=r.motion.fps, n_frames=len(r.motion))
+            recs.append(Recording(r.id, r.speaker, r.task, r.audio, settle_in_pauses(r.motion, mask, idle=idle)))
+        return Corpus(recs, sample_rate=train.sample_rate)
+
+    def ratio(model, c, idle=None):
+        pairs = []
+        for k, r in enumerate(c):
+            if idle is not None:
+                model.idle_ = idle
+            x = model.predict(r.audio, seed=k).rotvec
+            pairs.append(pause_speech_speeds(x, speaking_mask(r.audio, fps=model.fps_, n_frames=len(x)), fps=model.fps_))
+        return pooled_pause_ratio(pairs)
+
+    got = {}
+    for level in (0.1, 1.0):
+        c = heads(level)
+        target = pooled_pause_ratio(pause_speech_speeds(r.motion.rotvec, speaking_mask(r.audio, fps=r.motion.fps,
+                                                                                         n_frames=len(r.motion)),
+                                                        fps=r.motion.fps) for r in c)
+        m = create("le2012", n_components=4, max_train_frames=3000).fit(c)
+        assert m.idle == "auto" and m.idle_ in set(np.round(np.linspace(0, 1, 21), 2))
+        got[level] = (m.idle_, target, ratio(m, c))
+        # the level is stored with the model and used by predict and the stream alike
+        p = m.save(tmp_path / f"le{level}.hmz")
+        m2 = load_model(p)
+        assert m2.idle_ == m.idle_
+        np.testing.assert_array_equal(m2.predict(c[0].audio, seed=0).rotvec, m.predict(c[0].audio, seed=0).rotvec)
+    (lo, t_lo, r_lo), (hi, t_hi, r_hi) = got[0.1], got[1.0]
+    # measured: heads 0.10 -> idle 0 (synthesis 0.16: the grid's floor), heads 0.42 -> idle 0.3 (0.44)
+    assert t_lo < 0.5 * t_hi and lo < hi, got
+    assert abs(r_hi - t_hi) < 0.1 * t_hi, got
+    assert abs(r_lo - t_lo) < 0.1 * t_lo or (lo == 0.0 and r_lo > t_lo), got

@@ -264,16 +264,11 @@ def speech_mask_for(audio, motion) -> np.ndarray:
 
 
 def pause_mask(speech_mask, *, fps: float, min_pause_s: float = 0.5) -> np.ndarray:
-    """True in non-speech runs at least ``min_pause_s`` long."""
-    from ..features.vad import _runs
+    """True in non-speech runs at least ``min_pause_s`` long
+    (:func:`headmotion.motion.pauses.pause_mask`)."""
+    from ..motion.pauses import pause_mask as _pause_mask
 
-    s = np.asarray(speech_mask, bool)
-    out = np.zeros(len(s), bool)
-    n = int(round(min_pause_s * fps))
-    for a, b in _runs(~s):
-        if b - a >= n:
-            out[a:b] = True
-    return out
+    return _pause_mask(speech_mask, fps=fps, min_pause_s=min_pause_s)
 
 
 def pause_speed_ratio(motion, speech_mask, *, fps: float | None = None, min_pause_s: float = 0.5) -> float:

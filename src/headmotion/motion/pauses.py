@@ -53,6 +53,42 @@ def _runs(mask: np.ndarray):
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
+def pause_mask(speech_mask, *, fps: float, min_pause_s: float = 0.5) -> np.ndarray:
+    """True in the non-speech runs at least ``min_pause_s`` long (the pauses of issue 14 §3)."""
+    s = np.asarray(speech_mask, bool)
+    out = np.zeros(len(s), bool)
+    n = int(round(min_pause_s * float(fps)))
+    for a, b in _runs(~s):
+        if b - a >= n:
+            out[a:b] = True
+    return out
+
+
+def pause_speech_speeds(x, speech_mask, *, fps: float, min_pause_s: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """Frame-to-frame speeds ``‖x_t − x_{t−1}‖`` (units of ``x`` per frame) inside pauses and inside
+    speech, a speed belonging to a stretch when both its frames do: the two sides of the
+    pause/speech speed ratio, returned apart so that they can be pooled over recordings."""
+    n = min(len(x), len(speech_mask))   # a frame more or less at either end: the shorter
+    x = np.asarray(x, dtype=np.float64)[:n]
+    mask = np.asarray(speech_mask, bool)[:n]
+    if n < 2:
+        return np.zeros(0), np.zeros(0)
+    sp = np.linalg.norm(np.diff(x, axis=0), axis=1)
+    pauses = pause_mask(mask, fps=fps, min_pause_s=min_pause_s)
+    return sp[pauses[1:] & pauses[:-1]], sp[mask[1:] & mask[:-1]]
+
+
+def pooled_pause_ratio(pairs) -> float:
+    """Mean speed in pauses over mean speed in speech, pooled over ``(pause_speeds, speech_speeds)``
+    pairs of :func:`pause_speech_speeds` (nan when either side is empty)."""
+    pairs = list(pairs)
+    p = np.concatenate([a for a, _ in pairs]) if pairs else np.zeros(0)
+    s = np.concatenate([b for _, b in pairs]) if pairs else np.zeros(0)
+    if not len(p) or not len(s) or s.mean() <= 0:
+        return float("nan")
+    return float(p.mean() / s.mean())
+
+
 def pause_weight(speech_mask, *, fps: float, min_pause_s: float = 0.5, ramp_s: float = 0.2) -> np.ndarray:
     """Per frame, how far into a pause (0 = speech or short gap, 1 = inside a pause).
 
@@ -290,4 +326,5 @@ def settle_in_pauses(motion, speech_mask, *, fps: float | None = None, idle: flo
     return motion.replace(rotvec=y, meta=meta)
 
 
-__all__ = ["CausalPauseWeight", "PauseSettler", "pause_weight", "settle_in_pauses", "DEFAULT_IDLE"]
+__all__ = ["CausalPauseWeight", "PauseSettler", "pause_weight", "settle_in_pauses", "pause_mask", "pause_speech_speeds",
+           "pooled_pause_ratio", "DEFAULT_IDLE"]

@@ -204,7 +204,8 @@ class Synthesizer(ABC):
         """This system's synthesis of the speech of the training recordings ``recs`` (recording k
         with seed k, so that it is not one seed's draws) and their motion ``motions`` (rotation
         vectors at the model's rate), each pair cut to the shorter: what the post stages of the
-        template systems and le2012 are fitted on."""
+        template systems are fitted on (le2012 keeps its ascent apart from the pause settling, which
+        its ``idle="auto"`` varies: ``Le2012._raw_synthesis``)."""
         pred, targ = [], []
         for k, (r, m) in enumerate(zip(recs, motions)):
             x = np.asarray(self._predict(r.audio, seed=k).rotvec)
