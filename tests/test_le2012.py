@@ -195,3 +195,31 @@ def test_idle_auto_matches_the_training_heads_pause_ratio(corpus, tmp_path):
     assert t_lo < 0.5 * t_hi and lo < hi, got
     assert abs(r_hi - t_hi) < 0.1 * t_hi, got
     assert abs(r_lo - t_lo) < 0.1 * t_lo or (lo == 0.0 and r_lo > t_lo), got
+
+
+def test_cross_fit_calibrates_on_speech_the_gmms_have_not_seen(corpus, monkeypatch):
+    """``cross_fit``: the post stages are fitted on the synthesis of each training recording by a
+    model trained on the other recordings only (two halves), so its tables differ from the
+    own-synthesis fit; with one recording there is no other half and the two agree."""
+    from headmotion.systems import le2012 as L
+
+    fitted = []
+    real_fit = L.Le2012.fit
+
+    def spy(self, c, **kw):
+        fitted.append(sorted(r.id for r in c))
+        return real_fit(self, c, **kw)
+
+    monkeypatch.setattr(L.Le2012, "fit", spy)
+    train = corpus.subset([0, 1, 2])
+    a = create("le2012", n_components=4, max_train_frames=3000, cross_fit=True).fit(train)
+    ids = sorted(r.id for r in train)
+    halves = fitted[1:]
+    assert fitted[0] == ids and len(halves) == 2
+    assert sorted(sum(halves, [])) == ids and not set(halves[0]) & set(halves[1])
+    b = create("le2012", n_components=4, max_train_frames=3000, cross_fit=False).fit(train)
+    assert not np.allclose(a.post_bank_, b.post_bank_)
+    np.testing.assert_array_equal(a.gmms_["vel"].means_, b.gmms_["vel"].means_)   # the model itself is the same
+    one = corpus.subset([0])
+    np.testing.assert_array_equal(create("le2012", n_components=4, max_train_frames=3000, cross_fit=True).fit(one).post_bank_,
+                                  create("le2012", n_components=4, max_train_frames=3000).fit(one).post_bank_)

@@ -67,6 +67,14 @@ parameter whose "off" value gives the literal system (``pull_tau_s=None, start_s
   already as calm in pauses as the heads (0.36 against 0.36 at 0.6), its synthesis of held-out
   speech is not — the GMMs fitted on 50 s of one take know its training pauses.
 
+* ``cross_fit`` (default False; eighth session): the post stages and ``idle="auto"`` fitted on the
+  synthesis of each training recording's speech by a model trained on the *other* half of the
+  recordings, i.e. on speech the GMMs have not seen, as at synthesis.  Measured against the
+  default (``docs/eval/s8_le2012x_*``, paired seeds): ZEGGS SD ratios 1.55 / 1.04 / 1.19 →
+  1.11 / 1.13 / 1.08, speed Hellinger 0.119 → 0.088, pause ratio 0.56 → 0.50, but pooled spectral
+  L1 0.027 → 0.167 (bar 0.109): 4 of 7 either way; video 6/7 and 7/7 either way (SD ratios
+  0.83–0.94 against 0.65–1.19).  A wash, so off by default; it costs two more GMM fits.
+
 Streaming (issue 16): new models use the ``prosody-live`` feature set
 (:class:`headmotion.features.streaming.StreamingProsody`: YIN pitch + cIntensity loudness,
 computed by the same code offline and on a stream, final 24.2 ms after a frame's start at 100 fps).
@@ -168,6 +176,9 @@ class Le2012(Synthesizer):
         ("auto": measured on the training data, ``idle_``; None: no pause handling, as in the paper)
     post_restore : bool, restore the training heads' band variances and speed distribution after
         synthesis (module docstring; False: as in the paper)
+    cross_fit : bool, fit the post stages and ``idle="auto"`` on synthesis of training speech by
+        a model trained on the other half of the recordings (module docstring; False: on this
+        model's synthesis of its own training speech)
     """
 
     name = "le2012"
@@ -178,9 +189,10 @@ class Le2012(Synthesizer):
                  joint: bool = False, n_steps: int = 12, step: float = 0.05,
                  max_train_frames: int = 10000, random_state: int = 0, seed: int | None = 0,
                  compiled: bool = True, pull_tau_s: float | None = 2.0, start_sd: float = 0.5,
-                 idle: float | str | None = "auto", post_restore: bool = True):
+                 idle: float | str | None = "auto", post_restore: bool = True, cross_fit: bool = False):
         self.features = features
         self.post_restore = post_restore
+        self.cross_fit = cross_fit
         self.pull_tau_s = pull_tau_s
         self.start_sd = start_sd
         self.idle = idle
@@ -210,6 +222,8 @@ class Le2012(Synthesizer):
         v = self.idle
         if v is not None and v != "auto" and (isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v <= 1):
             raise ParameterError(f"the 'idle' parameter of le2012 must be 'auto', None or a number in [0, 1]; got {v!r}")
+        if not isinstance(self.cross_fit, (bool, np.bool_)):
+            raise ParameterError(f"the 'cross_fit' parameter of le2012 must be True or False; got {self.cross_fit!r}")
         if not isinstance(self.post_restore, (bool, np.bool_)):
             raise ParameterError(f"the 'post_restore' parameter of le2012 must be True or False; got {self.post_restore!r}")
         if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
@@ -275,7 +289,7 @@ class Le2012(Synthesizer):
         self.fitted_ = True
         if self.post_restore or self.idle == "auto":
             kept = [r for r in recs if len(r.motion) >= 3]
-            raws = [self._raw_synthesis(r.audio, seed=k) for k, r in enumerate(kept)]
+            raws = self._calibration_synthesis(kept, getattr(corpus, "sample_rate", None))
             for _ in range(2 if self.idle == "auto" else 1):
                 if self.post_restore:
                     self._fit_post_stages(raws, rvs)
@@ -284,6 +298,28 @@ class Le2012(Synthesizer):
             if self.post_restore and self.idle == "auto":
                 self._fit_post_stages(raws, rvs)
         return self
+
+    def _calibration_synthesis(self, recs, sample_rate) -> list:
+        """The ascent (:meth:`_raw_synthesis`) of each training recording's speech that the post
+        stages and ``idle="auto"`` are fitted on (recording k with seed k).  With ``cross_fit`` and
+        at least two recordings it is made by a model of the same parameters trained on the other
+        half of the recordings — speech the GMMs have not seen, as at synthesis (module
+        docstring); otherwise by this model."""
+        from ..corpus import Corpus
+
+        if not self.cross_fit or len(recs) < 2:
+            return [self._raw_synthesis(r.audio, seed=k) for k, r in enumerate(recs)]
+        order = np.argsort([-len(r.motion) / r.motion.fps for r in recs], kind="stable")
+        group = np.zeros(len(recs), dtype=int)
+        group[order[1::2]] = 1                       # alternate by length: halves of similar duration
+        params = {**self.get_params(), "post_restore": False, "idle": None, "cross_fit": False}
+        raws: list = [None] * len(recs)
+        for g in (0, 1):
+            train = [r for r, k in zip(recs, group) if k != g]
+            half = Le2012(**params).fit(Corpus(train, sample_rate=int(sample_rate or recs[0].audio.sample_rate)))
+            for i in np.flatnonzero(group == g):
+                raws[i] = half._raw_synthesis(recs[i].audio, seed=int(i))
+        return raws
 
     def _calibrate_idle(self, recs, raws, motions) -> float:
         """``idle="auto"``: the grid value whose synthesis of the training speech (the ascent
@@ -618,6 +654,7 @@ class Le2012(Synthesizer):
         if "pull_tau_s" not in params:  # files written before these options: the paper's system
             params.update(pull_tau_s=None, start_sd=0.0, idle=None)
         params.setdefault("post_restore", False)  # older files: no post tables
+        params.setdefault("cross_fit", False)     # older files: fitted on their own synthesis
         self.__init__(**params)
         self.fps_ = float(config["fps"])
         self.sample_rate_ = int(config["sample_rate"])
