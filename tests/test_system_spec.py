@@ -33,6 +33,8 @@ def test_parse_reads_json_values_and_text():
 def test_parse_refuses_what_the_system_does_not_have():
     with pytest.raises(ParameterError, match=r"le2012 has no parameter 'nope'.*its parameters are"):
         parse_system("le2012[nope=1]")
+    with pytest.raises(ParameterError, match=r"'le2012\[idle=2\]'.*'idle' parameter of le2012 must be"):
+        parse_system("le2012[idle=2]")
     with pytest.raises(ParameterError, match="unknown system 'nonsense'"):
         parse_system("nonsense[x=1]")
     with pytest.raises(ParameterError, match="KEY=VALUE"):

@@ -84,6 +84,10 @@ def parse_system(text: str) -> tuple[str, dict[str, Any]]:
         if bad:
             raise ParameterError(f"{text!r}: {name} has no parameter {', '.join(map(repr, bad))}; "
                                  f"its parameters are {sorted(known)}")
+        try:  # a bad value is refused now, not after minutes of training in a worker
+            system_class(name)(**params)._validate_params()
+        except ParameterError as exc:
+            raise ParameterError(f"{text!r}: {exc}") from None
     return name, params
 
 
