@@ -203,6 +203,11 @@ def boom(kind: str):
     if kind == "markup":
         from headmotion.errors import FormatError
         raise FormatError("expected [1, 2] or [bold]x[/bold]", path="take[red].bvh")
+    if kind == "warn":
+        import warnings
+        warnings.warn("tws-hier: too little training data for 4 clusters", UserWarning)
+        warnings.warn("did not converge", RuntimeWarning)
+        print("done")
 
 run()
 """
@@ -228,6 +233,15 @@ def test_internal_error_exit_4_with_debug_hint():
     assert "Traceback" in d.stderr and "KeyError" in d.stderr
     e = _inject("boom", "bug", HEADMOTION_DEBUG="1")
     assert e.returncode == 4 and "Traceback" in e.stderr
+
+
+def test_warnings_are_one_line_each_without_source():
+    r = _inject("boom", "warn")
+    assert r.returncode == 0 and r.stdout.strip() == "done"
+    assert r.stderr.splitlines() == ["warning: tws-hier: too little training data for 4 clusters",
+                                     "warning: RuntimeWarning: did not converge"], r.stderr
+    d = _inject("boom", "warn", "--debug")   # --debug: Python's own format (file:line: Category: ...)
+    assert d.returncode == 0 and ": UserWarning: tws-hier" in d.stderr and "warning: " not in d.stderr
 
 
 def test_user_text_is_printed_literally():

@@ -13,12 +13,16 @@
 * Ctrl-C → ``interrupted``, exit 130 (writers are atomic, so no output is left half-written).
 
 ``--debug`` (anywhere on the command line, or ``HEADMOTION_DEBUG=1``) shows the traceback.
+Python warnings (a model trained on little data, a library's convergence notice) print as one
+``warning: ...`` line, not as a source path, line number and code line; ``--debug`` keeps
+Python's format.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+import warnings
 
 from ..errors import HeadMotionError
 from .app import app, err_console, print_error
@@ -81,6 +85,9 @@ def main(argv: list[str] | None = None) -> int:
     debug = "--debug" in head or os.environ.get("HEADMOTION_DEBUG", "") not in ("", "0")
     if "--debug" in head:
         args.remove("--debug")
+    shown = warnings.showwarning
+    if not debug:  # "warning: MESSAGE", not Python's "path:line: Category: message" and source line
+        warnings.showwarning = _show_warning
     try:
         ret = app(args=args, prog_name="headmotion", standalone_mode=False)
     except KeyboardInterrupt:
@@ -98,12 +105,23 @@ def main(argv: list[str] | None = None) -> int:
 
             traceback.print_exc()
         return _handle(exc, debug)
+    finally:
+        warnings.showwarning = shown
     # click (standalone_mode=False) returns the exit code of ctx.exit() / typer.Exit; typer turns
     # Ctrl-C into Exit(130)
     code = ret if isinstance(ret, int) and not isinstance(ret, bool) else 0
     if code == EXIT_INTERRUPTED:
         err_console.print("[bold red]interrupted[/]", highlight=False)
     return code
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ARG001
+    """``warnings.showwarning`` for the command line: one ``warning: ...`` line on stderr (the
+    category named unless it is a plain UserWarning); ``--debug`` keeps Python's own format."""
+    from .app import print_warning
+
+    name = getattr(category, "__name__", "Warning")
+    print_warning(str(message) if name == "UserWarning" else f"{name}: {message}")
 
 
 def _handle(exc: Exception, debug: bool) -> int:
