@@ -27,6 +27,8 @@ def test_parse_reads_json_values_and_text():
     assert name == "le2012" and p == {"idle": 0.5, "post_restore": False, "features": "f0e"}
     assert parse_system("mfcc-dnn[regressor_hidden=[64,64];idle=null]")[1] == {"regressor_hidden": [64, 64],
                                                                                 "idle": None}
+    assert parse_system('mfcc-dnn[feature_params={"deltas":false,"n_ceps":8},context=5]')[1] == {
+        "feature_params": {"deltas": False, "n_ceps": 8}, "context": 5}
     assert label(*parse_system("le2012[post_restore=false;idle=0.5]")) == "le2012[idle=0.5;post_restore=false]"
 
 

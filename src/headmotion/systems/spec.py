@@ -27,12 +27,13 @@ _SPEC = re.compile(r"^\s*([A-Za-z0-9_.\-]+)\s*(?:\[(.*)\])?\s*$", re.S)
 
 
 def _split_top(text: str, seps: str) -> list[str]:
-    """Split ``text`` at the characters ``seps`` outside brackets."""
+    """Split ``text`` at the characters ``seps`` outside brackets and braces (a JSON list or
+    object value keeps its commas)."""
     out, depth, cur = [], 0, []
     for ch in str(text):
-        if ch == "[":
+        if ch in "[{":
             depth += 1
-        elif ch == "]":
+        elif ch in "]}":
             depth -= 1
             if depth < 0:
                 raise ParameterError(f"unbalanced ']' in {text!r}")
