@@ -274,20 +274,14 @@ def pause_mask(speech_mask, *, fps: float, min_pause_s: float = 0.5) -> np.ndarr
 def pause_speed_ratio(motion, speech_mask, *, fps: float | None = None, min_pause_s: float = 0.5) -> float:
     """Mean speed in pauses (non-speech ≥ ``min_pause_s``) over mean speed in speech (nan when
     either is empty)."""
-    sp = speed(motion, fps=fps)
-    f = _deg(motion, fps)[1]
+    from ..motion.pauses import pause_speech_speeds, pooled_pause_ratio
+
+    a, f = _deg(motion, fps)
     mask = np.asarray(speech_mask, bool)
-    if len(mask) < len(sp) + 1:
-        raise ParameterError(f"speech mask has {len(mask)} frames, the motion {len(sp) + 1}")
-    mask = mask[:len(sp) + 1]
-    pauses = pause_mask(mask, fps=f, min_pause_s=min_pause_s)
+    if len(mask) < len(a):
+        raise ParameterError(f"speech mask has {len(mask)} frames, the motion {len(a)}")
     # frame-to-frame speed belongs to a stretch when both its frames do
-    p = pauses[1:] & pauses[:-1]
-    s = mask[1:] & mask[:-1]
-    if not p.any() or not s.any():
-        return float("nan")
-    ms = sp[s].mean()
-    return float(sp[p].mean() / ms) if ms > 0 else float("nan")
+    return pooled_pause_ratio([pause_speech_speeds(a, mask[:len(a)], fps=f, min_pause_s=min_pause_s)])
 
 
 # -- diversity ----------------------------------------------------------------------------------------

@@ -290,7 +290,7 @@ class Le2012(Synthesizer):
         if self.post_restore or self.idle == "auto":
             kept = [r for r in recs if len(r.motion) >= 3]
             raws = self._calibration_synthesis(kept, getattr(corpus, "sample_rate", None))
-            for _ in range(2 if self.idle == "auto" else 1):
+            for _ in range(2 if self.idle == "auto" and self.post_restore else 1):
                 if self.post_restore:
                     self._fit_post_stages(raws, rvs)
                 if self.idle == "auto":
