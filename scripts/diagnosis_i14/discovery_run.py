@@ -1,6 +1,6 @@
 """Issue 14: template discovery on one real speaker (feifeili, andrew) or ZEGGS; usage: discovery_run.py SPEAKER|zeggs MIN_SWING_DEG OUT_DIR."""
 import sys, time, json; sys.path.insert(0,'scripts')
-import numpy as np, warnings; warnings.filterwarnings('ignore')
+import warnings; warnings.filterwarnings('ignore')
 from headmotion.corpus import Corpus
 from headmotion.motion.discovery import analyse
 from realism_report import HOME, ZEGGS
