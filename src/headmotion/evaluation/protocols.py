@@ -191,7 +191,9 @@ def _seed_name(name: str, factory) -> str:
     (:class:`~headmotion.systems.spec.SystemFactory`, ``mfcc-dnn[drift_share=0.3]``) draws the
     training and synthesis seeds of its plain name, so settings compared in one evaluation differ
     only by the setting (a paired comparison)."""
-    return getattr(factory, "name", None) or name
+    from ..systems.spec import SystemFactory
+
+    return factory.name if isinstance(factory, SystemFactory) else name
 
 
 def _make_condition(name: str, factory, seed: int):

@@ -67,6 +67,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..errors import ParameterError
+from ..motion.pauses import pause_mask, pause_speech_speeds, pooled_pause_ratio
 from ..types import Motion
 from . import metrics as M
 
@@ -263,19 +264,9 @@ def speech_mask_for(audio, motion) -> np.ndarray:
     return speaking_mask(audio, fps=float(motion.fps), n_frames=len(motion))
 
 
-def pause_mask(speech_mask, *, fps: float, min_pause_s: float = 0.5) -> np.ndarray:
-    """True in non-speech runs at least ``min_pause_s`` long
-    (:func:`headmotion.motion.pauses.pause_mask`)."""
-    from ..motion.pauses import pause_mask as _pause_mask
-
-    return _pause_mask(speech_mask, fps=fps, min_pause_s=min_pause_s)
-
-
 def pause_speed_ratio(motion, speech_mask, *, fps: float | None = None, min_pause_s: float = 0.5) -> float:
     """Mean speed in pauses (non-speech ≥ ``min_pause_s``) over mean speed in speech (nan when
     either is empty)."""
-    from ..motion.pauses import pause_speech_speeds, pooled_pause_ratio
-
     a, f = _deg(motion, fps)
     mask = np.asarray(speech_mask, bool)
     if len(mask) < len(a):

@@ -206,13 +206,7 @@ class Synthesizer(ABC):
         vectors at the model's rate), each pair cut to the shorter: what the post stages of the
         template systems are fitted on (le2012 keeps its ascent apart from the pause settling, which
         its ``idle="auto"`` varies: ``Le2012._raw_synthesis``)."""
-        pred, targ = [], []
-        for k, (r, m) in enumerate(zip(recs, motions)):
-            x = np.asarray(self._predict(r.audio, seed=k).rotvec)
-            n = min(len(x), len(m))
-            pred.append(x[:n])
-            targ.append(np.asarray(m)[:n])
-        return pred, targ
+        return pair_shortest((self._predict(r.audio, seed=k).rotvec for k, r in enumerate(recs)), motions)
 
     def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0) -> MotionStream:
         """Incremental synthesis (systems with the CAUSAL or STREAMING capability)."""
@@ -288,6 +282,18 @@ def _import(spec: str):
     return getattr(importlib.import_module(mod), cls)
 
 
+def pair_shortest(predicted, motions) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Synthesis and recorded motion paired recording by recording, each pair cut to the shorter
+    (a frame more or less at the end): the input of the post stages' fits."""
+    pred, targ = [], []
+    for x, m in zip(predicted, motions):
+        x, m = np.asarray(x), np.asarray(m)
+        n = min(len(x), len(m))
+        pred.append(x[:n])
+        targ.append(m[:n])
+    return pred, targ
+
+
 def system_class(name: str) -> type:
     """The class registered under ``name``."""
     if name in SYSTEMS:
@@ -309,5 +315,5 @@ def load_model(path) -> Synthesizer:
     return system_class(system)._from_state(path, config, arrays)
 
 
-__all__ = ["Synthesizer", "MotionStream", "SYSTEMS", "system_class", "create", "load_model", "CAUSAL", "EMBEDDING",
+__all__ = ["Synthesizer", "MotionStream", "SYSTEMS", "system_class", "create", "load_model", "pair_shortest", "CAUSAL", "EMBEDDING",
            "NEEDS_OTHER_SPEAKERS", "STREAMING", "STOCHASTIC", "check_stochastic"]

@@ -112,7 +112,7 @@ from ..models.gmm import GMMRegression
 from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec, pitch_yaw_roll_to_rotvec_one, rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
-from .base import CAUSAL, Synthesizer
+from .base import CAUSAL, Synthesizer, pair_shortest
 from .tws.features import make_feature_config
 from .tws.generator import LIVE_FEATURES, LiveFeatures
 
@@ -290,13 +290,16 @@ class Le2012(Synthesizer):
         if self.post_restore or self.idle == "auto":
             kept = [r for r in recs if len(r.motion) >= 3]
             raws = self._calibration_synthesis(kept, getattr(corpus, "sample_rate", None))
-            for _ in range(2 if self.idle == "auto" and self.post_restore else 1):
-                if self.post_restore:
-                    self._fit_post_stages(raws, rvs)
-                if self.idle == "auto":
-                    self.idle_ = self._calibrate_idle(kept, raws, rvs)
-            if self.post_restore and self.idle == "auto":
+            if self.post_restore:
                 self._fit_post_stages(raws, rvs)
+            if self.idle == "auto":
+                from ..features.vad import speaking_mask
+
+                masks = [speaking_mask(r.audio, fps=self.fps_, n_frames=len(m)) for r, m in zip(kept, rvs)]
+                for _ in range(2 if self.post_restore else 1):   # the stages refitted with each level
+                    self.idle_ = self._calibrate_idle(masks, raws, rvs)
+                    if self.post_restore:
+                        self._fit_post_stages(raws, rvs)
         return self
 
     def _calibration_synthesis(self, recs, sample_rate) -> list:
@@ -307,8 +310,9 @@ class Le2012(Synthesizer):
         docstring); otherwise by this model."""
         from ..corpus import Corpus
 
+        flags = self._settle()
         if not self.cross_fit or len(recs) < 2:
-            return [self._raw_synthesis(r.audio, seed=k) for k, r in enumerate(recs)]
+            return [self._raw_synthesis(r.audio, seed=k, flags=flags) for k, r in enumerate(recs)]
         order = np.argsort([-len(r.motion) / r.motion.fps for r in recs], kind="stable")
         group = np.zeros(len(recs), dtype=int)
         group[order[1::2]] = 1                       # alternate by length: halves of similar duration
@@ -318,19 +322,18 @@ class Le2012(Synthesizer):
             train = [r for r, k in zip(recs, group) if k != g]
             half = Le2012(**params).fit(Corpus(train, sample_rate=int(sample_rate or recs[0].audio.sample_rate)))
             for i in np.flatnonzero(group == g):
-                raws[i] = half._raw_synthesis(recs[i].audio, seed=int(i))
+                raws[i] = half._raw_synthesis(recs[i].audio, seed=int(i), flags=flags)
         return raws
 
-    def _calibrate_idle(self, recs, raws, motions) -> float:
+    def _calibrate_idle(self, masks, raws, motions) -> float:
         """``idle="auto"``: the grid value whose synthesis of the training speech (the ascent
         ``raws``, settled, through the current post stages) has the pooled pause/speech speed ratio
-        nearest the training heads' ``motions`` (module docstring)."""
+        nearest the training heads' ``motions``, both measured with the speech ``masks`` of the
+        evaluation's VAD (module docstring)."""
         import warnings
 
-        from ..features.vad import speaking_mask
         from ..motion.pauses import pause_speech_speeds, pooled_pause_ratio
 
-        masks = [speaking_mask(r.audio, fps=self.fps_, n_frames=len(m)) for r, m in zip(recs, motions)]
         target = pooled_pause_ratio(pause_speech_speeds(m, k, fps=self.fps_) for m, k in zip(motions, masks))
         if not np.isfinite(target):
             warnings.warn(f"le2012: no pause of at least 0.5 s in the training speech; idle kept at {IDLE_FALLBACK}",
@@ -353,12 +356,7 @@ class Le2012(Synthesizer):
         from . import dnn_post
         from ..motion import speed_shaping
 
-        pred, targ = [], []
-        for raw, m in zip(raws, motions):
-            x = self._finish(*raw, idle=self._idle_value(), chain=None)
-            n = min(len(x), len(m))
-            pred.append(x[:n])
-            targ.append(np.asarray(m)[:n])
+        pred, targ = pair_shortest((self._finish(*raw, idle=self._idle_value(), chain=None) for raw in raws), motions)
         self.post_bank_ = dnn_post.band_gains(pred, targ, fps=self.fps_, cap=POST_BAND_CAP)
         pred = [dnn_post.CausalPost(band_gains=self.post_bank_, fps=self.fps_).push(x) for x in pred]
         self.speed_map_ = speed_shaping.speed_map(pred, targ, lag=speed_shaping.shaping_lag(self.fps_),
@@ -577,12 +575,13 @@ class Le2012(Synthesizer):
         T = _n(len(audio.samples), audio.sample_rate, self.fps_)
         if T == 0:
             return Motion(np.zeros((0, 3)), self.fps_)
-        rv = self._finish(*self._raw_synthesis(audio, seed), idle=self._idle_value(), chain=self._post_chain())
+        rv = self._finish(*self._raw_synthesis(audio, seed, flags=self._settle()), idle=self._idle_value(),
+                          chain=self._post_chain())
         return Motion(rv, self.fps_, meta={"system": self.name})
 
-    def _raw_synthesis(self, audio: Audio, seed: int | None):
+    def _raw_synthesis(self, audio: Audio, seed: int | None, *, flags: bool):
         """``(angles, speech flags, mean pose)``: the ascent's pitch, yaw, roll before the pauses and
-        the post stages, and the speech flags the settling reads."""
+        the post stages, and (with ``flags``; else None) the speech flags the settling reads."""
         from ..align import n_frames as _n
 
         T = _n(len(audio.samples), audio.sample_rate, self.fps_)
@@ -593,7 +592,9 @@ class Le2012(Synthesizer):
         out[0] = out[min(1, T - 1)] = self.start_
         pull, pose, jitter = self._start_terms(T, seed)
         self._ascend(out, cond, stacked, pull, pose, jitter)
-        if cfg.name in LIVE_FEATURES:
+        if not flags:
+            mask = None
+        elif cfg.name in LIVE_FEATURES:
             mask = self._speech_tracker().push_db(self._loudness_db(F_raw))
         else:
             from ..features.vad import speaking_mask

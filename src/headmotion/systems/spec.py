@@ -80,13 +80,8 @@ def parse_system(text: str) -> tuple[str, dict[str, Any]]:
                 raise ParameterError(f"{text!r}: a parameter needs a name before '='; got {part.strip()!r}")
             params[k] = _value(v)
     if params:
-        known = system_class(name)().get_params()
-        bad = [k for k in params if k not in known]
-        if bad:
-            raise ParameterError(f"{text!r}: {name} has no parameter {', '.join(map(repr, bad))}; "
-                                 f"its parameters are {sorted(known)}")
-        try:  # a bad value is refused now, not after minutes of training in a worker
-            system_class(name)(**params)._validate_params()
+        try:  # an unknown key (set_params) or a bad value is refused now, not after minutes of training
+            system_class(name)().set_params(**params)._validate_params()
         except ParameterError as exc:
             raise ParameterError(f"{text!r}: {exc}") from None
     return name, params

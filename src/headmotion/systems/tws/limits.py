@@ -106,8 +106,7 @@ class Limits:
         """Frames and signed amplitude of a new segment after applying the limits (with ``soft``,
         the soft limit first)."""
         n_cap = max(int(round(max(self.d_max[j], self.d_min) * fps)), 1)
-        n = int(round(min(max(d, self.d_min), max(self.d_max[j], self.d_min)) * fps))
-        n = max(n, 1)
+        n = max(min(int(round(max(d, self.d_min) * fps)), n_cap), 1)
         if soft:
             a = self.soften(j, max(a, 0.0), c, sign)
         if self.v_fast is not None and self.v_fast[j] > 0:  # fast moves take time (module docstring)
