@@ -85,12 +85,20 @@ them), applied at synthesis in this order, each a parameter:
   (:data:`DEFAULT_DRIFT_TAU_S` = 4 s): a seeded Ornstein–Uhlenbeck posture component carrying
   that share of the training variance; ``seed`` (default 0) is the synthesis seed,
   ``predict(seed=…)`` overrides it;
+* ``range_limit`` (default True; eighth session): after the shaper, each axis's deviation from the
+  training mean pose passes :func:`headmotion.motion.range_limit.soft_range` — unchanged up to the
+  training heads' 99th percentile, then bent smoothly towards their largest deviation + 10 %
+  (``range_``, measured at fit).  On speech far from the training data the network's output can
+  leave any head's range (the default on the ZEGGS take's speech: roll up to 24°, training heads
+  19°; on a chirp tone 37°); with the limit 20° and 21°.  Held out it changes nothing measurable
+  (``docs/eval/s8_range_*``: the same targets, pooled L1 and speed H within 0.001).  Model files
+  without ``range_`` load with it off;
 * ``idle`` (default 0.45 for the DNN systems, :data:`DNN_IDLE`): pauses settled causally — the adaptive energy detector of
   :mod:`headmotion.systems.tws.speech` on each frame's dBFS energy, :class:`~headmotion.motion.
   pauses.CausalPauseWeight` and :class:`~headmotion.motion.pauses.PauseSettler` (issue 16; the
   offline mode with :func:`headmotion.features.vad.speaking_mask` until then); None switches it off.
 
-:data:`PAPER_PARAMS` (``variance_restore=False, drift_share=0, idle=None``) gives the paper's
+:data:`PAPER_PARAMS` (``variance_restore=False, drift_share=0, idle=None, speed_shaping=False, range_limit=False``) gives the paper's
 output bit for bit and makes the synthesis deterministic; the paper's protocols must set it.
 Model files written before these options load with :data:`PAPER_PARAMS` (they have no ``gv_``).
 
@@ -219,6 +227,7 @@ from ..motion.control import mean_pose_of
 from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, FeatureTrack, Motion
 from ..motion import speed_shaping
+from ..motion.range_limit import range_from_training
 from . import dnn_post
 from .base import EMBEDDING, STREAMING, Synthesizer
 from .dnn_stream import DnnPostStages, DnnStream, frame_energy_db
@@ -233,7 +242,7 @@ DEFAULT_DRIFT_TAU_S = 4.0
 #: chosen on held-out speakers of the video corpus, see the module docstring)
 DEFAULT_SLOW_BAND_GAIN = 1.15
 #: parameters that switch every addition to the paper off (the paper's protocols use them)
-PAPER_PARAMS = {"variance_restore": False, "drift_share": 0.0, "idle": None, "speed_shaping": False}
+PAPER_PARAMS = {"variance_restore": False, "drift_share": 0.0, "idle": None, "speed_shaping": False, "range_limit": False}
 #: product default idle level in pauses for the DNN systems
 DNN_IDLE = 0.45
 
@@ -328,7 +337,8 @@ class _DnnSystem(Synthesizer):
                  valid_fraction: float = 0.15, holdout_test: bool = True, random_state: int = 0,
                  n_threads: int | None = 1, variance_restore: bool = True, restore_bands: bool = True,
                  drift_share: float = DEFAULT_DRIFT_SHARE, drift_tau_s: float = DEFAULT_DRIFT_TAU_S,
-                 slow_band_gain: float = DEFAULT_SLOW_BAND_GAIN, speed_shaping: bool = True, idle: float | None = DNN_IDLE, seed: int | None = 0):
+                 slow_band_gain: float = DEFAULT_SLOW_BAND_GAIN, speed_shaping: bool = True, idle: float | None = DNN_IDLE,
+                 range_limit: bool = True, seed: int | None = 0):
         self.features = features
         self.feature_params = feature_params
         self.alpha = alpha
@@ -363,6 +373,7 @@ class _DnnSystem(Synthesizer):
         self.slow_band_gain = slow_band_gain
         self.speed_shaping = speed_shaping
         self.idle = idle
+        self.range_limit = range_limit
         self.seed = seed
 
     # -- parameters ---------------------------------------------------------------------------
@@ -422,7 +433,7 @@ class _DnnSystem(Synthesizer):
         if self.ae_activation not in ("relu", "tanh", "sigmoid"):
             raise ParameterError(
                 f"the 'ae_activation' parameter of {self.name} must be 'relu', 'tanh' or 'sigmoid'; got {self.ae_activation!r}")
-        for n in ("variance_restore", "restore_bands", "speed_shaping"):
+        for n in ("variance_restore", "restore_bands", "speed_shaping", "range_limit"):
             if not isinstance(getattr(self, n), (bool, np.bool_)):
                 raise ParameterError(
                     f"the {n!r} parameter of {self.name} must be True or False; got {getattr(self, n)!r}")
@@ -565,6 +576,7 @@ class _DnnSystem(Synthesizer):
         self.fps_ = float(self.model_fps)
         self.sample_rate_ = int(train_recs[0].audio.sample_rate)
         self.mean_pose_ = mean_pose_of([p.motion for p in train])
+        self.range_ = range_from_training([p.motion for p in train], self.motion_norm_.mean_)
         self.history_ = _clean_json(history)
         self.fit_seconds_ = time.perf_counter() - t0
         self.corpus_summary_ = corpus.summary()
@@ -838,6 +850,8 @@ class _DnnSystem(Synthesizer):
             arrays["band_gains"] = np.asarray(self.band_gains_, dtype=np.float64)
         if self.speed_map_ is not None:
             arrays["speed_map"] = np.asarray(self.speed_map_, dtype=np.float64)
+        if getattr(self, "range_", None) is not None:
+            arrays["range"] = np.asarray(self.range_, dtype=np.float64)
         if self.embedding_norm_ is not None:
             arrays.update(self.embedding_norm_.to_arrays("embedding_norm"))
         if self.autoencoder_ is not None:
@@ -861,6 +875,7 @@ class _DnnSystem(Synthesizer):
             params.update(PAPER_PARAMS)
         if "speed_shaping" not in params:  # files written before the band restoration and the shaper
             params.update(restore_bands=False, speed_shaping=False)
+        params.setdefault("range_limit", False)  # files written before the range limit
         for k in self._param_names():
             v = params.get(k, defaults[k])
             setattr(self, k, tuple(v) if k.endswith("hidden") and v is not None else v)
@@ -878,6 +893,7 @@ class _DnnSystem(Synthesizer):
         self.motion_sd_ = np.asarray(arrays["motion_sd"], dtype=np.float64) if "motion_sd" in arrays else np.ones(3)
         self.band_gains_ = np.asarray(arrays["band_gains"], dtype=np.float64) if "band_gains" in arrays else None
         self.speed_map_ = np.asarray(arrays["speed_map"], dtype=np.float64) if "speed_map" in arrays else None
+        self.range_ = np.asarray(arrays["range"], dtype=np.float64) if "range" in arrays else None
         self.embedding_norm_ = None
         self.autoencoder_ = None
         in_dim = self.input_dim_

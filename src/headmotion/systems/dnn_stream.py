@@ -53,6 +53,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..types import Audio, Motion
+from ..motion.range_limit import soft_range
 from ..motion.speed_shaping import product_shaper
 from . import dnn_post
 
@@ -134,6 +135,9 @@ class DnnPostStages:
             self.shaper = product_shaper(table, fps)
         idle = system.idle
         self.settle = idle is not None and float(idle) < 1.0
+        #: the soft range limit (``range_limit``; :mod:`headmotion.motion.range_limit`)
+        bounds = getattr(system, "range_", None)
+        self.bounds = bounds if getattr(system, "range_limit", False) and bounds is not None else None
         if self.settle:
             det = SpeechDetector(col=0, mu=0.0, sd=1.0, db_per_unit=1.0, fps=fps)
             self.tracker = det.start()
@@ -172,6 +176,8 @@ class DnnPostStages:
         rv = np.asarray(self.system.motion_norm_.inverse_transform(z), dtype=np.float64)
         if self.shaper is not None and len(rv):
             rv = self.shaper.push(rv)
+        if self.bounds is not None and len(rv):
+            rv = soft_range(rv, self.system.motion_norm_.mean_, self.bounds)
         if self.settle and energy_db is not None and len(rv):
             flags = self.tracker.push(np.asarray(energy_db, dtype=np.float64)[:, None])
             rv = self.settler.push(rv, self.weight.push(flags))
