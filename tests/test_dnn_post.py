@@ -57,7 +57,7 @@ def fitted():
 
 def test_variance_restore_makes_the_training_sd_ratio_one(fitted):
     corpus, m = fitted
-    m.set_params(variance_restore=True, restore_bands=False, speed_shaping=False, drift_share=0.0, idle=None)
+    m.set_params(variance_restore=True, restore_bands=False, speed_shaping=False, drift_share=0.0, idle=None, range_limit=False)
     assert np.all(m.gv_ > 1.0) and np.all(m.gv_ < dnn_post.GV_CAP)  # the MMSE net is too quiet
     preds, truth = [], []
     for r in corpus:
@@ -85,7 +85,7 @@ def test_band_restoration_gives_the_training_motion_its_band_variances(fitted):
     truth = [m.motion_norm_.transform(m._prepare(r, m.feature_config_).motion) for r in train]
     err = {}
     for restore in (False, True):
-        m.set_params(variance_restore=restore, restore_bands=True, speed_shaping=False, drift_share=0.0, idle=None)
+        m.set_params(variance_restore=restore, restore_bands=True, speed_shaping=False, drift_share=0.0, idle=None, range_limit=False)
         preds = [m.motion_norm_.transform(m.predict(r.audio).rotvec) for r in train]
         ratio = dnn_post.band_variance(preds, fps=100.0) / dnn_post.band_variance(truth, fps=100.0)
         err[restore] = np.median(np.abs(np.log(ratio)))
