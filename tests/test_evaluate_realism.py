@@ -144,6 +144,28 @@ def test_evaluate_cli_realism_columns_and_figures(corpus, tmp_path):
     assert main(["evaluate", str(tmp_path / "c"), "--systems", "still", "-o", str(out), "--folds-at-pauses", "1"]) != 0
 
 
+def test_evaluate_cli_saves_held_out_motions(corpus, tmp_path):
+    """--save-motions: one file per condition and held-out recording; the ground truth's is the
+    recording's own motion, the still anchor's one pose held."""
+    from headmotion.cli import main
+    from headmotion.io.native import load_npz
+
+    corpus.save(tmp_path / "c")
+    out = tmp_path / "r"
+    assert main(["evaluate", str(tmp_path / "c"), "--systems", "still", "-o", str(out), "--shifts", "10",
+                 "--feature-table", "none", "--no-figures", "--samples", "1", "--save-motions"]) == 0
+    for rec in corpus:
+        gt = load_npz(out / "motions" / "ground-truth" / f"{rec.id}.npz")
+        np.testing.assert_allclose(gt.rotvec, rec.motion.rotvec, atol=1e-6)
+        assert gt.fps == rec.motion.fps
+        still = load_npz(out / "motions" / "still" / f"{rec.id}.npz")
+        assert len(still) == len(rec.motion) and np.ptp(still.rotvec, axis=0).max() < 1e-9
+    assert not (tmp_path / "r2").exists()
+    assert main(["evaluate", str(tmp_path / "c"), "--systems", "still", "-o", str(tmp_path / "r2"), "--shifts", "10",
+                 "--feature-table", "none", "--no-figures", "--samples", "1"]) == 0
+    assert not (tmp_path / "r2" / "motions").exists()
+
+
 # -- folds at pauses ----------------------------------------------------------------------------------
 def planted_take(rng, bursts, sr=SR, fps=30.0):
     """Speech-like bursts (a 150 Hz buzz with a 4 Hz syllable envelope) separated by silences;

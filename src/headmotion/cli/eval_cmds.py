@@ -46,6 +46,8 @@ def evaluate_cmd(
     feature_table: Optional[str] = typer.Option(
         None, "--feature-table", help="comma-separated feature sets for the paper Table 1 (default: all; 'none' to skip)"),
     no_figures: bool = typer.Option(False, "--no-figures", help="skip the PNG figures"),
+    save_motions: bool = typer.Option(False, "--save-motions",
+                                      help="also write every condition's held-out motion as motions/CONDITION/RECORDING.npz"),
     strict: bool = typer.Option(False, "--strict", help="stop when a system fails on a fold (default: warn, go on)"),
 ):
     """Cross-validate systems on a corpus and write metrics.csv, report.md and figures."""
@@ -90,7 +92,8 @@ def evaluate_cmd(
     result.warnings[:0] = pause_warns
     if folds_at_pauses:
         result.config["folds_at_pauses"] = folds_at_pauses
-    out = write_report(result, output, figures=not no_figures, title=f"headmotion evaluation of {corpus_dir}")
+    out = write_report(result, output, figures=not no_figures, title=f"headmotion evaluation of {corpus_dir}",
+                       save_motions=save_motions)
     console.print(f"{len(result.recordings)} held-out recordings, {result.config['folds']} folds, "
                   f"{result.timings.get('total_wall', 0):.1f} s")
     for s in result.systems:
@@ -107,6 +110,8 @@ def evaluate_cmd(
         console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
     if len(result.warnings) > 5:
         console.print(f"[yellow]… {len(result.warnings) - 5} more warnings in report.md[/]")
+    if out["motions"]:
+        console.print(f"wrote {len(out['motions'])} held-out motions under {Path(output) / 'motions'}")
     console.print(f"wrote {out['report']} and {out['metrics']}")
 
 

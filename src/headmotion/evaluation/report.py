@@ -514,13 +514,17 @@ def render_report(result: EvaluationResult, *, title: str = "headmotion evaluati
     return "\n".join(md)
 
 
-def write_report(result: EvaluationResult, out_dir, *, figures: bool = True, title: str = "headmotion evaluation") -> dict:
-    """Write ``metrics.csv``, ``report.md``, ``config.json`` and the figures into ``out_dir``.
+def write_report(result: EvaluationResult, out_dir, *, figures: bool = True, title: str = "headmotion evaluation",
+                 save_motions: bool = False) -> dict:
+    """Write ``metrics.csv``, ``report.md``, ``config.json`` and the figures into ``out_dir``; with
+    ``save_motions`` also every condition's held-out motion as ``motions/CONDITION/RECORDING.npz``
+    (:func:`write_motions`).
 
-    Returns ``{"metrics": path, "report": path, "figures": [paths]}``."""
+    Returns ``{"metrics": path, "report": path, "figures": [paths], "motions": [paths]}``."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     write_metrics_csv(result, out / "metrics.csv")
+    saved = write_motions(result, out / "motions") if save_motions else []
     figs: list[Path] = []
     if figures:
         from .figures import evaluation_figures
@@ -533,8 +537,29 @@ def write_report(result: EvaluationResult, out_dir, *, figures: bool = True, tit
     cfg["timings"] = result.timings
     cfg["recordings"] = result.recordings
     atomic_write_text(out / "config.json", json.dumps(cfg, indent=2, default=str))
-    return {"metrics": out / "metrics.csv", "report": out / "report.md", "figures": figs}
+    return {"metrics": out / "metrics.csv", "report": out / "report.md", "figures": figs, "motions": saved}
 
 
-__all__ = ["write_metrics_csv", "read_metrics_csv", "render_report", "feature_table_section", "write_report",
+def write_motions(result: EvaluationResult, out_dir) -> list[Path]:
+    """Every condition's held-out motion (the first sample, the one that is scored) as
+    ``out_dir/CONDITION/RECORDING.npz`` (:func:`headmotion.io.native.save_npz`, readable by
+    ``headmotion plot`` and ``render``); condition names are made safe as folder names."""
+    import re
+
+    from ..io.native import save_npz
+    from ..types import Motion
+
+    paths: list[Path] = []
+    for cond, recs in result.motions.items():
+        folder = Path(out_dir) / re.sub(r"[^A-Za-z0-9._=+-]+", "_", cond)
+        folder.mkdir(parents=True, exist_ok=True)
+        for rid, rv in recs.items():
+            path = folder / f"{rid}.npz"
+            save_npz(Motion(np.asarray(rv, dtype=np.float64), float(result.fps.get(rid, 100.0)),
+                            meta={"system": cond, "recording": rid}), path)
+            paths.append(path)
+    return paths
+
+
+__all__ = ["write_metrics_csv", "read_metrics_csv", "render_report", "feature_table_section", "write_report", "write_motions",
            "realism_summary", "realism_targets", "coupling_line", "realism_figures_for"]
