@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from headmotion.evaluation.protocols import EvaluationResult
-from headmotion.evaluation.report import read_metrics_csv, realism_summary, realism_targets
+from headmotion.evaluation.report import read_metrics_csv, realism_summary, realism_targets, ruler_anchor
 
 TARGETS = ("band", "l1", "sd", "speed", "lc", "sat", "pause")
 
@@ -74,12 +74,17 @@ def main(argv=None) -> int:
     ap.add_argument("runs", nargs="+", help="LABEL=REPORT_DIR")
     ap.add_argument("-o", "--output", type=Path, default=None)
     a = ap.parse_args(argv)
-    lines = [HEADER]
+    lines, rulers = [HEADER], []
     for spec in a.runs:
         label, _, d = spec.partition("=")
         summ = realism_summary(load(Path(d)))
         lines += rows_for(label, summ, realism_targets(summ))
-    text = "\n".join(lines) + "\n"
+        r = ruler_anchor(summ)
+        if r:
+            rd = summ[r]
+            rulers.append(f"{label}: bars from {r} — pooled L1 ≤ {rd.get('spectral_l1_pooled', np.nan) + 0.1:.3f}, "
+                          f"pooled speed H ≤ {rd.get('speed_hellinger_pooled', np.nan) + 0.05:.3f}")
+    text = "\n".join(lines) + "\n\n" + "\n".join(rulers) + "\n"
     print(text)
     if a.output:
         a.output.write_text(text)

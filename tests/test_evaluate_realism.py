@@ -123,6 +123,24 @@ def test_report_has_realism_table_targets_and_coupling(res):
     assert tg["desync"]["sd"] is True
 
 
+def test_targets_measure_against_desync_when_evaluated():
+    """The thesis's desync (another take of the speaker) is the ruler when present; the shift only
+    without it: a candidate at speed Hellinger 0.09 is within desync 0.06 + 0.05, not shifted 0.01 + 0.05."""
+    from headmotion.evaluation.report import ruler_anchor
+
+    gt = {"speed_hellinger_pooled": 0.0}
+    cand = {"speed_hellinger_pooled": 0.09}
+    both = {"ground-truth": gt, "shifted": {"speed_hellinger_pooled": 0.01},
+            "desync": {"speed_hellinger_pooled": 0.06}, "sys": cand}
+    assert ruler_anchor(both) == "desync"
+    assert realism_targets(both)["sys"]["speed"] is True
+    only_shift = {k: v for k, v in both.items() if k != "desync"}
+    assert ruler_anchor(only_shift) == "shifted"
+    assert realism_targets(only_shift)["sys"]["speed"] is False
+    assert ruler_anchor({"ground-truth": gt, "sys": cand}) is None
+    assert realism_targets({"ground-truth": gt, "sys": cand})["sys"]["speed"] is None
+
+
 def test_evaluate_cli_realism_columns_and_figures(corpus, tmp_path):
     from headmotion.cli import main
 
