@@ -3,7 +3,7 @@
 One row per (evaluation, condition): the realism medians of :func:`headmotion.evaluation.report.
 realism_summary` with the targets of :func:`~headmotion.evaluation.report.realism_targets` marked
 (✓ met, ✗ not; the spectral L1 and the speed Hellinger are shown per recording (median) and
-pooled over the test set, the targets use the pooled ones), the pooled FCCA excess with its Stouffer p, and the number of targets met.  With
+pooled over the test set (and over all K samples of a stochastic system), the targets use the pooled ones), the pooled FCCA excess with its Stouffer p, and the number of targets met.  With
 several evaluations of the same corpus (seeds), ``--mean-over`` adds one row per condition with the
 mean over them (p: Stouffer of the per-run pooled p-values is *not* valid for overlapping data, so
 the row shows the largest p).  Usage::
@@ -43,6 +43,15 @@ def fmt_p(p: float) -> str:
     return "–" if not np.isfinite(p) else ("<0.001" if p < 0.001 else f"{p:.3f}")
 
 
+def _speed_cell(d: dict, ok) -> str:
+    """Pooled speed Hellinger: of the first sample, and over all K samples (the target's, when
+    evaluated) after a slash."""
+    one, k = d.get("speed_hellinger_pooled", np.nan), d.get("speed_hellinger_pooled_k", np.nan)
+    if not np.isfinite(k):
+        return mark(one, ok, 3)
+    return f"{one:.3f} / {mark(k, ok, 3)}"
+
+
 def rows_for(label: str, summ: dict, targets: dict) -> list[str]:
     gt = summ.get("ground-truth", {})
     out = []
@@ -56,7 +65,7 @@ def rows_for(label: str, summ: dict, targets: dict) -> list[str]:
             f"| {label} | {s} | {mark(d.get('band_1.5_4', np.nan), t['band'])} ({gt.get('band_1.5_4', np.nan):.2f}) | "
             f"{d.get('spectral_l1', np.nan):.2f} / {mark(d.get('spectral_l1_pooled', np.nan), t['l1'], 3)} | "
             f"{sd}{'' if t['sd'] is None else (' ✓' if t['sd'] else ' ✗')} | "
-            f"{d.get('speed_hellinger', np.nan):.2f} / {mark(d.get('speed_hellinger_pooled', np.nan), t['speed'], 3)} | "
+            f"{d.get('speed_hellinger', np.nan):.2f} / {_speed_cell(d, t['speed'])} | "
             f"{mark(d.get('limit_cycle', np.nan), t['lc'])} ({gt.get('limit_cycle', np.nan):.2f}) | "
             f"{mark(100 * d.get('saturation', np.nan), t['sat'], 1)} | "
             f"{mark(d.get('pause_ratio', np.nan), t['pause'])} ({gt.get('pause_ratio', np.nan):.2f}) | "
@@ -65,7 +74,7 @@ def rows_for(label: str, summ: dict, targets: dict) -> list[str]:
     return out
 
 
-HEADER = ("| set | condition | 1.5–4 Hz (gt) | L1 per recording / pooled | SD ratio p/y/r | H speed per recording / pooled | LC (gt) | sat % | pause (gt) | "
+HEADER = ("| set | condition | 1.5–4 Hz (gt) | L1 per recording / pooled | SD ratio p/y/r | H speed per rec. / pooled / pooled K samples | LC (gt) | sat % | pause (gt) | "
           "diversity | FCCA excess | p | targets |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 
 

@@ -141,6 +141,35 @@ def test_targets_measure_against_desync_when_evaluated():
     assert realism_targets({"ground-truth": gt, "sys": cand})["sys"]["speed"] is None
 
 
+def test_pooled_speed_histogram_over_k_samples():
+    """``speed_hellinger_pooled_k`` pools all K samples: K copies of the reference score 0; a first
+    sample equal to the reference with three held-still ones after it scores 0 on the first sample
+    alone and, over the four, the Hellinger distance of h and 0.25 h + 0.75 δ₀ (h the reference's
+    histogram, δ₀ all mass in the first bin); the targets take the K-sample value when it is there."""
+    from headmotion.evaluation import realism as R
+
+    ref = Motion(np.radians(5.0) * np.column_stack([np.sin(np.arange(3000) / 13.0)] * 3), 30.0)
+    still = np.zeros_like(ref.rotvec)
+    rows = P.pooled_histogram_rows({"copy": {"r": ref.rotvec}, "mixed": {"r": ref.rotvec}, "anchor": {"r": still}},
+                                   {"r": ref}, samples={"copy": {"r": [ref.rotvec] * 4},
+                                                        "mixed": {"r": [ref.rotvec, still, still, still]}})
+    v = {(r["system"], r["metric"]): r["value"] for r in rows}
+    assert v[("copy", "speed_hellinger_pooled_k")] == pytest.approx(0.0, abs=1e-9)
+    assert v[("mixed", "speed_hellinger_pooled")] == pytest.approx(0.0, abs=1e-9)
+    sp = R.speed(ref)
+    h = R.histogram(sp, R.histogram_edges(sp))
+    c = 0.25 * h
+    c[0] += 0.75
+    assert v[("mixed", "speed_hellinger_pooled_k")] == pytest.approx(np.sqrt(1 - np.sum(np.sqrt(h * c))), abs=1e-9)
+    assert v[("mixed", "speed_hellinger_pooled_k")] > 0.6
+    assert ("anchor", "speed_hellinger_pooled_k") not in v
+    summ = {"ground-truth": {"speed_hellinger_pooled": 0.0}, "desync": {"speed_hellinger_pooled": 0.06},
+            "sys": {"speed_hellinger_pooled": 0.2, "speed_hellinger_pooled_k": 0.09}}
+    assert realism_targets(summ)["sys"]["speed"] is True
+    summ["sys"]["speed_hellinger_pooled_k"] = 0.12
+    assert realism_targets(summ)["sys"]["speed"] is False
+
+
 def test_evaluate_cli_realism_columns_and_figures(corpus, tmp_path):
     from headmotion.cli import main
 

@@ -316,7 +316,7 @@ def run_fold(task: FoldTask) -> dict:
 
     Returns ``{"rows", "trajectories", "gt" (recording → (motion, features, speaker)), "timings",
     "warnings"}``."""
-    out = {"rows": [], "trajectories": {}, "gt": {}, "timings": {}, "warnings": [], "motions": {}}
+    out = {"rows": [], "trajectories": {}, "gt": {}, "timings": {}, "warnings": [], "motions": {}, "samples": {}}
     tests = list(task.test)
     t0 = time.perf_counter()
     feats = {rec.id: _extract(task.features, rec.audio, float(rec.motion.fps), len(rec.motion)) for rec in tests}
@@ -430,6 +430,8 @@ def _run_condition(task: FoldTask, name: str, factory, tests, feats, out: dict) 
                     raise
                 out["warnings"].append(f"{name}: realism measures on {rec.id}: {type(exc).__name__}: {exc}")
             out["motions"].setdefault(name, {})[rec.id] = np.asarray(pred, dtype=np.float32)
+            if samples is not None and len(samples) > 1:
+                out["samples"].setdefault(name, {})[rec.id] = [np.asarray(x, dtype=np.float32) for x in samples]
         if _has_embedding(model):
             try:
                 vals.update(_embedding_scores(task, model, name, rec))
@@ -500,13 +502,23 @@ def _samples(task: FoldTask, model, name: str, rec, first: np.ndarray, *, seed_n
     return out
 
 
-def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references: dict[str, Motion]) -> list[dict]:
+def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references: dict[str, Motion],
+                          samples: dict[str, dict[str, list]] | None = None) -> list[dict]:
     """Per condition, recording ``ALL``: Hellinger distance of the speed and acceleration
     histograms pooled over every held-out recording (``speed_hellinger_pooled``,
     ``accel_hellinger_pooled``) — the GENEA numerical evaluations' form, one histogram per
     condition over the whole test set — and the spectral L1 between the test set's mean band
     shares (``spectral_l1_pooled``, :func:`~headmotion.evaluation.realism.pooled_spectral_distance`),
-    next to the per-recording medians."""
+    next to the per-recording medians.
+
+    With ``samples`` (``{condition: {recording: [K motions]}}``, the diversity measure's K
+    predictions, the scored one first) a stochastic condition also gets
+    ``speed_hellinger_pooled_k``: its histogram over all K samples, i.e. the mean of the K
+    samples' histograms, as GENEA's ``hellinger_distance.py`` averages the histograms of a
+    condition's numbered runs.  One draw estimates the system's speed distribution with the
+    sampling noise of one draw (on these test sets about as large as the target's tolerance,
+    ``scripts/diagnosis_i14/speed_hellinger_noise.py``); K draws with a quarter of its variance.
+    Anchors (one motion each) have no such row."""
     from . import realism as R
 
     out = []
@@ -519,6 +531,12 @@ def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references:
             ref = np.concatenate([fn(references[r]) for r in rids])
             cand = np.concatenate([fn(Motion(np.asarray(d[r], dtype=float), float(references[r].fps))) for r in rids])
             vals[f"{name}_hellinger_pooled"] = R.hellinger_values(ref, cand)
+        ks = (samples or {}).get(cond, {})
+        if rids and all(rid in ks for rid in rids):
+            ref = np.concatenate([R.speed(references[r]) for r in rids])
+            cand = np.concatenate([R.speed(Motion(np.asarray(x, dtype=float), float(references[r].fps)))
+                                   for r in rids for x in ks[r]])
+            vals["speed_hellinger_pooled_k"] = R.hellinger_values(ref, cand)
         vals["spectral_l1_pooled"] = R.pooled_spectral_distance(
             [references[r] for r in rids], [Motion(np.asarray(d[r], dtype=float), float(references[r].fps)) for r in rids])
         out += _rows(cond, "ALL", vals)
@@ -744,10 +762,13 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     gt: dict = {}
     warns: list[str] = []
     motions: dict[str, dict[str, np.ndarray]] = {}
+    k_samples: dict[str, dict[str, list]] = {}
     for res in results:  # in fold order, whatever order they finished in
         rows += res["rows"]
         for cond, d in res.get("motions", {}).items():
             motions.setdefault(cond, {}).update(d)
+        for cond, d in res.get("samples", {}).items():
+            k_samples.setdefault(cond, {}).update(d)
         traj.update(res["trajectories"])
         gt.update(res["gt"])
         warns += res["warnings"]
@@ -762,7 +783,8 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     rows += pooled_rows(rows, [GROUND_TRUTH] + [n for n, _ in specs], n_shifts=n_shifts)
     recs = [rid for rid in corpus.ids if rid in gt]
     if motions:
-        rows += pooled_histogram_rows(motions, {rid: Motion(g[0], g[3]) for rid, g in gt.items()})
+        rows += pooled_histogram_rows(motions, {rid: Motion(g[0], g[3]) for rid, g in gt.items()},
+                                      samples=k_samples)
     fps = gt[trajectory_recording][3] if trajectory_recording in gt else 100.0
     timings["total_wall"] = time.perf_counter() - t_start
     fs_names = [feature_set_name(f) for f in feature_sets]
