@@ -315,7 +315,8 @@ def run_fold(task: FoldTask) -> dict:
     """Fit every system on ``task.train``, synthesise and score ``task.test``.
 
     Returns ``{"rows", "trajectories", "gt" (recording → (motion, features, speaker)), "timings",
-    "warnings"}``."""
+    "warnings", "motions" (condition → recording → the scored motion), "samples" (condition →
+    recording → the K samples of a stochastic system)}``."""
     out = {"rows": [], "trajectories": {}, "gt": {}, "timings": {}, "warnings": [], "motions": {}, "samples": {}}
     tests = list(task.test)
     t0 = time.perf_counter()
@@ -517,7 +518,7 @@ def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references:
     samples' histograms, as GENEA's ``hellinger_distance.py`` averages the histograms of a
     condition's numbered runs.  One draw estimates the system's speed distribution with the
     sampling noise of one draw (on these test sets about as large as the target's tolerance,
-    ``scripts/diagnosis_i14/speed_hellinger_noise.py``); K draws with a quarter of its variance.
+    ``scripts/diagnosis_i14/speed_hellinger_noise.py``); K draws with 1/K of its variance.
     Anchors (one motion each) have no such row."""
     from . import realism as R
 
@@ -532,7 +533,7 @@ def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references:
             cand = np.concatenate([fn(Motion(np.asarray(d[r], dtype=float), float(references[r].fps))) for r in rids])
             vals[f"{name}_hellinger_pooled"] = R.hellinger_values(ref, cand)
         ks = (samples or {}).get(cond, {})
-        if rids and all(rid in ks for rid in rids):
+        if all(rid in ks for rid in rids):
             ref = np.concatenate([R.speed(references[r]) for r in rids])
             cand = np.concatenate([R.speed(Motion(np.asarray(x, dtype=float), float(references[r].fps)))
                                    for r in rids for x in ks[r]])

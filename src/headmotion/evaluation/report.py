@@ -283,11 +283,11 @@ def realism_targets(summary: dict[str, dict[str, float]]) -> dict[str, dict[str,
     """Issue 14's targets per condition (None where the reference is missing):
     ``band`` 1.5–4 Hz share within ±0.05 of the ground truth's; ``l1`` spectral L1 ≤ desync's +
     0.1 (desync = the :func:`ruler_anchor`; between the test set's mean band shares when the
-    summary has it, else the per-recording median); ``sd`` every SD ratio in 0.6–1.5; ``speed`` speed Hellinger ≤ desync's + 0.05 (pooled over the test set, as
-    GENEA computes it, when the summary has it — for a stochastic system over its K samples,
-    ``speed_hellinger_pooled_k``, as GENEA averages a condition's runs; else the per-recording
-    median); ``lc``
-    limit-cycle index ≤ the ground truth's + 0.1; ``sat`` saturation ≤ 2 % (None when the system
+    summary has it, else the per-recording median); ``sd`` every SD ratio in 0.6–1.5; ``speed``
+    speed Hellinger ≤ desync's + 0.05 (pooled over the test set, as GENEA computes it, when the
+    summary has it — for a stochastic system over its K samples, ``speed_hellinger_pooled_k``, as
+    GENEA averages a condition's runs; else the per-recording median); ``lc`` limit-cycle index ≤
+    the ground truth's + 0.1; ``sat`` saturation ≤ 2 % (None when the system
     declares no range); ``pause`` pause/speech speed ratio within ±30 % of the ground truth's."""
     gt = summary.get(GROUND_TRUTH, {})
     ds = summary.get(ruler_anchor(summary) or "", {})
