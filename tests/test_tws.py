@@ -426,3 +426,31 @@ def test_pauses_settle_causally_and_stream_equals_offline(name, request, test_re
         np.testing.assert_allclose(np.vstack([p.rotvec for p in parts]), on, rtol=0, atol=1e-12)
     finally:
         model.set_params(blocked=False, idle=0.4, speed_shaping=True)
+
+
+def test_cross_fit_fits_the_post_stages_on_speech_the_model_has_not_seen(train, monkeypatch):
+    """``cross_fit``: the post stages' tables come from synthesis by two half models, each trained on
+    the recordings the other synthesises (disjoint halves covering the training set), so they differ
+    from the own-synthesis tables while the template models themselves are the same; with one
+    recording there is no other half and the two fits agree."""
+    fitted = []
+    real_fit = TwsBasic.fit
+
+    def spy(self, c, **kw):
+        fitted.append(sorted(r.id for r in c))
+        return real_fit(self, c, **kw)
+
+    monkeypatch.setattr(TwsBasic, "fit", spy)
+    a = create("tws-basic", features="f0e", cross_fit=True).fit(train)
+    ids = sorted(r.id for r in train)
+    assert fitted[0] == ids and len(fitted) == 3
+    halves = fitted[1:]
+    assert sorted(sum(halves, [])) == ids and not set(halves[0]) & set(halves[1])
+    b = create("tws-basic", features="f0e").fit(train)
+    assert not np.allclose(a.speed_map_[0], b.speed_map_[0])
+    np.testing.assert_array_equal(a.limits_.a_max, b.limits_.a_max)        # the model itself is the same
+    one = train.subset([0])
+    np.testing.assert_array_equal(create("tws-basic", features="f0e", cross_fit=True).fit(one).speed_map_,
+                                  create("tws-basic", features="f0e").fit(one).speed_map_)
+    with pytest.raises(ParameterError, match="cross_fit"):
+        create("tws-hier", cross_fit="yes").fit(train)

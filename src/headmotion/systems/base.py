@@ -294,6 +294,15 @@ def pair_shortest(predicted, motions) -> tuple[list[np.ndarray], list[np.ndarray
     return pred, targ
 
 
+def cross_fit_groups(recs) -> np.ndarray:
+    """Two halves of the recordings ``recs`` for a cross-fitted calibration (group 0 or 1 per
+    recording): alternating by duration, so that the halves carry similar amounts of speech."""
+    order = np.argsort([-len(r.motion) / r.motion.fps for r in recs], kind="stable")
+    group = np.zeros(len(recs), dtype=int)
+    group[order[1::2]] = 1
+    return group
+
+
 def system_class(name: str) -> type:
     """The class registered under ``name``."""
     if name in SYSTEMS:

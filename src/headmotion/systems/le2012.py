@@ -118,7 +118,7 @@ from ..models.gmm import GMMRegression
 from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec, pitch_yaw_roll_to_rotvec_one, rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
-from .base import CAUSAL, Synthesizer, pair_shortest
+from .base import CAUSAL, Synthesizer, cross_fit_groups, pair_shortest
 from .tws.features import make_feature_config
 from .tws.generator import LIVE_FEATURES, LiveFeatures
 
@@ -319,9 +319,7 @@ class Le2012(Synthesizer):
         flags = self._settle()
         if not self.cross_fit or len(recs) < 2:
             return [self._raw_synthesis(r.audio, seed=k, flags=flags) for k, r in enumerate(recs)]
-        order = np.argsort([-len(r.motion) / r.motion.fps for r in recs], kind="stable")
-        group = np.zeros(len(recs), dtype=int)
-        group[order[1::2]] = 1                       # alternate by length: halves of similar duration
+        group = cross_fit_groups(recs)               # alternate by length: halves of similar duration
         params = {**self.get_params(), "post_restore": False, "idle": None, "cross_fit": False}
         raws: list = [None] * len(recs)
         for g in (0, 1):
