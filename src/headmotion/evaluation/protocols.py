@@ -527,17 +527,16 @@ def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references:
         rids = [rid for rid in d if rid in references]
         if not rids:
             continue
-        vals = {}
+        vals, refs = {}, {}
         for name, fn in (("speed", R.speed), ("accel", R.acceleration)):
-            ref = np.concatenate([fn(references[r]) for r in rids])
+            refs[name] = np.concatenate([fn(references[r]) for r in rids])
             cand = np.concatenate([fn(Motion(np.asarray(d[r], dtype=float), float(references[r].fps))) for r in rids])
-            vals[f"{name}_hellinger_pooled"] = R.hellinger_values(ref, cand)
+            vals[f"{name}_hellinger_pooled"] = R.hellinger_values(refs[name], cand)
         ks = (samples or {}).get(cond, {})
         if all(rid in ks for rid in rids):
-            ref = np.concatenate([R.speed(references[r]) for r in rids])
             cand = np.concatenate([R.speed(Motion(np.asarray(x, dtype=float), float(references[r].fps)))
                                    for r in rids for x in ks[r]])
-            vals["speed_hellinger_pooled_k"] = R.hellinger_values(ref, cand)
+            vals["speed_hellinger_pooled_k"] = R.hellinger_values(refs["speed"], cand)
         vals["spectral_l1_pooled"] = R.pooled_spectral_distance(
             [references[r] for r in rids], [Motion(np.asarray(d[r], dtype=float), float(references[r].fps)) for r in rids])
         out += _rows(cond, "ALL", vals)

@@ -303,9 +303,10 @@ def realism_targets(summary: dict[str, dict[str, float]]) -> dict[str, dict[str,
         # GENEA's form (one histogram per condition over the test set) when evaluated, over all K
         # samples of a stochastic system (``speed_hellinger_pooled_k``); else the per-recording median
         key = "speed_hellinger_pooled" if np.isfinite(d.get("speed_hellinger_pooled", np.nan)) else "speed_hellinger"
-        hs, hsd = d.get(key, np.nan), ds.get(key, np.nan)
-        if np.isfinite(d.get("speed_hellinger_pooled_k", np.nan)):
-            hs = d["speed_hellinger_pooled_k"]
+        hsd = ds.get(key, np.nan)
+        hs = d.get("speed_hellinger_pooled_k", np.nan)
+        if not np.isfinite(hs):
+            hs = d.get(key, np.nan)
         lc, lcg = d.get("limit_cycle", np.nan), gt.get("limit_cycle", np.nan)
         pr, prg = d.get("pause_ratio", np.nan), gt.get("pause_ratio", np.nan)
         sds = [d.get(f"sd_ratio_{a}", np.nan) for a in ("pitch", "yaw", "roll")]

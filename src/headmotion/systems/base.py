@@ -303,6 +303,25 @@ def cross_fit_groups(recs) -> np.ndarray:
     return group
 
 
+def cross_fitted(system: "Synthesizer", recs, overrides: dict, synthesize, *, sample_rate=None) -> list:
+    """The ``cross_fit`` calibration synthesis of le2012 and the template systems:
+    ``synthesize(half, recording, k)`` for every recording ``k`` of ``recs``, ``half`` a model of
+    ``system``'s class and parameters (with ``overrides``, e.g. its post stages off) trained on the
+    *other* half of ``recs`` (:func:`cross_fit_groups`) — speech that model has not seen, as at
+    synthesis.  The corpora of the halves take ``sample_rate`` (default: the first recording's)."""
+    from ..corpus import Corpus
+
+    group = cross_fit_groups(recs)
+    params = {**system.get_params(), **overrides}
+    sr = int(sample_rate or recs[0].audio.sample_rate)
+    out: list = [None] * len(recs)
+    for g in (0, 1):
+        half = type(system)(**params).fit(Corpus([r for r, k in zip(recs, group) if k != g], sample_rate=sr))
+        for i in np.flatnonzero(group == g):
+            out[i] = synthesize(half, recs[i], int(i))
+    return out
+
+
 def system_class(name: str) -> type:
     """The class registered under ``name``."""
     if name in SYSTEMS:
@@ -324,5 +343,5 @@ def load_model(path) -> Synthesizer:
     return system_class(system)._from_state(path, config, arrays)
 
 
-__all__ = ["Synthesizer", "MotionStream", "SYSTEMS", "system_class", "create", "load_model", "pair_shortest", "CAUSAL", "EMBEDDING",
+__all__ = ["Synthesizer", "MotionStream", "SYSTEMS", "system_class", "create", "load_model", "pair_shortest", "cross_fitted", "CAUSAL", "EMBEDDING",
            "NEEDS_OTHER_SPEAKERS", "STREAMING", "STOCHASTIC", "check_stochastic"]

@@ -118,7 +118,7 @@ from ..models.gmm import GMMRegression
 from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec, pitch_yaw_roll_to_rotvec_one, rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
-from .base import CAUSAL, Synthesizer, cross_fit_groups, pair_shortest
+from .base import CAUSAL, Synthesizer, cross_fitted, pair_shortest
 from .tws.features import make_feature_config
 from .tws.generator import LIVE_FEATURES, LiveFeatures
 
@@ -314,20 +314,12 @@ class Le2012(Synthesizer):
         at least two recordings it is made by a model of the same parameters trained on the other
         half of the recordings — speech the GMMs have not seen, as at synthesis (module
         docstring); otherwise by this model."""
-        from ..corpus import Corpus
-
         flags = self._settle()
         if not self.cross_fit or len(recs) < 2:
             return [self._raw_synthesis(r.audio, seed=k, flags=flags) for k, r in enumerate(recs)]
-        group = cross_fit_groups(recs)               # alternate by length: halves of similar duration
-        params = {**self.get_params(), "post_restore": False, "idle": None, "cross_fit": False}
-        raws: list = [None] * len(recs)
-        for g in (0, 1):
-            train = [r for r, k in zip(recs, group) if k != g]
-            half = Le2012(**params).fit(Corpus(train, sample_rate=int(sample_rate or recs[0].audio.sample_rate)))
-            for i in np.flatnonzero(group == g):
-                raws[i] = half._raw_synthesis(recs[i].audio, seed=int(i), flags=flags)
-        return raws
+        return cross_fitted(self, recs, {"post_restore": False, "idle": None, "cross_fit": False},
+                            lambda half, r, k: half._raw_synthesis(r.audio, seed=k, flags=flags),
+                            sample_rate=sample_rate)
 
     def _calibrate_idle(self, masks, raws, motions) -> float:
         """``idle="auto"``: the grid value whose synthesis of the training speech (the ascent

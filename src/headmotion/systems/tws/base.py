@@ -65,7 +65,7 @@ Product defaults and the thesis's literal behaviour (issue 14; measured in
   Model files without the gains load with it off.
 * ``cross_fit`` (ninth session; default True for tws-hier, False for tws-basic) — both stages above
   are fitted on the synthesis of each training recording by a model of the same parameters trained
-  on the *other* half of the recordings (:func:`headmotion.systems.base.cross_fit_groups`, as
+  on the *other* half of the recordings (:func:`headmotion.systems.base.cross_fitted`, as
   le2012's ``cross_fit``): speech the template models have not seen, as at synthesis.  Own-synthesis
   tables left tws-hier ~10 % slower than the recorded heads at every speed quantile on held-out
   speakers (both video seeds).  Paired runs (``docs/eval/s9_tws_cross_*``): tws-hier pooled speed
@@ -89,7 +89,7 @@ from ...motion import speed_shaping
 from ...motion.segmentation import min_segment_frames
 from ...rotations import rotvec_to_pitch_yaw_roll
 from ...types import Audio, Motion
-from ..base import CAUSAL, Synthesizer, check_stochastic, cross_fit_groups, pair_shortest
+from ..base import CAUSAL, Synthesizer, check_stochastic, cross_fitted, pair_shortest
 from .features import extract_blocked, make_feature_config
 from .generator import LIVE_FEATURES, Generator, TwsStream
 from .limits import Limits
@@ -304,22 +304,14 @@ class TwsBase(Synthesizer):
     def _cross_fit_synthesis(self, recs, motions) -> tuple[list[np.ndarray], list[np.ndarray]]:
         """``cross_fit``: the synthesis the post stages are fitted on, recording k (seed k) made by a
         model of the same parameters (without the stages) trained on the *other* half of the
-        recordings (:func:`~headmotion.systems.base.cross_fit_groups`) — speech its template
+        recordings (:func:`~headmotion.systems.base.cross_fitted`) — speech its template
         models have not seen, as at synthesis; paired with ``motions`` as :meth:`_own_synthesis`."""
         import warnings
 
-        from ...corpus import Corpus
-
-        group = cross_fit_groups(recs)
-        params = {**self.get_params(), "speed_shaping": False, "slow_band_restore": False, "cross_fit": False}
-        synth: list = [None] * len(recs)
-        for g in (0, 1):
-            train = [r for r, k in zip(recs, group) if k != g]
-            with warnings.catch_warnings():   # a half has fewer change points per cluster: said by the full fit
-                warnings.simplefilter("ignore", UserWarning)
-                half = type(self)(**params).fit(Corpus(train, sample_rate=int(recs[0].audio.sample_rate)))
-            for i in np.flatnonzero(group == g):
-                synth[i] = half._predict(recs[i].audio, seed=int(i)).rotvec
+        with warnings.catch_warnings():   # a half has fewer change points per cluster: said by the full fit
+            warnings.simplefilter("ignore", UserWarning)
+            synth = cross_fitted(self, recs, {"speed_shaping": False, "slow_band_restore": False, "cross_fit": False},
+                                 lambda half, r, k: half._predict(r.audio, seed=k).rotvec)
         return pair_shortest(synth, motions)
 
     # -- synthesis ----------------------------------------------------------------------------
