@@ -455,3 +455,58 @@ def test_cross_fit_fits_the_post_stages_on_speech_the_model_has_not_seen(train, 
                                   create("tws-basic", features="f0e").fit(one).speed_map_)
     with pytest.raises(ParameterError, match="cross_fit"):
         create("tws-hier", cross_fit="yes").fit(train)
+
+
+def test_amplitude_gains_known_answer():
+    """Known answer: a synthesis twice the heads' size about each recording's own mean (whatever
+    the offsets) gets gains 1/2; a synthesis with half the size 2; the cap bounds both ways; an
+    axis that does not move keeps gain 1."""
+    from headmotion.systems.tws.base import amplitude_gains
+
+    rng = np.random.default_rng(0)
+    heads = [rng.normal(size=(500, 3)), 3.0 + rng.normal(size=(800, 3))]
+    synth = [2.0 * (h - h.mean(axis=0)) + k for k, h in enumerate(heads)]
+    np.testing.assert_allclose(amplitude_gains(synth, heads), 0.5)
+    np.testing.assert_allclose(amplitude_gains(heads, synth), 2.0)
+    np.testing.assert_allclose(amplitude_gains([10 * s for s in synth], heads, cap=4.0), 0.25)
+    still = [np.zeros((500, 3)), np.ones((800, 3))]
+    np.testing.assert_allclose(amplitude_gains(still, heads), 1.0)
+
+
+def test_amplitude_match_sets_the_training_heads_sd_and_streams(train, test_rec):
+    """``amplitude_match``: the finished synthesis of the training speech (the calibration set,
+    here the model's own synthesis) has the training heads' SD per axis to a few per cent, where
+    the plain system's differs; the stream still gives the offline frames; the gains are stored
+    in the model file; a bad value is refused."""
+    import tempfile
+
+    from headmotion.systems.base import load_model
+
+    on = create("tws-basic", features="f0e").fit(train)   # on by default
+    off = create("tws-basic", features="f0e", amplitude_match=False).fit(train)
+    assert on.amplitude_gains_.shape == (3,) and off.amplitude_gains_ is None
+
+    def sd_ratio(model):
+        syn = np.vstack([model.predict(r.audio, seed=k).rotvec - model.predict(r.audio, seed=k).rotvec.mean(0)
+                         for k, r in enumerate(train)])
+        heads = np.vstack([r.motion.rotvec - r.motion.rotvec.mean(0) for r in train])
+        return syn.std(axis=0) / heads.std(axis=0)
+
+    r_on, r_off = sd_ratio(on), sd_ratio(off)
+    np.testing.assert_allclose(r_on, 1.0, atol=0.06)
+    assert np.max(np.abs(r_off - 1.0)) > np.max(np.abs(r_on - 1.0))
+    audio = test_rec.audio.slice_seconds(0, 6.0)
+    on.set_params(blocked=True)  # "f0e" features: the stream computes them block by block
+    offline = on.predict(audio, seed=2).rotvec
+    st = on.stream(seed=2)
+    parts = [st.push(audio.samples[i:i + 555]) for i in range(0, len(audio.samples), 555)]
+    parts.append(st.flush())
+    np.testing.assert_allclose(np.vstack([p.rotvec for p in parts]), offline, rtol=0, atol=1e-12)
+    with tempfile.TemporaryDirectory() as d:
+        f = f"{d}/m.hmz"
+        on.save(f)
+        again = load_model(f)
+        np.testing.assert_array_equal(again.amplitude_gains_, on.amplitude_gains_)
+        np.testing.assert_allclose(again.predict(audio, seed=2).rotvec, offline, rtol=0, atol=1e-12)
+    with pytest.raises(ParameterError, match="amplitude_match"):
+        create("tws-basic", amplitude_match="yes").fit(train)

@@ -294,24 +294,35 @@ def pair_shortest(predicted, motions) -> tuple[list[np.ndarray], list[np.ndarray
     return pred, targ
 
 
-def cross_fit_groups(recs) -> np.ndarray:
+def cross_fit_groups(recs, *, by_speaker: bool = False) -> np.ndarray:
     """Two halves of the recordings ``recs`` for a cross-fitted calibration (group 0 or 1 per
-    recording): alternating by duration, so that the halves carry similar amounts of speech."""
-    order = np.argsort([-len(r.motion) / r.motion.fps for r in recs], kind="stable")
+    recording): alternating by duration, so that the halves carry similar amounts of speech.
+    With ``by_speaker`` (and at least two speakers) whole speakers alternate, by their total
+    duration, so that each half model meets only speakers it was not trained on."""
+    dur = np.array([len(r.motion) / r.motion.fps for r in recs])
+    speakers = sorted({r.speaker for r in recs})
+    if by_speaker and len(speakers) >= 2:
+        total = {s: dur[[r.speaker == s for r in recs]].sum() for s in speakers}
+        order = sorted(speakers, key=lambda s: -total[s])   # stable: ties keep the name order
+        half = {s: i % 2 for i, s in enumerate(order)}
+        return np.array([half[r.speaker] for r in recs], dtype=int)
+    order = np.argsort(-dur, kind="stable")
     group = np.zeros(len(recs), dtype=int)
     group[order[1::2]] = 1
     return group
 
 
-def cross_fitted(system: "Synthesizer", recs, overrides: dict, synthesize, *, sample_rate=None) -> list:
-    """The ``cross_fit`` calibration synthesis of le2012 and the template systems:
-    ``synthesize(half, recording, k)`` for every recording ``k`` of ``recs``, ``half`` a model of
-    ``system``'s class and parameters (with ``overrides``, e.g. its post stages off) trained on the
-    *other* half of ``recs`` (:func:`cross_fit_groups`) — speech that model has not seen, as at
-    synthesis.  The corpora of the halves take ``sample_rate`` (default: the first recording's)."""
+def cross_fitted(system: "Synthesizer", recs, overrides: dict, synthesize, *, sample_rate=None,
+                 by_speaker: bool = False) -> list:
+    """The ``cross_fit`` calibration synthesis of le2012, the template systems and the DNN
+    systems: ``synthesize(half, recording, k)`` for every recording ``k`` of ``recs``, ``half`` a
+    model of ``system``'s class and parameters (with ``overrides``, e.g. its post stages off)
+    trained on the *other* half of ``recs`` (:func:`cross_fit_groups`, ``by_speaker`` as there) —
+    speech that model has not seen, as at synthesis.  The corpora of the halves take
+    ``sample_rate`` (default: the first recording's)."""
     from ..corpus import Corpus
 
-    group = cross_fit_groups(recs)
+    group = cross_fit_groups(recs, by_speaker=by_speaker)
     params = {**system.get_params(), **overrides}
     sr = int(sample_rate or recs[0].audio.sample_rate)
     out: list = [None] * len(recs)

@@ -229,7 +229,7 @@ from ..types import Audio, FeatureTrack, Motion
 from ..motion import speed_shaping
 from ..motion.range_limit import range_from_training
 from . import dnn_post
-from .base import EMBEDDING, STREAMING, Synthesizer
+from .base import EMBEDDING, STREAMING, Synthesizer, cross_fitted, pair_shortest
 from .dnn_stream import DnnPostStages, DnnStream, frame_energy_db
 
 MODEL_FPS = 100.0
@@ -338,7 +338,7 @@ class _DnnSystem(Synthesizer):
                  n_threads: int | None = 1, variance_restore: bool = True, restore_bands: bool = True,
                  drift_share: float = DEFAULT_DRIFT_SHARE, drift_tau_s: float = DEFAULT_DRIFT_TAU_S,
                  slow_band_gain: float = DEFAULT_SLOW_BAND_GAIN, speed_shaping: bool = True, idle: float | None = DNN_IDLE,
-                 range_limit: bool = True, seed: int | None = 0):
+                 range_limit: bool = True, cross_fit: bool = False, seed: int | None = 0):
         self.features = features
         self.feature_params = feature_params
         self.alpha = alpha
@@ -374,6 +374,7 @@ class _DnnSystem(Synthesizer):
         self.speed_shaping = speed_shaping
         self.idle = idle
         self.range_limit = range_limit
+        self.cross_fit = cross_fit
         self.seed = seed
 
     # -- parameters ---------------------------------------------------------------------------
@@ -433,7 +434,7 @@ class _DnnSystem(Synthesizer):
         if self.ae_activation not in ("relu", "tanh", "sigmoid"):
             raise ParameterError(
                 f"the 'ae_activation' parameter of {self.name} must be 'relu', 'tanh' or 'sigmoid'; got {self.ae_activation!r}")
-        for n in ("variance_restore", "restore_bands", "speed_shaping", "range_limit"):
+        for n in ("variance_restore", "restore_bands", "speed_shaping", "range_limit", "cross_fit"):
             if not isinstance(getattr(self, n), (bool, np.bool_)):
                 raise ParameterError(
                     f"the {n!r} parameter of {self.name} must be True or False; got {getattr(self, n)!r}")
@@ -570,6 +571,9 @@ class _DnnSystem(Synthesizer):
         self.regressor_ = reg
         self.postfilter_ = pf
         self.speed_map_ = self._fit_speed_map(hraw, hy)  # needs the stages above
+        fit_recs = [r for r in corpus if split[r.id] != "test"]
+        if self.cross_fit and self.speed_shaping and len(fit_recs) >= 2:
+            self.speed_map_ = self._cross_fit_speed_map(fit_recs)
         fps_list = sorted({float(r.motion.fps) for r in train_recs})
         self.output_fps_ = fps_list[0] if len(fps_list) == 1 else float(self.model_fps)  # informational
         self.splits_ = {r.id: split[r.id] for r in corpus}
@@ -727,6 +731,21 @@ class _DnnSystem(Synthesizer):
             targ.append(np.asarray(self.motion_norm_.inverse_transform(t), dtype=np.float64))
         return speed_shaping.speed_map(pred, targ, lag=self.shaping_lag, max_gain=speed_shaping.SPEED_MAX_GAIN)
 
+    def _cross_fit_speed_map(self, recs) -> np.ndarray:
+        """``cross_fit``: the speed map fitted on the post stage's output (no pauses, no range
+        limit, as :meth:`_fit_speed_map`) of two half models of the same parameters, each trained
+        on the speakers of the other half (:func:`~headmotion.systems.base.cross_fitted` with
+        ``by_speaker``; recordings when there is one speaker), against the recorded heads at the
+        model rate — new speakers, as at synthesis."""
+        mfps = float(self.model_fps)
+        off = {"speed_shaping": False, "idle": None, "range_limit": False, "cross_fit": False}
+        pred = cross_fitted(self, recs, off, lambda half, r, k: half._predict(r.audio, seed=k).rotvec,
+                            by_speaker=True)
+        targ = [np.asarray((r.motion if abs(r.motion.fps - mfps) < 1e-9 else r.motion.resample(mfps)).rotvec)
+                for r in recs]
+        pred, targ = pair_shortest(pred, targ)
+        return speed_shaping.speed_map(pred, targ, lag=self.shaping_lag, max_gain=speed_shaping.SPEED_MAX_GAIN)
+
     @property
     def shaping_lag(self) -> int:
         """The speed shaper's window in frames at the model rate."""
@@ -876,6 +895,7 @@ class _DnnSystem(Synthesizer):
         if "speed_shaping" not in params:  # files written before the band restoration and the shaper
             params.update(restore_bands=False, speed_shaping=False)
         params.setdefault("range_limit", False)  # files written before the range limit
+        params.setdefault("cross_fit", False)  # files written before it: the map from the validation frames
         for k in self._param_names():
             v = params.get(k, defaults[k])
             setattr(self, k, tuple(v) if k.endswith("hidden") and v is not None else v)

@@ -75,6 +75,25 @@ Product defaults and the thesis's literal behaviour (issue 14; measured in
   speed H 0.043 → 0.048 / 0.029 → 0.045 on video, 0.098 → 0.090 on ZEGGS — all targets met either
   way, so it stays off there.  Costs two more fits at training; model files without the parameter
   load with it off (their tables are stored).
+* ``amplitude_match=True`` (tenth session) — after the pause settling and before the speed shaper,
+  each axis is scaled about the training mean pose by a gain (``amplitude_gains_``, bounded to
+  [1/2, 2]) that gives the finished synthesis of the training speech — the calibration synthesis
+  above, cross-fitted where ``cross_fit`` is on — the training heads' SD (pooled within
+  recordings; :func:`amplitude_gains`).  The shaper's faster moves widen the output by 10–15 %,
+  so the gains are corrected once by the ratio the shaped and band-restored output still has, and
+  the shaper's and band stage's tables refitted on the corrected scale.  Warped templates set the
+  amplitude from sampled segment swings; chained independent swings wander further than the
+  heads do: on the ZEGGS take tws-hier's synthesis of speech its models had not seen was
+  1.1–1.3× the heads' SD after shaping, held out 1.48 / 1.35 / 1.51 (bar 1.5).  Scaling *after*
+  the shaper instead would slow the motion (speed Hellinger 0.109 → 0.129 at 0.9×, eighth
+  session); before it the shaper restores the speeds.  Paired runs (``docs/eval/s10_amp_*``,
+  ``headmotion evaluate … --systems "tws-hier,tws-hier[amplitude_match=false],…"``): tws-hier
+  ZEGGS SD 1.48/1.35/1.51 → 1.27/1.25/1.42 (6 → 7 of 7), video pooled speed H over 4 samples
+  0.044 → 0.041 / 0.049 → 0.042, pooled L1 0.179 → 0.189 / 0.201 → 0.179; tws-basic pooled L1
+  0.078 → 0.030 / 0.186 → 0.140 / ZEGGS 0.063 → 0.023, speed H 0.043 → 0.040 / 0.029 → 0.033 /
+  0.098 → 0.095, ZEGGS yaw SD 1.13 → 1.41 — every target met either way on every set.  No coupling
+  change (pooled FCCA p tws-basic 0.047 → 0.030 on video seed 0, else as before).  Model files
+  without the gains load with it off.
 """
 
 from __future__ import annotations
@@ -84,7 +103,7 @@ import numpy as np
 from ...align import n_frames as _n_frames
 from ...errors import ParameterError
 from ...features import ANALYSIS_RATE
-from ...motion.control import mean_pose_of
+from ...motion.control import apply_gain_angles, mean_pose_of
 from ...motion import speed_shaping
 from ...motion.segmentation import min_segment_frames
 from ...rotations import rotvec_to_pitch_yaw_roll
@@ -102,6 +121,23 @@ from .vectors import collect
 SPEED_MAX_GAIN = 2.0
 #: largest slow-band gain of ``slow_band_restore``
 SLOW_BAND_CAP = 2.0
+#: ``amplitude_match``'s gains lie in [1 / AMPLITUDE_CAP, AMPLITUDE_CAP]
+AMPLITUDE_CAP = 2.0
+
+
+def amplitude_gains(synthesis, heads, *, cap: float = AMPLITUDE_CAP) -> np.ndarray:
+    """Per-axis gains ``(D,)`` of ``amplitude_match``: the heads' SD over the synthesis's, both
+    pooled within recordings (each recording about its own mean, weighted by its length), bounded
+    to [1 / ``cap``, ``cap``].  ``synthesis`` and ``heads`` are lists of ``(T_k, D)`` arrays paired
+    by recording."""
+    def pooled_var(xs):
+        xs = [np.asarray(x, dtype=np.float64) for x in xs if len(x) > 1]
+        n = sum(len(x) for x in xs)
+        return sum(((x - x.mean(axis=0)) ** 2).sum(axis=0) for x in xs) / max(n, 1)
+
+    vs, vh = pooled_var(synthesis), pooled_var(heads)
+    g = np.where(vs > 1e-18, np.sqrt(vh / np.maximum(vs, 1e-18)), 1.0)
+    return np.clip(g, 1.0 / float(cap), float(cap))
 
 
 def slow_band_bank(var_synthesis, var_heads, *, cap: float = SLOW_BAND_CAP) -> np.ndarray:
@@ -169,6 +205,9 @@ class TwsBase(Synthesizer):
         if not isinstance(self.slow_band_restore, (bool, np.bool_)):
             raise ParameterError(f"the 'slow_band_restore' parameter of {self.name} must be True or False; "
                                  f"got {self.slow_band_restore!r}")
+        if not isinstance(getattr(self, "amplitude_match", False), (bool, np.bool_)):
+            raise ParameterError(f"the 'amplitude_match' parameter of {self.name} must be True or False; "
+                                 f"got {self.amplitude_match!r}")
         if not isinstance(self.cross_fit, (bool, np.bool_)):
             raise ParameterError(f"the 'cross_fit' parameter of {self.name} must be True or False; "
                                  f"got {self.cross_fit!r}")
@@ -273,8 +312,9 @@ class TwsBase(Synthesizer):
         self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
         self.speed_map_ = None
         self.slow_band_gains_ = None
+        self.amplitude_gains_ = None
         self.fitted_ = True
-        if self.speed_shaping or self.slow_band_restore:
+        if self.speed_shaping or self.slow_band_restore or self.amplitude_match:
             self._fit_post_stages(kept, motions)
         if progress:
             progress(total, total, "done")
@@ -283,14 +323,29 @@ class TwsBase(Synthesizer):
     def _fit_post_stages(self, recs, motions) -> None:
         """The post stages' tables, from this system's synthesis of the speech of the training
         recordings ``recs`` (recording k with seed k, so that they are not one seed's draws; made
-        while ``speed_map_`` and ``slow_band_gains_`` are None, i.e. without either stage) against
-        their motion ``motions`` (rotation vectors at ``fps_``): the speed shaper's map
-        (``speed_shaping``), then the slow band's gains (``slow_band_restore``) on that synthesis
-        shaped as synthesis will shape it."""
+        while the tables are None, i.e. without any post stage) against their motion ``motions``
+        (rotation vectors at ``fps_``): the per-axis amplitude gains (``amplitude_match``), then
+        the speed shaper's map (``speed_shaping``) on that synthesis scaled by them, then the slow
+        band's gains (``slow_band_restore``) on it shaped as synthesis will shape it.  The shaper's
+        faster moves widen the output (its SD by 10–15 % on the ZEGGS folds), so the amplitude
+        gains are corrected once by the ratio the finished output still has and the later tables
+        refitted."""
         if self.cross_fit and len(recs) >= 2:
             pred, targ = self._cross_fit_synthesis(recs, motions)
         else:
             pred, targ = self._own_synthesis(recs, motions)
+        if not self.amplitude_match:
+            self._fit_shaping_tables(pred, targ)
+            return
+        gains = amplitude_gains(pred, targ)
+        for _ in range(2):
+            self.amplitude_gains_ = gains
+            out = self._fit_shaping_tables([apply_gain_angles(x, self.limits_.mean, gains) for x in pred], targ)
+            gains = np.clip(gains * amplitude_gains(out, targ), 1.0 / AMPLITUDE_CAP, AMPLITUDE_CAP)
+
+    def _fit_shaping_tables(self, pred, targ) -> list[np.ndarray]:
+        """The speed map and the slow band's gains fitted on ``pred`` against ``targ`` (as the
+        parameters ask); returns ``pred`` after both stages, as synthesis will give it."""
         if self.speed_shaping:
             self.speed_map_ = speed_shaping.speed_map(pred, targ, lag=speed_shaping.shaping_lag(self.fps_),
                                                       max_gain=SPEED_MAX_GAIN)
@@ -300,6 +355,8 @@ class TwsBase(Synthesizer):
 
             self.slow_band_gains_ = slow_band_bank(band_variance(pred, fps=self.fps_),
                                                    band_variance(targ, fps=self.fps_))
+            pred = [slow_band_post(self.slow_band_gains_, self.fps_).push(x) for x in pred]
+        return pred
 
     def _cross_fit_synthesis(self, recs, motions) -> tuple[list[np.ndarray], list[np.ndarray]]:
         """``cross_fit``: the synthesis the post stages are fitted on, recording k (seed k) made by a
@@ -310,7 +367,8 @@ class TwsBase(Synthesizer):
 
         with warnings.catch_warnings():   # a half has fewer change points per cluster: said by the full fit
             warnings.simplefilter("ignore", UserWarning)
-            synth = cross_fitted(self, recs, {"speed_shaping": False, "slow_band_restore": False, "cross_fit": False},
+            synth = cross_fitted(self, recs, {"speed_shaping": False, "slow_band_restore": False,
+                                                    "amplitude_match": False, "cross_fit": False},
                                  lambda half, r, k: half._predict(r.audio, seed=k).rotvec)
         return pair_shortest(synth, motions)
 
@@ -367,6 +425,8 @@ class TwsBase(Synthesizer):
             arrays["speed_map"] = np.asarray(self.speed_map_, dtype=np.float64)
         if getattr(self, "slow_band_gains_", None) is not None:
             arrays["slow_band_gains"] = np.asarray(self.slow_band_gains_, dtype=np.float64)
+        if getattr(self, "amplitude_gains_", None) is not None:
+            arrays["amplitude_gains"] = np.asarray(self.amplitude_gains_, dtype=np.float64)
         return cfg, arrays
 
     def _set_state(self, config, arrays):
@@ -382,6 +442,7 @@ class TwsBase(Synthesizer):
         params.setdefault("speed_shaping", False)  # older files: no speed map
         params.setdefault("slow_band_restore", False)  # older files: no slow-band gains
         params.setdefault("cross_fit", False)  # older files: tables from their own synthesis
+        params.setdefault("amplitude_match", False)  # older files: no amplitude gains
         self.__init__(**params)
         self.fps_ = float(config["fps"])
         self.sample_rate_ = int(config["sample_rate"])
@@ -394,6 +455,8 @@ class TwsBase(Synthesizer):
         self.speed_map_ = np.asarray(arrays["speed_map"], dtype=np.float64) if "speed_map" in arrays else None
         self.slow_band_gains_ = (np.asarray(arrays["slow_band_gains"], dtype=np.float64)
                                  if "slow_band_gains" in arrays else None)
+        self.amplitude_gains_ = (np.asarray(arrays["amplitude_gains"], dtype=np.float64)
+                                 if "amplitude_gains" in arrays else None)
         self._load_model_state(config, arrays)
 
 

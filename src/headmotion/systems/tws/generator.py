@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...align import n_frames as _n_frames
+from ...motion.control import apply_gain_angles
 from ...motion.pauses import CausalPauseWeight, PauseSettler
 from ...motion.speed_shaping import product_shaper
 from ...motion.templates import template_shape
@@ -122,6 +123,10 @@ class Generator:
             from .base import slow_band_post
 
             self.post = slow_band_post(gains, fps)
+        #: per-axis amplitude gains about the mean pose after the settling (``amplitude_match``)
+        amp = getattr(system, "amplitude_gains_", None)
+        self.amp = (np.asarray(amp, dtype=np.float64) if getattr(system, "amplitude_match", False) and amp is not None
+                    else None)
         if det is not None and idle < 1.0:
             self.detector = det.start()
             self.weigher = CausalPauseWeight(fps=fps)
@@ -222,7 +227,8 @@ class Generator:
 
     @property
     def _stateful(self) -> bool:
-        return self.detector is not None or self.shaper is not None or self.post is not None
+        return (self.detector is not None or self.shaper is not None or self.post is not None
+                or self.amp is not None)
 
     def render_settled(self, a: int, b: int) -> np.ndarray:
         """Frames [a, b) after settling in pauses and speed shaping; calls must cover the utterance
@@ -236,6 +242,8 @@ class Generator:
         self.settled = b
         if self.detector is not None:
             x = self.settler.push(x, self.weigher.push(self.detector.push(self.F[a:b])))
+        if self.amp is not None:
+            x = apply_gain_angles(x, self.sys.limits_.mean, self.amp)
         if self.shaper is not None:
             x = self.shaper.push(x)
         return x if self.post is None else self.post.push(x)
@@ -251,6 +259,8 @@ class Generator:
         self.settled = a + 1
         if self.detector is not None:
             x = self._settle_one(a, x)
+        if self.amp is not None:
+            x = apply_gain_angles(np.asarray(x, dtype=np.float64), self.sys.limits_.mean, self.amp).tolist()
         if self.shaper is None and self.post is None:
             return x
         y = np.asarray(x, dtype=np.float64)[None]

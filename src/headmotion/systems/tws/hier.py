@@ -130,7 +130,10 @@ class TwsHier(TwsBase):
     slow_band_restore : move the output's share of slow (< 0.5 Hz) posture motion up to the training heads',
         keeping its variance
         (True; False = the thesis; see :mod:`headmotion.systems.tws.base`)
-    cross_fit : fit those two stages on synthesis of training speech by models trained on the other
+    amplitude_match : scale the output about the mean pose so that each axis's SD is the training
+        heads' (per-axis gains measured on the synthesis the post stages are fitted on; True; see
+        :mod:`headmotion.systems.tws.base`)
+    cross_fit : fit the post stages on synthesis of training speech by models trained on the other
         half of the recordings (True; see :mod:`headmotion.systems.tws.base`)
     feature_block, feature_context, seed, blocked : see :class:`~headmotion.systems.tws.basic.TwsBasic`
     n_init : int, k-means random restarts
@@ -146,7 +149,7 @@ class TwsHier(TwsBase):
                  n_states: int = 5, hmm_iter: int = 10, lm_weight: float = 1.0, method: str = "ml",
                  stochastic: str = "params", min_swing_deg: float = 0.5,
                  soft_limit: bool = True, idle: float = 0.4, log_params: bool = False, speed_shaping: bool = True, cross_fit: bool = True,
-                 slow_band_restore: bool = True, feature_block: int = 50,
+                 slow_band_restore: bool = True, amplitude_match: bool = True, feature_block: int = 50,
                  feature_context: int = 20, seed: int | None = 0, n_init: int = 10, random_state: int = 0,
                  blocked: bool = False):
         self.features = features
@@ -164,6 +167,7 @@ class TwsHier(TwsBase):
         self.speed_shaping = speed_shaping
         self.cross_fit = cross_fit
         self.slow_band_restore = slow_band_restore
+        self.amplitude_match = amplitude_match
         self.feature_block = feature_block
         self.feature_context = feature_context
         self.seed = seed
