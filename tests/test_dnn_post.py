@@ -152,3 +152,63 @@ def test_seeds_differ_same_seed_same_and_pauses_slow_down(fitted, tmp_path):
     inside = np.flatnonzero(w[1:] == 1.0) + 1
     assert len(inside) > 0
     assert np.abs(np.diff(still, axis=0))[inside - 1].max() < 1e-12
+
+
+def test_cross_fit_groups_by_speaker_known_answer():
+    """Whole speakers alternate by total duration (A 30 s, B 20 s, C 10 s → A, C in one half and B
+    in the other), so no speaker is in both halves; with one speaker the recordings alternate."""
+    from types import SimpleNamespace as NS
+
+    from headmotion.systems.base import cross_fit_groups
+
+    def rec(spk, s):
+        return NS(speaker=spk, motion=_Len(int(s * 10), 10.0))
+
+    recs = [rec("A", 20), rec("B", 12), rec("C", 10), rec("A", 10), rec("B", 8)]
+    g = cross_fit_groups(recs, by_speaker=True)
+    assert list(g) == [0, 1, 0, 0, 1]
+    assert list(cross_fit_groups(recs)) == [0, 1, 0, 1, 0]   # by duration: 20, 12, 10, 10, 8
+    same = [rec("A", s) for s in (5, 9, 7)]
+    np.testing.assert_array_equal(cross_fit_groups(same, by_speaker=True), cross_fit_groups(same))
+
+
+class _Len:
+    def __init__(self, n, fps):
+        self.n, self.fps = n, fps
+
+    def __len__(self):
+        return self.n
+
+
+def test_cross_fit_fits_the_speed_map_on_speakers_the_half_networks_have_not_seen(monkeypatch):
+    """``cross_fit``: the speed map comes from two half networks, each trained on the other
+    half's speakers; the networks of the model itself are the ones the plain fit trains (same
+    output without shaping), the map differs."""
+    from dataclasses import replace
+
+    from test_cccae import envelope_corpus
+
+    from headmotion.corpus import Corpus
+    from headmotion.systems import create
+    from headmotion.systems.dnn import MfccDnnSystem
+
+    base = envelope_corpus(n_recordings=4, seconds=12.0, fps=25.0, seed=5)
+    corpus = Corpus([replace(r, speaker=s) for r, s in zip(base, ("p", "q", "p", "r"))], sample_rate=base.sample_rate)
+    seen = []
+    real_fit = MfccDnnSystem.fit
+
+    def spy(self, c, **kw):
+        seen.append(sorted({r.speaker for r in c}))
+        return real_fit(self, c, **kw)
+
+    monkeypatch.setattr(MfccDnnSystem, "fit", spy)
+    a = create("mfcc-dnn", cross_fit=True, **SMALL).fit(corpus)
+    assert len(seen) == 3 and seen[0] == ["p", "q", "r"]
+    assert not set(seen[1]) & set(seen[2]) and sorted(seen[1] + seen[2]) == ["p", "q", "r"]
+    b = create("mfcc-dnn", **SMALL).fit(corpus)
+    assert not np.allclose(a.speed_map_, b.speed_map_)
+    off = dict(speed_shaping=False, idle=None)
+    np.testing.assert_allclose(a.set_params(**off).predict(corpus[0].audio, seed=1).rotvec,
+                               b.set_params(**off).predict(corpus[0].audio, seed=1).rotvec, rtol=0, atol=1e-9)
+    with pytest.raises(Exception, match="cross_fit"):
+        create("mfcc-dnn", cross_fit="yes", **SMALL).fit(corpus)

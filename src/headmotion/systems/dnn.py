@@ -98,6 +98,17 @@ them), applied at synthesis in this order, each a parameter:
   pauses.CausalPauseWeight` and :class:`~headmotion.motion.pauses.PauseSettler` (issue 16; the
   offline mode with :func:`headmotion.features.vad.speaking_mask` until then); None switches it off.
 
+* ``cross_fit`` (default False; tenth session): the speed map fitted instead on the post stage's
+  output of two half networks, each trained on the *other* half's speakers
+  (:func:`~headmotion.systems.base.cross_fitted` with ``by_speaker``), against the recorded heads —
+  new speakers, as at synthesis, where the default map sees the validation tails of the training
+  speakers.  Costs two more trainings.  Paired runs (``docs/eval/s10_dnnx_video_s0|1``,
+  ``s10_dnnx_zeggs``; rows ``mfcc-dnn`` / ``mfcc-dnn[cross_fit=true]``): speed Hellinger per
+  recording (median) 0.40 → 0.36 / 0.38 → 0.34 on video seeds 0 / 1, 0.21 → 0.24 on ZEGGS; pooled
+  over 4 samples 0.045 → 0.049 / 0.069 → 0.063 (bar 0.061) / 0.088 → 0.086; pooled L1 0.168 →
+  0.177 / 0.194 → 0.204 / 0.062 → 0.066; coupling kept (p < 0.001 / 0.001); targets 6/6, 5/6, 6/6
+  either way — a wash on the targets, so it stays off (the shipped model was not retrained).
+
 :data:`PAPER_PARAMS` (``variance_restore=False, drift_share=0, idle=None, speed_shaping=False, range_limit=False``) gives the paper's
 output bit for bit and makes the synthesis deterministic; the paper's protocols must set it.
 Model files written before these options load with :data:`PAPER_PARAMS` (they have no ``gv_``).

@@ -86,8 +86,9 @@ Product defaults and the thesis's literal behaviour (issue 14; measured in
   heads do: on the ZEGGS take tws-hier's synthesis of speech its models had not seen was
   1.1–1.3× the heads' SD after shaping, held out 1.48 / 1.35 / 1.51 (bar 1.5).  Scaling *after*
   the shaper instead would slow the motion (speed Hellinger 0.109 → 0.129 at 0.9×, eighth
-  session); before it the shaper restores the speeds.  Paired runs (``docs/eval/s10_amp_*``,
-  ``headmotion evaluate … --systems "tws-hier,tws-hier[amplitude_match=false],…"``): tws-hier
+  session); before it the shaper restores the speeds.  Paired runs, made while it was off by
+  default (``docs/eval/s10_amp_*``: the plain rows are without it, the ``[amplitude_match=true]``
+  rows with it; the same training and synthesis seeds): tws-hier
   ZEGGS SD 1.48/1.35/1.51 → 1.27/1.25/1.42 (6 → 7 of 7), video pooled speed H over 4 samples
   0.044 → 0.041 / 0.049 → 0.042, pooled L1 0.179 → 0.189 / 0.201 → 0.179; tws-basic pooled L1
   0.078 → 0.030 / 0.186 → 0.140 / ZEGGS 0.063 → 0.023, speed H 0.043 → 0.040 / 0.029 → 0.033 /
