@@ -202,13 +202,19 @@ def test_cross_fit_fits_the_speed_map_on_speakers_the_half_networks_have_not_see
         return real_fit(self, c, **kw)
 
     monkeypatch.setattr(MfccDnnSystem, "fit", spy)
-    a = create("mfcc-dnn", cross_fit=True, **SMALL).fit(corpus)
-    assert len(seen) == 3 and seen[0] == ["p", "q", "r"]
+    a = create("mfcc-dnn", **SMALL).fit(corpus)           # on by default for mfcc-dnn
+    assert a.cross_fit_value and len(seen) == 3 and seen[0] == ["p", "q", "r"]
     assert not set(seen[1]) & set(seen[2]) and sorted(seen[1] + seen[2]) == ["p", "q", "r"]
-    b = create("mfcc-dnn", **SMALL).fit(corpus)
-    assert not np.allclose(a.speed_map_, b.speed_map_)
+    b = create("mfcc-dnn", cross_fit=False, **SMALL).fit(corpus)
+    assert len(seen) == 4 and not np.allclose(a.speed_map_, b.speed_map_)
+    # the bound: 2 for the cross-fitted map, 1.4 for the validation frames' map
+    assert np.all(a.speed_map_[1] <= 2.0 * a.speed_map_[0] + 1e-12)
+    assert np.all(b.speed_map_[1] <= 1.4 * b.speed_map_[0] + 1e-12)
+    assert not create("fbank-dnn").cross_fit_value
     off = dict(speed_shaping=False, idle=None)
     np.testing.assert_allclose(a.set_params(**off).predict(corpus[0].audio, seed=1).rotvec,
                                b.set_params(**off).predict(corpus[0].audio, seed=1).rotvec, rtol=0, atol=1e-9)
     with pytest.raises(Exception, match="cross_fit"):
         create("mfcc-dnn", cross_fit="yes", **SMALL).fit(corpus)
+    with pytest.raises(Exception, match="speed_max_gain"):
+        create("mfcc-dnn", speed_max_gain=0.5, **SMALL).fit(corpus)
