@@ -69,7 +69,10 @@ parameter whose "off" value gives the literal system (``pull_tau_s=None, start_s
 
 * ``cross_fit`` (default True since the ninth session; added in the eighth): the post stages and
   ``idle="auto"`` fitted on the synthesis of each training recording's speech by a model trained
-  on the *other* half of the recordings, i.e. on speech the GMMs have not seen, as at synthesis.
+  on the *other* half of the recordings, i.e. on speech the GMMs have not seen, as at synthesis
+  (whole speakers per half where there are several, since the tenth session:
+  :func:`headmotion.systems.base.cross_fitted`; video seed 0 pooled speed Hellinger 0.081 →
+  0.072, pooled spectral L1 0.144 → 0.080).
   Measured against ``cross_fit=False`` (``docs/eval/s8_le2012x_*``, paired seeds): ZEGGS SD
   ratios 1.55 / 1.04 / 1.19 → 1.11 / 1.13 / 1.08, pooled speed Hellinger 0.119 → 0.088, pause
   ratio 0.56 → 0.50, pooled spectral L1 0.027 → 0.167; video 6/7 and 7/7 either way (SD ratios

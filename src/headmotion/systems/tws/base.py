@@ -65,7 +65,9 @@ Product defaults and the thesis's literal behaviour (issue 14; measured in
   Model files without the gains load with it off.
 * ``cross_fit`` (ninth session; default True for tws-hier, False for tws-basic) — both stages above
   are fitted on the synthesis of each training recording by a model of the same parameters trained
-  on the *other* half of the recordings (:func:`headmotion.systems.base.cross_fitted`, as
+  on the *other* half of the recordings (whole speakers per half where there are several, since
+  the tenth session: tws-hier pooled L1 0.189 → 0.160 / 0.179 → 0.160 on the video seeds;
+  :func:`headmotion.systems.base.cross_fitted`, as
   le2012's ``cross_fit``): speech the template models have not seen, as at synthesis.  Own-synthesis
   tables left tws-hier ~10 % slower than the recorded heads at every speed quantile on held-out
   speakers (both video seeds).  Paired runs (``docs/eval/s9_tws_cross_*``): tws-hier pooled speed
