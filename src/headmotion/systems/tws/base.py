@@ -38,7 +38,11 @@ Product defaults and the thesis's literal behaviour (issue 14; measured in
   synthesis only fits that seed (0.037 on it, 0.125 on seed 5), hence one seed per recording; the
   adaptation takes out the seed-to-seed liveliness (SD ratios 0.73–1.03 by seed).  Spectral L1 about
   unchanged (0.27–0.31); speech coupling unchanged (none).  False (and model files without a map) =
-  the generator's frames as they are.
+  the generator's frames as they are.  Since the tenth session the map is corrected in closed loop
+  (:func:`headmotion.motion.speed_shaping.delivered_speed_map`, two iterations) so that the causal
+  shaper delivers the heads' speed quantiles on the calibration synthesis — the static map
+  under-delivered the fast tail (``docs/eval/s10_loop_*``: tws-hier pooled speed H 0.036 → 0.033
+  / 0.041 → 0.034 on the video seeds).
 * ``slow_band_restore=True`` (sixth and seventh sessions) — after the speed shaper, the
   deviations from the running mean pass through the DNN product's causal band split
   (:class:`headmotion.systems.dnn_post.CausalPost`): the slow band (< 0.5 Hz) gets the gain that
@@ -350,7 +354,7 @@ class TwsBase(Synthesizer):
         """The speed map and the slow band's gains fitted on ``pred`` against ``targ`` (as the
         parameters ask); returns ``pred`` after both stages, as synthesis will give it."""
         if self.speed_shaping:
-            self.speed_map_ = speed_shaping.speed_map(pred, targ, lag=speed_shaping.shaping_lag(self.fps_),
+            self.speed_map_ = speed_shaping.delivered_speed_map(pred, targ, fps=self.fps_, lag=speed_shaping.shaping_lag(self.fps_),
                                                       max_gain=SPEED_MAX_GAIN)
             pred = [speed_shaping.product_shaper(self.speed_map_, self.fps_).push(x) for x in pred]
         if self.slow_band_restore:
