@@ -122,6 +122,8 @@ USAGE = [
     ("synth", ["synth"], "Missing argument"),
     ("synth unknown option", ["synth", "speech.wav", "--bogus"], "No such option"),
     ("synth --seed abc", ["synth", "speech.wav", "--seed", "abc"], "--seed"),
+    ("synth --seed -3", ["synth", "speech.wav", "--seed", "-3"], "--seed"),   # was an internal error
+    ("stream --seed -1", ["stream", "--seed", "-1"], "--seed"),
     ("unknown command", ["nope"], "No such command"),
     ("info without a file", ["info"], "Missing argument"),
     ("convert without output", ["convert", "a.bvh"], "Missing argument"),

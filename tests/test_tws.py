@@ -511,3 +511,8 @@ def test_amplitude_match_sets_the_training_heads_sd_and_streams(train, test_rec)
         np.testing.assert_allclose(again.predict(audio, seed=2).rotvec, offline, rtol=0, atol=1e-12)
     with pytest.raises(ParameterError, match="amplitude_match"):
         create("tws-basic", amplitude_match="yes").fit(train)
+    for bad in (-1, 1.5, "3"):      # a synthesis seed numpy would refuse with a bare ValueError
+        with pytest.raises(ParameterError, match="seed"):
+            on.predict(audio, seed=bad)
+        with pytest.raises(ParameterError, match="seed"):
+            on.stream(seed=bad)

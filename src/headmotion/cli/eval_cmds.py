@@ -39,7 +39,7 @@ def evaluate_cmd(
     features: str = typer.Option("f0e", "--features", help="feature set for Forced CCA"),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786"),
     jobs: int = typer.Option(1, "--jobs", "-j", help="folds in parallel on this machine (-1 = all cores)"),
-    seed: int = typer.Option(0, "--seed", help="seed of everything random (same seed, same report)"),
+    seed: int = typer.Option(0, "--seed", min=0, help="seed of everything random (same seed, same report)"),
     shifts: int = typer.Option(200, "--shifts", help="circular shifts per chance level"),
     window: float = typer.Option(3.0, "--window", help="local CCA window in seconds (3 s = 300 frames at 100 fps)"),
     speaker: Optional[str] = typer.Option(None, "--speaker", help="evaluate only this speaker"),
@@ -121,7 +121,7 @@ def stats_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="report directory (stats.md, CSVs, figures/)"),
     jobs: int = typer.Option(1, "--jobs", "-j", help="recordings analysed in parallel (-1 = all cores)"),
     no_speaking_rate: bool = typer.Option(False, "--no-speaking-rate", help="skip syllable-nuclei speaking rates"),
-    seed: int = typer.Option(0, "--seed", help="seed of the iterative MDS and of the chance levels"),
+    seed: int = typer.Option(0, "--seed", min=0, help="seed of the iterative MDS and of the chance levels"),
     feature_table: Optional[str] = typer.Option(
         None, "--feature-table", help="comma-separated feature sets for the paper Table 1 (default: all; 'none' to skip)"),
     window: float = typer.Option(3.0, "--window", help="local CCA window in seconds for the feature table"),

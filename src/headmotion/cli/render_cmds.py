@@ -86,7 +86,7 @@ def view(
                               "drives the model through a WebSocket, the head moves as you speak"),
     model: Optional[Path] = typer.Option(None, "-m", "--model", help="--live: model file of a causal system "
                                          "(default: the shipped model)"),
-    seed: int = typer.Option(0, "--seed", help="--live: random seed of the stream"),
+    seed: int = typer.Option(0, "--seed", min=0, help="--live: random seed of the stream"),
 ):
     """Serve a local page that plays the speech and animates the head(s) in sync (or, with --live,
     moves the head from the microphone or an audio file as it plays)."""

@@ -38,7 +38,7 @@ def stream(
     no_json: bool = typer.Option(False, "--no-json", help="Do not write JSON lines on stdout."),
     neck_share: Optional[float] = typer.Option(None, "--neck-share", help="VMC: share of the rotation on the Neck "
                                                "bone (default 0.93, as the BVH/glTF writers)."),
-    seed: int = typer.Option(0, "--seed"),
+    seed: int = typer.Option(0, "--seed", min=0),
     gain: Optional[str] = typer.Option(None, "--gain", help="G or P,Y,R (see synth --gain)."),
     offset: Optional[str] = typer.Option(None, "--offset", help="Degrees, D or P,Y,R (see synth --offset)."),
     gain_pitch: Optional[float] = typer.Option(None, "--gain-pitch", help="Pitch amplitude scale (overrides --gain)."),

@@ -71,7 +71,7 @@ def train(
     output: Path = typer.Option(..., "-o", "--output", help="Model file to write (.hmz)."),
     speaker: Optional[str] = typer.Option(None, "--speaker", help="Train on this speaker only."),
     features: Optional[str] = typer.Option(None, "--features", help="Feature set (f0e, mfcc, lsp, ...)."),
-    seed: Optional[int] = typer.Option(None, "--seed", help="Random seed for training (the random_state parameter)."),
+    seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Random seed for training (the random_state parameter)."),
     fps: Optional[float] = typer.Option(None, "--fps", help="Model frame rate, for systems with an fps parameter "
                                         "(motion is resampled; tws and le2012 default to the corpus rate)."),
 ):
@@ -124,7 +124,7 @@ def synth(
     speech: Path = typer.Argument(..., help="Speech audio (wav, flac, mp3, or a video's audio track)."),
     output: Path = typer.Option(..., "-o", "--output", help="Output motion: .bvh, .glb, .gltf, .csv, .json or .npz."),
     model: Optional[Path] = typer.Option(None, "-m", "--model", help="Model file (default: the shipped model)."),
-    seed: int = typer.Option(0, "--seed", help="Random seed (stochastic modes, --samples)."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Random seed (stochastic modes, --samples)."),
     gain: Optional[str] = typer.Option(None, "--gain", help="Amplitude scale about the model's mean pose: G or "
                                        "P,Y,R (1 = as trained, 0 = held at the mean pose)."),
     gain_pitch: Optional[float] = typer.Option(None, "--gain-pitch", help="Pitch amplitude scale (overrides --gain)."),

@@ -70,7 +70,7 @@ def analyse_cmd(
     sets: int = typer.Option(3, "--sets", help="Random initialiser sets per size (thesis: 10)."),
     n_main: int = typer.Option(120, "--n-main", help="Initialisers for the intra/inter analysis."),
     states: int = typer.Option(4, "--states", help="HMM states per segment model (3-5)."),
-    seed: int = typer.Option(0, "--seed"),
+    seed: int = typer.Option(0, "--seed", min=0),
     min_swing: float = typer.Option(1.0, "--min-swing", help="Smallest swing between extrema, degrees (0 = the thesis's literal segmentation; 1 suits video-derived pose)."),
     native_rate: bool = typer.Option(False, "--native-rate", help="Segment at the motion's own rate instead of 100 Hz (the thesis's)."),
 ):

@@ -192,6 +192,7 @@ class Synthesizer(ABC):
         if not isinstance(audio, Audio):
             raise ParameterError(f"{self.name}.predict expects an Audio; got {type(audio).__name__}")
         as_triple(gain, "gain"), as_triple(offset, "offset")
+        check_seed(seed)
         self._validate_params()
         motion = self._predict(audio, seed=seed)
         return apply_gain(motion, self.mean_pose_, gain, offset)
@@ -215,6 +216,7 @@ class Synthesizer(ABC):
                                  f"streaming capability)")
         self._check_fitted()
         as_triple(gain, "gain"), as_triple(offset, "offset")
+        check_seed(seed)
         self._validate_params()
         return _GainedStream(self._stream(seed=seed), self.mean_pose_, gain, offset)
 
@@ -292,6 +294,15 @@ def pair_shortest(predicted, motions) -> tuple[list[np.ndarray], list[np.ndarray
         pred.append(x[:n])
         targ.append(m[:n])
     return pred, targ
+
+
+def check_seed(seed) -> None:
+    """A synthesis seed must be None or a whole number >= 0 (numpy's generators refuse the rest
+    with a bare ValueError)."""
+    if seed is None:
+        return
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ParameterError(f"the synthesis seed must be a whole number >= 0; got {seed!r}")
 
 
 def cross_fit_groups(recs, *, by_speaker: bool = False) -> np.ndarray:
