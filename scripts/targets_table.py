@@ -52,6 +52,15 @@ def _speed_cell(d: dict, ok) -> str:
     return f"{one:.3f} / {mark(k, ok, 3)}"
 
 
+def _pause_cell(d: dict, ok) -> str:
+    """Pause/speech speed ratio: of the first sample, and over all K samples (the target's, when
+    evaluated) after a slash."""
+    one, k = d.get("pause_ratio", np.nan), d.get("pause_ratio_k", np.nan)
+    if not np.isfinite(k):
+        return mark(one, ok)
+    return f"{one:.2f} / {mark(k, ok)}"
+
+
 def rows_for(label: str, summ: dict, targets: dict) -> list[str]:
     gt = summ.get("ground-truth", {})
     out = []
@@ -68,13 +77,13 @@ def rows_for(label: str, summ: dict, targets: dict) -> list[str]:
             f"{d.get('speed_hellinger', np.nan):.2f} / {_speed_cell(d, t['speed'])} | "
             f"{mark(d.get('limit_cycle', np.nan), t['lc'])} ({gt.get('limit_cycle', np.nan):.2f}) | "
             f"{mark(100 * d.get('saturation', np.nan), t['sat'], 1)} | "
-            f"{mark(d.get('pause_ratio', np.nan), t['pause'])} ({gt.get('pause_ratio', np.nan):.2f}) | "
+            f"{_pause_cell(d, t['pause'])} ({gt.get('pause_ratio', np.nan):.2f}) | "
             f"{mark(d.get('diversity', np.nan), None)} | {d.get('fcca_excess_pooled', np.nan):+.3f} | "
             f"{fmt_p(d.get('fcca_p_pooled', np.nan))} | {met}/{n} |")
     return out
 
 
-HEADER = ("| set | condition | 1.5–4 Hz (gt) | L1 per recording / pooled | SD ratio p/y/r | H speed per rec. / pooled / pooled K samples | LC (gt) | sat % | pause (gt) | "
+HEADER = ("| set | condition | 1.5–4 Hz (gt) | L1 per recording / pooled | SD ratio p/y/r | H speed per rec. / pooled / pooled K samples | LC (gt) | sat % | pause first / K samples (gt) | "
           "diversity | FCCA excess | p | targets |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 
 

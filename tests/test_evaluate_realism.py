@@ -297,3 +297,33 @@ def test_info_model_stream_prints_its_card(capsys):
     out = capsys.readouterr().out
     assert "Model card" in out and "tws-hier" in out
     assert main(["info", "--model", "/nonexistent/model.hmz"]) != 0
+
+
+def test_pause_ratio_over_k_samples():
+    """``pause_ratio_k`` pools the pause and speech speeds of all K samples: K copies give the one
+    motion's ratio; a sample still in its pauses (ratio 0) and one moving in its pauses at the
+    speech speed (ratio 1), with equal speeds in speech, pool to 1/2 exactly; without samples it
+    is left out; the pause target takes the K-sample value when it is there."""
+    from headmotion.evaluation import realism as R
+
+    fps, n = 25.0, 500
+    mask = np.ones(n, bool)
+    mask[200:300] = False                       # a 4-s pause
+    t = np.arange(n)[:, None] * np.ones(3)
+    moving = np.radians(0.5) * t                # constant speed everywhere: ratio 1
+    settled = moving.copy()
+    settled[200:300] = settled[199]             # still in the pause: ratio 0
+    settled[300:] = settled[199] + np.radians(0.5) * (t[300:] - 199)   # same speed again after it
+    ref = Motion(moving, fps)
+    one = R.realism(ref, Motion(moving, fps), speech_mask=mask, samples=[moving] * 4)
+    assert one["pause_ratio_k"] == pytest.approx(one["pause_ratio"]) == pytest.approx(1.0, abs=0.02)
+    mixed = R.realism(ref, Motion(settled, fps), speech_mask=mask, samples=[settled, moving])
+    assert mixed["pause_ratio"] == pytest.approx(0.0, abs=1e-9)
+    assert mixed["pause_ratio_k"] == pytest.approx(0.5, abs=0.02)
+    assert np.isnan(R.realism(ref, Motion(settled, fps), speech_mask=mask)["pause_ratio_k"])
+    summ = {"ground-truth": {"pause_ratio": 0.4}, "sys": {"pause_ratio": 0.7, "pause_ratio_k": 0.45}}
+    assert realism_targets(summ)["sys"]["pause"] is True
+    summ["sys"]["pause_ratio_k"] = 0.6
+    assert realism_targets(summ)["sys"]["pause"] is False
+    del summ["sys"]["pause_ratio_k"]
+    assert realism_targets(summ)["sys"]["pause"] is False      # the one motion's 0.7
