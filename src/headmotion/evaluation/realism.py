@@ -271,8 +271,7 @@ def pause_speed_ratio(motion, speech_mask, *, fps: float | None = None, min_paus
     mask = np.asarray(speech_mask, bool)
     if len(mask) < len(a):
         raise ParameterError(f"speech mask has {len(mask)} frames, the motion {len(a)}")
-    # frame-to-frame speed belongs to a stretch when both its frames do
-    return pooled_pause_ratio([pause_speech_speeds(a, mask[:len(a)], fps=f, min_pause_s=min_pause_s)])
+    return _pooled_pause_ratio_deg([a], mask, fps=f, min_pause_s=min_pause_s)
 
 
 def pause_speed_ratio_k(samples: Sequence, speech_mask, *, fps: float, min_pause_s: float = 0.5) -> float:
@@ -280,10 +279,16 @@ def pause_speed_ratio_k(samples: Sequence, speech_mask, *, fps: float, min_pause
     pause and speech speeds pooled over the samples (as ``speed_hellinger_pooled_k`` pools the
     speed histogram; tenth session).  One draw of a short recording carries its own sampling
     noise: le2012 on a 12-s ZEGGS fold gives 0.37 / 0.50 / 0.38 / 0.77 for seeds 0–3."""
-    mask = np.asarray(speech_mask, bool)
+    return _pooled_pause_ratio_deg([_deg(np.asarray(s, dtype=np.float64), fps)[0] for s in samples],
+                                   np.asarray(speech_mask, bool), fps=fps, min_pause_s=min_pause_s)
+
+
+def _pooled_pause_ratio_deg(angles, mask: np.ndarray, *, fps: float, min_pause_s: float) -> float:
+    """The pause/speech speed ratio pooled over motions in degrees that share the speech ``mask``
+    (a frame more or less at the end: the shorter); a frame-to-frame speed belongs to a stretch
+    when both its frames do."""
     pairs = []
-    for smp in samples:
-        a, _ = _deg(np.asarray(smp, dtype=np.float64), fps)
+    for a in angles:
         n = min(len(a), len(mask))
         pairs.append(pause_speech_speeds(a[:n], mask[:n], fps=fps, min_pause_s=min_pause_s))
     return pooled_pause_ratio(pairs)

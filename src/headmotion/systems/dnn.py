@@ -616,10 +616,11 @@ class _DnnSystem(Synthesizer):
         self.autoencoder_ = ae
         self.regressor_ = reg
         self.postfilter_ = pf
-        self.speed_map_ = self._fit_speed_map(hraw, hy)  # needs the stages above
         fit_recs = [r for r in corpus if split[r.id] != "test"]
         if self.cross_fit_value and self.speed_shaping and len(fit_recs) >= 2:
             self.speed_map_ = self._cross_fit_speed_map(fit_recs)
+        else:
+            self.speed_map_ = self._fit_speed_map(hraw, hy)  # needs the stages above
         fps_list = sorted({float(r.motion.fps) for r in train_recs})
         self.output_fps_ = fps_list[0] if len(fps_list) == 1 else float(self.model_fps)  # informational
         self.splits_ = {r.id: split[r.id] for r in corpus}
@@ -787,8 +788,7 @@ class _DnnSystem(Synthesizer):
         off = {"speed_shaping": False, "idle": None, "range_limit": False, "cross_fit": False}
         pred = cross_fitted(self, recs, off, lambda half, r, k: half._predict(r.audio, seed=k).rotvec,
                             by_speaker=True)
-        targ = [np.asarray((r.motion if abs(r.motion.fps - mfps) < 1e-9 else r.motion.resample(mfps)).rotvec)
-                for r in recs]
+        targ = [np.asarray(r.motion.resample(mfps).rotvec) for r in recs]   # the motion itself at that rate
         pred, targ = pair_shortest(pred, targ)
         return speed_shaping.speed_map(pred, targ, lag=self.shaping_lag, max_gain=self._speed_max_gain(cross=True))
 

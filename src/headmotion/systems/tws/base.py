@@ -134,17 +134,12 @@ AMPLITUDE_CAP = 2.0
 
 def amplitude_gains(synthesis, heads, *, cap: float = AMPLITUDE_CAP) -> np.ndarray:
     """Per-axis gains ``(D,)`` of ``amplitude_match``: the heads' SD over the synthesis's, both
-    pooled within recordings (each recording about its own mean, weighted by its length), bounded
-    to [1 / ``cap``, ``cap``].  ``synthesis`` and ``heads`` are lists of ``(T_k, D)`` arrays paired
-    by recording."""
-    def pooled_var(xs):
-        xs = [np.asarray(x, dtype=np.float64) for x in xs if len(x) > 1]
-        n = sum(len(x) for x in xs)
-        return sum(((x - x.mean(axis=0)) ** 2).sum(axis=0) for x in xs) / max(n, 1)
+    pooled within recordings (the DNN's global-variance ratio,
+    :func:`headmotion.systems.dnn_post.gv_ratio`), bounded to [1 / ``cap``, ``cap``].
+    ``synthesis`` and ``heads`` are lists of ``(T_k, D)`` arrays paired by recording."""
+    from ..dnn_post import gv_ratio
 
-    vs, vh = pooled_var(synthesis), pooled_var(heads)
-    g = np.where(vs > 1e-18, np.sqrt(vh / np.maximum(vs, 1e-18)), 1.0)
-    return np.clip(g, 1.0 / float(cap), float(cap))
+    return np.maximum(gv_ratio(synthesis, heads, cap=float(cap)), 1.0 / float(cap))
 
 
 def slow_band_bank(var_synthesis, var_heads, *, cap: float = SLOW_BAND_CAP) -> np.ndarray:
@@ -212,7 +207,7 @@ class TwsBase(Synthesizer):
         if not isinstance(self.slow_band_restore, (bool, np.bool_)):
             raise ParameterError(f"the 'slow_band_restore' parameter of {self.name} must be True or False; "
                                  f"got {self.slow_band_restore!r}")
-        if not isinstance(getattr(self, "amplitude_match", False), (bool, np.bool_)):
+        if not isinstance(self.amplitude_match, (bool, np.bool_)):
             raise ParameterError(f"the 'amplitude_match' parameter of {self.name} must be True or False; "
                                  f"got {self.amplitude_match!r}")
         if not isinstance(self.cross_fit, (bool, np.bool_)):
