@@ -1,4 +1,4 @@
-"""Command-line interface: ``headmotion COMMAND ...`` (docs/design.md "CLI"; issue 18 item 2).
+"""Command-line interface: ``headmotion COMMAND ...`` (docs/design.md "CLI").
 
 :func:`main` is the one place where errors become exit codes (``headmotion --help`` lists them):
 

@@ -63,8 +63,8 @@ def _escape_non_styles(text: str) -> str:
 
 class SafeConsole(Console):
     """A rich console whose markup never swallows text: square brackets that do not name a style
-    are printed as they are (issue 15 item 6 / issue 18 item 2).  Messages that interpolate user
-    text should still pass it through :func:`escape` (a file named ``take[red].bvh``)."""
+    are printed as they are.  Messages that interpolate user text should
+    still pass it through :func:`escape` (a file named ``take[red].bvh``)."""
 
     def render_str(self, text: str, *args, **kwargs):
         markup = kwargs.get("markup")

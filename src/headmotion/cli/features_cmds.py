@@ -1,4 +1,4 @@
-"""``headmotion features AUDIO --set mfcc [--fps 100] -o OUT.npz`` (issue 2 item 8).
+"""``headmotion features AUDIO --set mfcc [--fps 100] -o OUT.npz``.
 
 Computes one feature set (:mod:`headmotion.features`) of an audio or video file and writes it
 atomically: ``.npz`` with ``values`` (T, D) float32, ``fps``, ``names`` and the ``config`` as JSON,

@@ -1,8 +1,8 @@
-"""``headmotion render``, ``headmotion view`` and ``headmotion plot`` (issue 7; thesis §4.2.3).
+"""``headmotion render``, ``headmotion view`` and ``headmotion plot`` (thesis §4.2.3).
 
 * ``render MOTION... [--audio A] -o OUT.mp4`` — preview video (one motion, or a labelled grid).
 * ``view MOTION... [--audio A]`` — serves the browser viewer (three.js) on a local port;
-  ``view --live [-m MODEL]`` the live page (microphone or audio file → WebSocket → head, issue 16).
+  ``view --live [-m MODEL]`` the live page (microphone or audio file → WebSocket → head).
 * ``plot MOTION... -o FIG.png [--audio A]`` — pitch/yaw/roll over time in degrees.
 
 Thin wrappers over :mod:`headmotion.render` and :mod:`headmotion.web`; moderngl, matplotlib and

@@ -1,4 +1,4 @@
-"""Corpus-wide work spread over joblib or a Dask cluster (issue 6: folds *and* corpus-wide
+"""Corpus-wide work spread over joblib or a Dask cluster (folds *and* corpus-wide
 feature extraction run on ``--scheduler ADDRESS``).
 
 * :func:`run_map` — ``[fn(item) for item in items]`` in order, serially, with joblib

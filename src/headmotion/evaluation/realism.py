@@ -1,4 +1,4 @@
-"""Realism of head motion: does it *look* like a head, not only is it tied to speech (issue 14 §1).
+"""Realism of head motion: does it *look* like a head, not only is it tied to speech.
 
 The seeds judge synthesis by coupling (CCA, FCCA, thesis §4.3) and listening tests; they are
 silent on objective measures of naturalness.  The measures below come from the gesture-generation
@@ -14,8 +14,8 @@ roll for small angles) with ``fps`` given.
   (0…2).  Chosen here: real heads have most power below 0.5 Hz (posture shifts), a bobbing
   system in 1.5–4 Hz.  :func:`pooled_spectral_distance` is the same L1 between two *sets* of
   motions (a test set's ground truths and a condition's output): each set's shares are the mean
-  of its recordings' shares (every recording weighs alike, whatever its amplitude).  Chosen here
-  (fifth session), as the speed histograms are pooled over a test set: on clips of 4–20 s the
+  of its recordings' shares (every recording weighs alike, whatever its amplitude).  Chosen here,
+  as the speed histograms are pooled over a test set: on clips of 4–20 s the
   share below 0.5 Hz of *one* recording rests on 2–4 Welch bins and scatters widely (video
   corpus: 0.52–0.88, 10th–90th percentile, for the recorded heads), so the per-recording L1 is
   mostly that scatter — a constant share vector at the recorded heads' median scores a median
@@ -277,7 +277,7 @@ def pause_speed_ratio(motion, speech_mask, *, fps: float | None = None, min_paus
 def pause_speed_ratio_k(samples: Sequence, speech_mask, *, fps: float, min_pause_s: float = 0.5) -> float:
     """:func:`pause_speed_ratio` of a stochastic system over its K samples for the same speech:
     pause and speech speeds pooled over the samples (as ``speed_hellinger_pooled_k`` pools the
-    speed histogram; tenth session).  One draw of a short recording carries its own sampling
+    speed histogram).  One draw of a short recording carries its own sampling
     noise: le2012 on a 12-s ZEGGS fold gives 0.37 / 0.50 / 0.38 / 0.77 for seeds 0–3."""
     return _pooled_pause_ratio_deg([_deg(np.asarray(s, dtype=np.float64), fps)[0] for s in samples],
                                    np.asarray(speech_mask, bool), fps=fps, min_pause_s=min_pause_s)

@@ -1,4 +1,4 @@
-"""Figures of the realism measures (issue 14 §1; the seeds draw none of these).
+"""Figures of the realism measures (the seeds draw none of these).
 
 * :func:`spectra_figure` — per-axis power spectra (Welch, pooled over recordings by averaging the
   per-recording PSDs interpolated on a common 0–10 Hz grid) of every condition drawn over the

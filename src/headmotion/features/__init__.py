@@ -19,7 +19,7 @@ name         dims  what                                                     modu
 ``prosody``  2     openSMILE-like pitch (semitones) + loudness (Le et al.)  :mod:`.prosody`
 ===========  ====  =======================================================  ================
 
-Streaming variants (issue 16, :mod:`.streaming`): ``f0e-live`` (6 dims, the ``f0e`` columns from
+Streaming variants (:mod:`.streaming`): ``f0e-live`` (6 dims, the ``f0e`` columns from
 a per-frame YIN with short-lookahead smoothing and deltas; final 64 ms after a frame's start) and
 ``prosody-live`` (2 dims, ``prosody``'s pitch and intensity loudness; 24 ms).  Computed offline
 by the same code that streams them, so streamed and offline values are identical.

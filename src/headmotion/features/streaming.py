@@ -1,4 +1,4 @@
-"""Incremental F0 + energy features for low-latency streaming (issue 16; paper §4.1 "F0+Energy",
+"""Incremental F0 + energy features for low-latency streaming (paper §4.1 "F0+Energy",
 thesis §2.2.4 — the seeds describe the offline feature set only; the on-line variant is ours).
 
 :class:`StreamingF0e` computes the same six columns as the offline ``f0e`` set — ``[logf0,
@@ -55,7 +55,7 @@ at 25 fps the defaults need 159 ms; ``smooth_lookahead=0, delta_lookahead=0`` br
 39 ms (a causal average and backward-looking slopes: more lag, no lookahead).
 
 Add the push granularity (≤ 10 ms with 10 ms chunks) and the on-stream resampler's delay (0 at
-16 kHz in; a few ms through soxr otherwise): ≈ 75–80 ms, leaving ≥ 20 ms of the issue's 100 ms for
+16 kHz in; a few ms through soxr otherwise): ≈ 75–80 ms, leaving ≥ 20 ms of a 100 ms live budget for
 the synthesiser (the template-warping generator itself is causal: it adds 0).  ``lookahead_s`` is
 exact for any parameters: frame ``t`` is final once the sample ``(t+K+0.5)·sr/fps + W_f/2`` is in,
 ``K = smooth_lookahead + 2 · delta_lookahead``.
@@ -70,7 +70,7 @@ independent of how the audio was chunked.  A push that completes one to four fra
 views of the audio and of the stored frames instead of gathers, storage grown geometrically
 instead of concatenated): ~40 numpy calls per frame instead of ~150, the same bits
 (``tests/test_stream_fast_paths.py``).  numba was not used here: the per-frame numpy path meets the
-issue's 0.5 ms per chunk with room, and the streaming model's CLI start does not pay numba's import
+0.5 ms per chunk budget with room, and the streaming model's CLI start does not pay numba's import
 (~0.35 s).
 
 F0 against the offline ``f0e`` on ../shared/data/speech (9 files, first 30 s each, 100 fps):
@@ -85,7 +85,7 @@ correlates with itself at only 0.66–0.95); ``energy`` correlates at 0.95–0.9
 baseline's ``prosody`` set: pitch from the same YIN (semitones re 27.5 Hz, or Hz) and openSMILE's
 ``cIntensity`` loudness, unsmoothed as offline, so only the F0 window is ahead: 24.2 ms.
 
-Used by the systems (issue 16 phase 2): tws-basic / tws-hier train and predict with ``f0e-live``
+Used by the systems: tws-basic / tws-hier train and predict with ``f0e-live``
 and le2012 with ``prosody-live`` by default; their streams push the model-rate samples through
 :class:`headmotion.systems.tws.generator.LiveFeatures` (this extractor at 16 kHz, frames cast to
 float32 as :func:`headmotion.features.extract` does), so streamed and offline features are

@@ -1,4 +1,4 @@
-"""Checks every reader makes before it trusts a file (issue 18 item 1).
+"""Checks every reader makes before it trusts a file.
 
 The seeds are silent on damaged files; what is chosen here:
 

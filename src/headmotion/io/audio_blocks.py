@@ -1,4 +1,4 @@
-"""Audio read block by block, so that hours of speech never sit in memory at once (issue 18 item 5).
+"""Audio read block by block, so that hours of speech never sit in memory at once.
 
 The seeds are silent on long inputs.  :func:`load_audio` decodes a whole file (3 h of 44.1 kHz
 stereo is ~3.8 GB as float64 before the downmix); ``headmotion synth`` on long recordings instead

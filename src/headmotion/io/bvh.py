@@ -1,4 +1,4 @@
-"""BVH (Biovision Hierarchy) reading and writing (issue 2 item 3, issue 7 exports; thesis §2.2.3).
+"""BVH (Biovision Hierarchy) reading and writing (thesis §2.2.3).
 
 Reading
 -------

@@ -1,4 +1,4 @@
-"""C3D motion capture files via ezc3d (issue 2 item 3; thesis §3.4).
+"""C3D motion capture files via ezc3d (thesis §3.4).
 
 Head and torso frames are built per frame from markers (Vicon Plug-in Gait names by default):
 

@@ -1,5 +1,5 @@
-"""glTF 2.0 export: head motion as an animation of a minimal humanoid's neck and head (issue 17
-item 4).  The seeds are silent on file formats beyond BVH (thesis §2.2.3); glTF is what web
+"""glTF 2.0 export: head motion as an animation of a minimal humanoid's neck and head.
+The seeds are silent on file formats beyond BVH (thesis §2.2.3); glTF is what web
 engines (three.js, Babylon), game engines and Blender import, and VRM avatars are glTF.
 
 What is written

@@ -1,4 +1,4 @@
-"""Live Link Face CSV (Epic's iPhone app; issue 2 item 3 and issue 7 exports).
+"""Live Link Face CSV (Epic's iPhone app).
 
 Layout: ``Timecode,BlendShapeCount,<52 ARKit blend shapes>,HeadYaw,HeadPitch,HeadRoll,
 LeftEyeYaw,LeftEyePitch,LeftEyeRoll,RightEyeYaw,RightEyePitch,RightEyeRoll`` (63 columns, 61

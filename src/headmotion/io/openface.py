@@ -1,4 +1,4 @@
-"""OpenFace FeatureExtraction CSV (head pose from video; issue 2 item 3).
+"""OpenFace FeatureExtraction CSV (head pose from video).
 
 Both layouts are read: the older one with a space after every comma (``frame, timestamp,
 confidence, success, ..., pose_Rx, pose_Ry, pose_Rz, ...``) and OpenFace 2.x's (no spaces,

@@ -19,7 +19,7 @@ redirects to ``/admin``, so the token leaves the address bar and the history.  T
 form posts to ``/api/admin/session``; admin POSTs need the ``X-CSRF-Token`` header to equal the
 ``hm_csrf`` cookie (double submit) and a same-origin ``Origin``.
 
-Hardening (issue 18 item 4), one ASGI middleware (:class:`Guard`) in front of everything:
+Hardening, one ASGI middleware (:class:`Guard`) in front of everything:
 
 * **Host allow-list** — a request whose ``Host`` is not an allowed name gets 400, so a page on
   another site cannot reach the server through DNS rebinding.  Allowed: ``localhost``,
@@ -38,7 +38,7 @@ Hardening (issue 18 item 4), one ASGI middleware (:class:`Guard`) in front of ev
   machine — are not limited) and at most ``max_participants`` in all (403 "full"), both from the
   configuration and both counted in the database, so they hold over several workers.
 
-Speed (issue 18 item 4: answer p95 ≤ 250 ms with 300 participants answering every 50 ms): the
+Speed (target: answer p95 ≤ 250 ms with 300 participants answering every 50 ms): the
 state read and the answer — the two requests of every trial — are served by plain ASGI code
 (:mod:`headmotion.listening.trials_api`) in front of FastAPI, and on SQLite every write goes
 through one group-commit thread per process (:mod:`headmotion.listening.sqlite_writer`); the

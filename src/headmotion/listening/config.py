@@ -277,7 +277,7 @@ class TestConfig:
     admin_token: str | None = None
     database: str | None = None
     finish_text: str = "Thank you for taking part!"
-    #: server limits (issue 18 item 4): a cap on participants (None: no cap) and at most
+    #: server limits: a cap on participants (None: no cap) and at most
     #: ``registrations_per_address`` new participants per client address per
     #: ``registration_window_s`` seconds
     max_participants: int | None = None

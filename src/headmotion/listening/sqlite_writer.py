@@ -1,7 +1,7 @@
 """Group commit for the listening-test database on SQLite: one writer thread per server process.
 
-The seeds are silent on storage; issue 18 item 4 asks the answer POST's p95 to stay under 250 ms
-with 300 participants answering every 50 ms, and the answer to be durable once acknowledged.
+The seeds are silent on storage; the server must keep an answer POST's p95 under 250 ms
+with 300 participants answering every 50 ms, and an answer must be durable once acknowledged.
 With one transaction per answer, every answer pays a commit — an fsync under
 ``synchronous=FULL`` — and answers queue behind each other's fsyncs.  Here request handlers hand
 their write to one thread that owns the process's write connection; the thread takes *every* job

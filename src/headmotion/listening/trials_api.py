@@ -6,7 +6,7 @@ reads its state (stage, progress, the next trial with blinded stimulus ids) and 
 the answer is checked against the trial (:func:`answer_rows`) and stored exactly once
 (:meth:`headmotion.listening.db.Database.submit_async`).
 
-Why not FastAPI routes: issue 18 item 4 asks for an answer p95 under 250 ms with 300 participants
+Why not FastAPI routes: the server's target is an answer p95 under 250 ms with 300 participants
 answering every 50 ms on a two-core machine, i.e. ~1,000 answers and 1,000 state reads a second.
 FastAPI's routing, dependency solving, thread-pool hop and ``jsonable_encoder`` cost ~0.1 ms (an
 async route) to ~0.7 ms (the sync state route with its nested JSON) of CPU per request; here a

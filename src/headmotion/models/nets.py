@@ -17,7 +17,7 @@
   so a 30-minute corpus never materialises its ``(N, 51·D)`` design matrix.  Trained with MSE on
   z-scored motion (:func:`train_regressor`).  Training pads each sequence's ends by repeating its
   edge frame; synthesis (:func:`predict_regressor`) mirrors the frames about the edge instead
-  (:func:`pad_indices`, issue 14, sixth session): the paper is silent, and an edge frame held for
+  (:func:`pad_indices`): the paper is silent, and an edge frame held for
   the 25 frames of context is a sound no speech makes — on real speech cut mid-utterance
   (4 files, 31 cuts, ``python scripts/diagnosis_i14/edge_padding.py``) the default's last 0.25 s
   strayed from what the uncut file gives by 2.0° on average (up to 14°, a visible turn as the

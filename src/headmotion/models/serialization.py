@@ -7,7 +7,7 @@ loading a model file can never run code (scikit-learn's persistence notes; aster
 ``serialize()``).  A damaged, truncated or foreign file raises
 :class:`~headmotion.errors.ModelFileError`; a file from another package version warns.
 
-Reading checks before it trusts (issue 18 item 1): the zip's member list and each member's
+Reading checks before it trusts: the zip's member list and each member's
 declared size are checked before anything is decompressed (``config.json`` at most 16 MiB,
 ``arrays.npz`` at most 4 GiB, and every array's header against its member's size —
 :func:`headmotion.io._limits.load_npz_arrays`), members are read through a bounded reader so a

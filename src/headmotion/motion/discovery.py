@@ -15,7 +15,7 @@
 5. Assign every segment to the cluster HMM with the highest likelihood and draw 2D histograms
    (150 × 150 bins) of the normalised segments per cluster (Fig 5.6).
 
-On real data (issue 14) the literal procedure broke: on 70 s of one video-derived speaker it gave
+On real data the literal procedure broke: on 70 s of one video-derived speaker it gave
 917 segments in clusters of 906 and 11, distances of 5×10⁵ and an empty Fig 5.6.  Causes and the
 choices made (the thesis is silent on each):
 

@@ -1,4 +1,4 @@
-"""How much of the head's rotation the neck carries, measured on skeletal mocap (issue 17 item 3).
+"""How much of the head's rotation the neck carries, measured on skeletal mocap.
 
 The seeds are silent on it (the thesis models the head relative to the torso as one rotation,
 §2.2.3).  A BVH export with the whole rotation on the Head joint makes rigs bend at one joint;

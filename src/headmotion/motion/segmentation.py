@@ -14,7 +14,7 @@ hysteresis).  The thesis segmented 100 Hz optical mocap; head pose estimated fro
 carries tracking jitter of ~0.1° (robust SD around a wider smoothing) that the 5-frame smoothing
 leaves in, so every jitter wiggle became a segment: median segment 0.14 s and 0.9° on the
 talking-video corpus against 0.26 s and 2.6° on the ZEGGS mocap take, and the template-warping
-systems reproduced that as a 2–4 Hz bob (issue 14).  With ``min_swing`` = 1° the video segments
+systems reproduced that as a 2–4 Hz bob.  With ``min_swing`` = 1° the video segments
 have a median of 0.39 s (mean 0.56 s) and 3.0°; on the mocap 0.48 s and 6.1°.
 :func:`noise_sd` estimates the jitter so a caller can pick ``min_swing`` as a multiple of it.
 

@@ -1,4 +1,4 @@
-"""Style from a reference: make a motion move like a given recording (issue 17 item 2).
+"""Style from a reference: make a motion move like a given recording.
 
 The seeds do not transfer style, but the thesis's corpus analysis finds head motion more speaker-
 than task-dependent (§3.5.1: speakers lie further apart than tasks), which is why a user may want
@@ -21,7 +21,7 @@ DCT-style extension: no step at the FFT's wrap-around, no phase shift).  Each ba
 inside the band and falls to 0 across a smooth raised-cosine crossover half an octave wide (in
 log-frequency) around each edge; the bands' gains sum to one at every frequency, so the bands add
 up to the signal exactly, and ``mean(band_k · x)`` partitions the variance into non-negative band
-powers (Parseval) — those are the shares.  (Butterworth filter banks were tried first: their
+powers (Parseval) — those are the shares.  (Not Butterworth filter banks: their
 crossovers overlap so much that the 0.5–1.5 and 1.5–4 Hz bands could not be set independently.)
 The motion is reshaped by a gain curve ``G(f) = Σ g_k · band_k(f)``, ``g`` found by a few
 fixed-point steps so that the styled motion's band shares equal the target shares (absorbing the

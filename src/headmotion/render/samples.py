@@ -1,4 +1,4 @@
-"""Several samples of the same speech side by side, so a user can pick one (issue 17 item 5).
+"""Several samples of the same speech side by side, so a user can pick one.
 
 The thesis's systems are stochastic (§5.4: tws-hier draws templates; every seed gives another
 plausible motion), and the listening tests put motions of one sentence side by side (§4.2.3).

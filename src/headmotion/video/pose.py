@@ -20,10 +20,10 @@ FaceMesh z on the scale of x); and ``"pnp"`` — OpenCV ``solvePnP`` of the refe
 default: on the real clips it had the lower frame-to-frame jitter and passed the mirror and
 known-rotation tests (see tests/test_video_pose.py); PnP is kept for comparison.
 
-Camera model (issue 15: "yaw from video is sometimes weak").  FaceMesh's x and y
+Camera model (why yaw from video can be weak).  FaceMesh's x and y
 are measured image positions; its z is a network's guess of relative depth.  Cross-checked on all
 59 real clips against an independent estimate (OpenCV ``solvePnP`` of the 2D landmarks against
-mediapipe's canonical face, ``scripts/pose_crosscheck.py``):
+mediapipe's canonical face, ``docs/decisions/video_pose_pipeline.md``):
 
 * **line of sight.**  A rigid fit of landmarks (like any weak-perspective / crop-based fit)
   measures the face's orientation relative to the ray from the camera to the face, not to the

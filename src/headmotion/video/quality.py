@@ -85,7 +85,7 @@ def detect_cuts(points: np.ndarray, valid: np.ndarray, *, fps: float | None = No
                 image_ratio: float = 2.7) -> list[int]:
     """Frames where a new shot starts (a sudden jump of the face or of the picture).
 
-    Four tests, any of which marks a cut (issue 15 item 3; two shots of the same person may
+    Four tests, any of which marks a cut (two shots of the same person may
     barely change the picture or barely move the face, so both are watched):
 
     1. **Jump of one measure.**  Between each valid frame and the previous one: the shift of the

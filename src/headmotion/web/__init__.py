@@ -1,4 +1,4 @@
-"""The browser viewer (issue 7): a three.js head that plays speech and head motion in sync.
+"""The browser viewer: a three.js head that plays speech and head motion in sync.
 
 * ``static/viewer.js`` — the viewer component, an ES module exporting ``mountViewer(element,
   {motions, audioUrl, ...})`` (API documented at the top of ``js/src/viewer.js``); three.js from the

@@ -1,4 +1,4 @@
-"""The local viewer server behind ``headmotion view MOTION... [--audio A]`` (issue 7).
+"""The local viewer server behind ``headmotion view MOTION... [--audio A]``.
 
 A small FastAPI app (the framework the listening tests use too) served by uvicorn on localhost:
 
