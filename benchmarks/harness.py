@@ -2,7 +2,7 @@
 peak memory of a child process, and the result table.
 
 Figures are ratios to real time (audio seconds ÷ compute seconds) wherever a duration of speech
-is involved, so that they compare across machines (issue 9).
+is involved, so that they compare across machines.
 """
 
 from __future__ import annotations

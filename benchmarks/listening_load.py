@@ -1,4 +1,4 @@
-"""Load driver for the listening-test server (issue 18 item 4): simulated participants over HTTP.
+"""Load driver for the listening-test server: simulated participants over HTTP.
 
 ``headmotion listen serve`` runs in its own process group (``--workers N``); each simulated
 participant registers, answers the demographics, starts, then loops *read the state → answer →

@@ -1,4 +1,4 @@
-"""headmotion benchmarks: one command, one table (issue 9).
+"""headmotion benchmarks: one command, one table.
 
     python benchmarks/run.py [--quick] [--out results.json] [--only GROUP,...]
 
@@ -96,7 +96,7 @@ def bench_synth(res: Results, quick: bool, cache: dict):
         cache[name] = s
         t = time_median(lambda: s.predict(audio, seed=0), repeats=2 if quick else 3)
         rt = audio.duration / t
-        targeted = name != "le2012"  # issue 9 sets targets for tws-* and the DNN systems
+        targeted = name != "le2012"  # targets are set for tws-* and the DNN systems
         res.add(Row("2 synth", f"{name}: features + synthesis, 60 s", rt, "x RT", ">= 200x" if targeted else "-",
                     (rt >= 200) if targeted else None,
                     f"{t * 1000:.0f} ms; trained in {fit_s:.0f} s"))
@@ -141,7 +141,7 @@ def _chunk_costs(stream, x, chunk: int):
 
 def _chunk_rows(res: Results, label: str, wall, cpu, note: str = "") -> None:
     """Two rows per stream: mean thread CPU and mean wall time per 10 ms chunk (target <= 0.5 ms
-    each, issue 16), with p50 / p95 / p99 in the notes.  CPU time leaves out what other processes
+    each), with p50 / p95 / p99 in the notes.  CPU time leaves out what other processes
     take from the shared cores; wall time is what a live stream feels."""
     load = os.getloadavg()[0]
     for kind, a in (("CPU", cpu), ("wall", wall)):
@@ -151,7 +151,7 @@ def _chunk_rows(res: Results, label: str, wall, cpu, note: str = "") -> None:
 
 
 def bench_causal_streams(res: Results, quick: bool, cache: dict):
-    """Issue 16 item 1: every causal system with its live features (the defaults of new models):
+    """Every causal system with its live features (the defaults of new models):
     algorithmic latency, compute per 10 ms chunk (thread CPU and wall), end-to-end latency paced in
     real time."""
     from headmotion.systems import create
@@ -198,7 +198,7 @@ def bench_stream(res: Results, quick: bool, cache: dict):
     _chunk_rows(res, f"tws-hier ({s._config().name}, the synth group's model)", wall, cpu)
     res.add(Row("4 stream", "tws-hier: algorithmic latency", float(getattr(st, "latency_ms", float("nan"))), "ms",
                 "-", None, "audio needed beyond a frame before it is final"))
-    # issue 16: the DNN systems stream with the lookahead of their ±25-frame context and 50-frame
+    # the DNN systems stream with the lookahead of their ±25-frame context and 50-frame
     # post-filter segments (systems/dnn_stream.py); a 25-frame block is recomputed every 250 ms
     for name in ("mfcc-dnn", "cccae"):
         d = cache.get(name) or make_system(name, True).fit(planted(2.0))
@@ -213,7 +213,7 @@ def bench_stream(res: Results, quick: bool, cache: dict):
                     f"{np.mean(cpu):.3f} ms"))
         res.add(Row("4 stream", f"{name}: algorithmic latency (lookahead)", float(dst.latency_ms), "ms", "-", None,
                     "(segment - 1 + context) frames + feature reach, first frame of a 25-frame block"))
-    # issue 16: the incremental features, pushed 10 ms at a time
+    # the incremental features, pushed 10 ms at a time
     from headmotion.features.streaming import StreamingF0e
 
     ex = StreamingF0e(sample_rate=audio.sample_rate)
@@ -352,7 +352,7 @@ def long_speech_file(path: Path, minutes: float, sample_rate: int = 16000) -> Pa
 
 
 def bench_long_synth(res: Results, quick: bool):
-    """``headmotion synth`` on long recordings: peak RSS and time per minute of speech (issue 18 item 5)."""
+    """``headmotion synth`` on long recordings: peak RSS and time per minute of speech."""
     import tempfile
 
     sizes = (10.0,) if quick else (10.0, 60.0, 180.0)
@@ -453,7 +453,7 @@ def bench_evaluate(res: Results, quick: bool):
 
 
 def bench_server(res: Results, quick: bool):
-    """Listening-test server (issue 18 item 4): simulated participants answering every 50 ms over
+    """Listening-test server: simulated participants answering every 50 ms over
     HTTP (``benchmarks/listening_load.py``), SQLite, 1 and 4 worker processes, ``--sync full``
     (and ``normal`` with 1 worker in the full run); each setting run twice (once with
     ``--quick``), the median reported.  The load client runs on the same cores; its own CPU per

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Rebuild headmotion's real corpus from ../shared/data/talking_video/ (issue 3, "Our real corpus").
+"""Rebuild headmotion's real corpus from ../shared/data/talking_video/.
 
     python scripts/build_real_corpus.py [OUT_DIR] [--data DIR] [--fps 25] [--lowpass 8] [--no-plots]
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Mutation fuzzer for every file reader of headmotion (issue 18 item 3).
+"""Mutation fuzzer for every file reader of headmotion.
 
 Seeds are small real-style files of every format the project reads, written here (the package's
 own writers for BVH, Live Link, native csv/json/npz, wav/flac and model files; hand-made Motive

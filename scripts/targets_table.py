@@ -1,4 +1,4 @@
-"""The issue-14 targets table from one or more ``headmotion evaluate`` report directories.
+"""The realism targets table from one or more ``headmotion evaluate`` report directories.
 
 One row per (evaluation, condition): the realism medians of :func:`headmotion.evaluation.report.
 realism_summary` with the targets of :func:`~headmotion.evaluation.report.realism_targets` marked

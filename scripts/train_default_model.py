@@ -1,5 +1,5 @@
 """Train the default model shipped in ``src/headmotion/data/default_model.hmz`` and write its model
-card ``default_model.md`` beside it (issue 14 §4).
+card ``default_model.md`` beside it.
 
 Training data: the talking-video corpus built by ``scripts/build_real_corpus.py`` (head pose
 estimated from the face in public research clips; all speakers pooled — the default must be
@@ -114,7 +114,7 @@ def held_out_section(eval_dir: Path, system: str) -> str:
     t = realism_targets(summ)[system]
     met = [k for k, v in t.items() if v]
     missed = [k for k, v in t.items() if v is False]
-    lines.append(f"\nIssue 14 targets met: {', '.join(met) or 'none'}; not met: {', '.join(missed) or 'none'}.\n")
+    lines.append(f"\nTargets met: {', '.join(met) or 'none'}; not met: {', '.join(missed) or 'none'}.\n")
     lines.append("Speech coupling (held-out speakers):\n")
     lines.append(coupling_line(system, summ[system]))
     return "\n".join(lines)

@@ -1,4 +1,4 @@
-"""Audio input/output (issue 2 item 2): real third-party files, our own examples, bad input."""
+"""Audio input/output: real third-party files, our own examples, bad input."""
 
 from __future__ import annotations
 

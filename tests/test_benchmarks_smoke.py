@@ -1,4 +1,4 @@
-"""Smoke test: ``benchmarks/run.py --quick`` runs and prints its table (issue 9).
+"""Smoke test: ``benchmarks/run.py --quick`` runs and prints its table.
 
 No timing is asserted here (speed is measured by the benchmarks, not by tests); the test checks
 that every group produced a row with a figure and no group failed with an error."""

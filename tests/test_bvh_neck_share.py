@@ -1,4 +1,4 @@
-"""Neck and head in the BVH export (issue 17 item 3): the joints compose to the motion, the neck
+"""Neck and head in the BVH export: the joints compose to the motion, the neck
 holds its share, and the default share is the one the ZEGGS mocap take shows."""
 
 from __future__ import annotations

@@ -53,7 +53,7 @@ def test_synchronised_streams_beat_chance(streams):
     assert r.p_value == pytest.approx(1 / 201)
     assert r.excess == pytest.approx(r.score - r.null_mean)
     assert r.score > r.null_p95 > r.null_mean
-    # short windows of smooth unrelated motion: a high chance level (the warning)
+    # short windows of smooth unrelated motion: a high chance level (why chance levels are measured)
     assert r.null_mean > 0.3
 
 

@@ -1,4 +1,4 @@
-"""The CLI as a user runs it: exit codes, one line on stderr, never a traceback (issue 18 item 2).
+"""The CLI as a user runs it: exit codes, one line on stderr, never a traceback.
 
 Every case runs a real process: ``python -m headmotion`` (``headmotion/__main__.py`` calls
 ``headmotion.cli.run``, the console script's entry point, which ``test_console_script_entry_point``

@@ -1,4 +1,4 @@
-"""Every registered system against the one contract (issue 13), like scikit-learn's
+"""Every registered system against the one contract, like scikit-learn's
 ``check_estimator``: :func:`check_synthesizer` runs the same checks on each registry name.
 
 Tiny settings keep the DNN systems fast; the corpus is planted (known structure) and built once
@@ -125,7 +125,7 @@ def test_stochastic_has_one_vocabulary(corpus, audio):
     "cluster" are the thesis's names for "choice" and behave exactly like it)."""
     for name in ("tws-basic", "tws-hier"):
         m = create(name, **TINY[name]).fit(corpus)
-        assert m.stochastic == "params"  # sampling is the product default (issue 14)
+        assert m.stochastic == "params"  # sampling is the product default
         base = m.set_params(stochastic="none").predict(audio, seed=1).rotvec
         for word in ("params", "both"):
             m.set_params(stochastic=word)

@@ -1,5 +1,5 @@
 """Gain and offset (motion/control.py), frame times of the resamplers, the pad/trim helper and
-integer PCM in Audio (issue 13 known answers)."""
+integer PCM in Audio (known answers)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Known-answer tests of the DNN systems' additions (issue 14 §2): variance restoration, the
+"""Known-answer tests of the DNN systems' additions: variance restoration, the
 seeded posture drift, pauses, and that switching them off gives the paper's output exactly."""
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def test_variance_restore_makes_the_training_sd_ratio_one(fitted):
         p = m._prepare(r, m.feature_config_)
         preds.append(m.motion_norm_.transform(m.predict(r.audio).rotvec))
         truth.append(m.motion_norm_.transform(p.motion))
-    # about the running mean (issue 16: causal), not the utterance mean the ratio was measured
+    # about the running mean (causal), not the utterance mean the ratio was measured
     # about: within 3 % of 1 on 20 s recordings (exactly 1 with the utterance mean)
     np.testing.assert_allclose(dnn_post.within_sd(preds) / dnn_post.within_sd(truth), 1.0, atol=0.03)
     m.set_params(variance_restore=False)

@@ -1,4 +1,4 @@
-"""Known answers for the DNN post stages that need no network (issue 14, third session): the causal
+"""Known answers for the DNN post stages that need no network: the causal
 band split, the per-band gains, the speed map and the speed shaper."""
 
 from __future__ import annotations

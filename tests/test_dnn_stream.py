@@ -1,4 +1,4 @@
-"""The DNN systems' stream (issue 16): streamed == offline ``predict`` within the documented
+"""The DNN systems' stream: streamed == offline ``predict`` within the documented
 tolerance (systems/dnn_stream.py), for any chunking; the stated lookahead; the running-mean post
 stage chunk-invariant; PAPER_PARAMS unchanged; ``headmotion stream --input FILE`` with an mfcc-dnn."""
 

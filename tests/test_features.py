@@ -1,4 +1,4 @@
-"""Speech features (issue 2 item 4): known answers, frame counts, registry, normaliser, CLI."""
+"""Speech features: known answers, frame counts, registry, normaliser, CLI."""
 
 from __future__ import annotations
 

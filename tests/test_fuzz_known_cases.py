@@ -1,4 +1,4 @@
-"""The damaged files issue 18 names, one by one: each reader checks before it trusts.
+"""Damaged files of every format, one by one: each reader checks before it trusts.
 
 Declared counts and sizes against the file, rates within 1–1000 fps (1 kHz–384 kHz audio), JSON
 depth and integer length, CSV field size, npz/zip member sizes before decompressing, the model

@@ -1,4 +1,4 @@
-"""Property-based fuzzing of every reader (issue 18 item 3).
+"""Property-based fuzzing of every reader.
 
 hypothesis picks a format, a mutation class (truncation, bit flips, numbers replaced by
 nan/inf/0/−1/1e9/1e-320/1e308/a 5000-digit integer, header fields, duplicated or deleted lines, a
@@ -94,7 +94,7 @@ def _corpus():
 
 @pytest.mark.parametrize("path", _corpus(), ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_crash_corpus_replays_clean(worker, path, tmp_path):
-    """Every input that crashed a reader once (before issue 18 or in a deep run) stays fixed."""
+    """Every input that crashed a reader once (in earlier versions or in a deep run) stays fixed."""
     _check(worker, path.parent.name, fuzz.corpus_file(path, tmp_path))
 
 

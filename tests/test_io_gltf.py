@@ -1,4 +1,4 @@
-"""glTF 2.0 export (issue 17 item 4): the keyframes decode to the motion; three.js's GLTFLoader
+"""glTF 2.0 export: the keyframes decode to the motion; three.js's GLTFLoader
 loads and plays the file in headless Chromium; Blender's glTF importer reports the same head
 rotation.
 

@@ -1,5 +1,5 @@
 """Motion formats: round trips of every writer, synthetic files with known answers, bad input,
-and the ``info`` / ``convert`` commands (issue 2 item 3, issue 7 exports)."""
+and the ``info`` / ``convert`` commands."""
 
 from __future__ import annotations
 

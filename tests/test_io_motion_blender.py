@@ -1,4 +1,4 @@
-"""Our BVH export imported by Blender itself (issue 7: "exports animators can import").
+"""Our BVH export imported by Blender itself (exports animators can import).
 
 Blender (Debian's ``blender`` package, run headless) imports the files with
 ``bpy.ops.import_anim.bvh`` and reports the Head bone's rotation relative to the Spine bone, in

@@ -1,4 +1,4 @@
-"""SMPL / SMPL-H / SMPL-X parameter files (issue 15 item 2): files made here with known neck and
+"""SMPL / SMPL-H / SMPL-X parameter files: files made here with known neck and
 head rotations; the head-relative-to-chest composition is checked against scipy, the axes against
 the convention of headmotion.rotations; wrong widths and missing rates are clear errors."""
 

@@ -213,4 +213,4 @@ def test_constant_raters_and_bad_results_file(tmp_path):
     with pytest.raises(FormatError, match="not a JSON results file"):
         an.load_results(bad)
     assert main(["listen", "analyze", str(tmp_path / "missing.json"), "-o", str(tmp_path / "o")]
-                ) == 1  # bad input (issue 18 exit codes)
+                ) == 1  # bad input (documented exit codes)

@@ -89,7 +89,7 @@ def _consent_and_demographics(page, demo: dict | None):
 def _wait_js(page, expr: str, timeout: float = 30000) -> None:
     """Wait until ``expr`` is true.  Polls with ``page.evaluate`` (run through the DevTools
     protocol): ``page.wait_for_function`` evals a string inside the page, which the server's
-    Content-Security-Policy (no 'unsafe-eval', issue 18) rightly refuses."""
+    Content-Security-Policy (no 'unsafe-eval') rightly refuses."""
     import time as _time
 
     end = _time.monotonic() + timeout / 1000

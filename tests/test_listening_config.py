@@ -156,6 +156,6 @@ def test_cli_serve_with_malformed_config_names_the_line(test_dir, capsys):
     from headmotion.cli import main
 
     p = _write(test_dir, GOOD.replace("speaker: A", "speaker: [A"))
-    assert main(["listen", "serve", str(p), "--port", "1"]) == 1  # bad input (issue 18 exit codes)
+    assert main(["listen", "serve", str(p), "--port", "1"]) == 1  # bad input (documented exit codes)
     err = capsys.readouterr().err
     assert "bad.yaml, line" in err and "invalid YAML" in err

@@ -1,4 +1,4 @@
-"""The listening-test server hardened (issue 18 item 4).
+"""The listening-test server hardened.
 
 In-process (TestClient): a rebinding ``Host`` gets 400; security headers on every response; the
 admin token is traded for an HttpOnly SameSite=Strict cookie and never accepted in an API URL;

@@ -1,4 +1,4 @@
-"""``headmotion view --live`` in headless chromium (issue 16 item 4): a fake microphone plays a
+"""``headmotion view --live`` in headless chromium: a fake microphone plays a
 real speech file; the page streams it to the server over the WebSocket, frames come back, the
 head moves while the file plays, and the page shows the latency.
 

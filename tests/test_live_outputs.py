@@ -1,4 +1,4 @@
-"""Live inputs, session and outputs on loopback (issue 16 items 2, 3, 5): a real OSC server
+"""Live inputs, session and outputs on loopback: a real OSC server
 receives VMC Head/Neck bones whose rotation equals the JSON line's, real WebSocket clients
 receive the same frames, the microphone path runs on an injected device, and bad input gives
 clear messages while the others keep being served.  Every server and loop is bounded in time."""

@@ -1,4 +1,4 @@
-"""Long inputs in bounded memory (issue 18 item 5): block reading equals whole-file reading, and a
+"""Long inputs in bounded memory: block reading equals whole-file reading, and a
 causal model synthesises a file block by block with the frames of its offline output."""
 
 import numpy as np

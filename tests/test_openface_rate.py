@@ -1,4 +1,4 @@
-"""OpenFace CSVs written the way FeatureExtraction writes them (issue 15 item 1): millisecond
+"""OpenFace CSVs written the way FeatureExtraction writes them: millisecond
 timestamps, both layouts, success = 0 frames and rows left out as gaps, bad timestamps."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Known-answer tests of settling in pauses (issue 14 §3)."""
+"""Known-answer tests of settling in pauses."""
 
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def test_bad_input():
         settle_in_pauses(np.zeros((10, 3)), np.ones(10, bool))
 
 
-# -- causal mode (streaming systems, issue 16) ------------------------------------------------
+# -- causal mode (streaming systems) ------------------------------------------------
 from headmotion.motion.pauses import CausalPauseWeight, PauseSettler  # noqa: E402
 
 

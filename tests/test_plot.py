@@ -1,4 +1,4 @@
-"""``headmotion plot`` and :func:`headmotion.render.plot_motion`; also the ``render`` CLI (issue 7)."""
+"""``headmotion plot`` and :func:`headmotion.render.plot_motion`; also the ``render`` CLI."""
 
 from __future__ import annotations
 

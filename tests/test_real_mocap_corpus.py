@@ -1,4 +1,4 @@
-"""The real mocap pair (issue 15 items 1 and 5), end to end through the CLI, skipped without
+"""The real mocap pair, end to end through the CLI, skipped without
 ../shared: the ZEGGS take (BVH + wav of the same 68.8 s) is cut into folds at pauses in the speech,
 imported with ``corpus import``, trained on with tws-hier and evaluated leave-one-out.  The same
 folds written as OpenFace 2.x CSVs (30 fps, millisecond timestamps, a few failed frames) make a

@@ -1,4 +1,4 @@
-"""Known-answer tests of the realism measures (issue 14 §1)."""
+"""Known-answer tests of the realism measures."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Offscreen head rendering and preview videos (thesis §4.2.3; issue 7).
+"""Offscreen head rendering and preview videos (thesis §4.2.3).
 
 The axis tests render pure pitch, yaw and roll and check where the black boxes over the eyes and
 mouth move in the image: the camera faces the speaker, so the speaker's left is the image's right.

@@ -1,4 +1,4 @@
-"""Several samples side by side (issue 17 item 5): K motions of one speech as a labelled grid MP4
+"""Several samples side by side: K motions of one speech as a labelled grid MP4
 with the speech; on real speech, K seeds of the shipped default model."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Low-latency streams of the causal systems (issue 16 item 1): tws-basic, tws-hier and le2012 with
+"""Low-latency streams of the causal systems: tws-basic, tws-hier and le2012 with
 live features stream the same frames as offline ``predict`` whatever the chunking (1 sample, 10 ms,
 random sizes, the whole file), on real speech and the bundled examples; their algorithmic latency
 is at most 100 ms; the stream's buffers stay bounded over 10 minutes; ``headmotion stream --input

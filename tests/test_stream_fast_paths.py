@@ -1,4 +1,4 @@
-"""The one-frame paths of the causal streams (issue 16: compute per 10 ms chunk) give what the
+"""The one-frame paths of the causal streams (compute per 10 ms chunk) give what the
 batch code gives: the same operations on scalars or 1-D rows, so the same bits (the closed-form
 rotation: scipy's to 1e-12 rad).  Whole streams equal offline synthesis in test_stream_causal.py."""
 

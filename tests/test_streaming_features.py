@@ -1,4 +1,4 @@
-"""Incremental F0 + energy features (issue 16 item 1): known F0, streamed == offline exactly,
+"""Incremental F0 + energy features: known F0, streamed == offline exactly,
 bounded lookahead, and agreement with the offline Praat-based ``f0e`` on real speech."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Style from a reference (issue 17 item 2): known answers on sinusoids, the half-way rule on real
+"""Style from a reference: known answers on sinusoids, the half-way rule on real
 recordings (the shipped default model's output styled like ZEGGS mocap and like talking videos)."""
 
 from __future__ import annotations

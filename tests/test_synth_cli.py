@@ -1,4 +1,4 @@
-"""``headmotion train / synth / stream / templates`` end to end (issue 4)."""
+"""``headmotion train / synth / stream / templates`` end to end."""
 
 import json
 import subprocess
@@ -61,7 +61,7 @@ def test_train_speaker_filter_and_errors(corpus_dir, tmp_path, capsys):
     assert "nobody" in capsys.readouterr().err
     assert main(["train", str(corpus_dir), "--system", "still", "-o", str(tmp_path / "x.hmz")]) != 0
     assert main(["synth", str(corpus_dir / "planted_000.wav"), "-o", str(tmp_path / "x.bvh"), "-m",
-                 str(corpus_dir / "corpus.csv")]) == 1  # ModelFileError: bad input (issue 18 exit codes)
+                 str(corpus_dir / "corpus.csv")]) == 1  # ModelFileError: bad input (documented exit codes)
     assert main(["synth", str(tmp_path / "missing.wav"), "-o", str(tmp_path / "x.bvh")]) != 0
 
 

@@ -1,4 +1,4 @@
-"""``headmotion synth`` controls (issue 17): per-axis gain and offset, --still, --style-from,
+"""``headmotion synth`` controls: per-axis gain and offset, --still, --style-from,
 --neck-share and the K-sample grid, with known answers on the shipped default model."""
 
 import numpy as np
@@ -71,7 +71,7 @@ def test_style_from_reference_takes_its_amplitude(speech, tmp_path):
     assert main(["synth", str(speech), "-o", str(out), "--style-from", str(ref)]) == 0
     sd_base, sd = _angles(base).std(axis=0), _angles(out).std(axis=0)
     target = _angles(ref).std(axis=0)
-    # at least half-way from the unstyled towards the reference (the issue's rule)
+    # at least half-way from the unstyled towards the reference (the style transfer's acceptance rule)
     assert np.all(np.abs(sd - target) <= 0.5 * np.abs(sd_base - target) + 1e-6)
 
 

@@ -1,4 +1,4 @@
-"""Template-warping systems on a planted-structure corpus (thesis §5.5–5.9; issue 4 checks)."""
+"""Template-warping systems on a planted-structure corpus (thesis §5.5–5.9)."""
 
 import numpy as np
 import pytest
@@ -213,7 +213,7 @@ def test_gmeans_option(train, monkeypatch):
     assert sorted(set(m.fit_info_["k"].values())) == [3]
 
 
-# -- issue 14 phase 2: product defaults (sampling, min swing, soft limit, pauses) ---------------
+# -- product defaults (sampling, min swing, soft limit, pauses) ---------------
 from headmotion.systems.tws.limits import Limits  # noqa: E402
 
 

@@ -1,4 +1,4 @@
-"""Speaking mask (issue 2 item 5; paper §4.2): detector and user annotations."""
+"""Speaking mask (paper §4.2): detector and user annotations."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Camera cuts within one speaker, on real video (issue 15 item 3), skipped without ../shared.
+"""Camera cuts within one speaker, on real video, skipped without ../shared.
 
 Two real clips of the same speaker (styletalk: andrew ×2, feifeili ×3) are joined at a known
 frame with PyAV (H.264, written to a temporary folder, with the two same-named wavs joined at the

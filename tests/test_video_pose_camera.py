@@ -1,4 +1,4 @@
-"""Video pose, camera model (issue 15 item 4): a face seen through a pinhole camera that moves
+"""Video pose, camera model: a face seen through a pinhole camera that moves
 across the image without turning reads as still after the line-of-sight correction, and known
 rotations of a moving face are recovered under perspective."""
 

@@ -1,6 +1,6 @@
 """Video → head pose on real clips from ../shared/data/talking_video (skipped when absent).
 
-The issue's validation: mirror test, known rotations (synthetic projection of the fitted shape,
+Validation: mirror test, known rotations (synthetic projection of the fitted shape,
 and real frames warped in-plane), audio/video sync, stability, bad inputs, the CLI.  Only a few
 seconds of a few clips are tracked; results are cached for the session.
 """

@@ -1,4 +1,4 @@
-"""The browser viewer (issue 7): server endpoints, the bundled static files, and end to end in
+"""The browser viewer: server endpoints, the bundled static files, and end to end in
 Debian's chromium driven by Playwright — the canvas renders, the head turns the right way, and the
 drawn frame follows the audio clock.
 

@@ -1,4 +1,4 @@
-"""The bad inputs of issue 15, through the CLI: each a clear one-line error naming the file (or,
+"""Bad input files through the CLI: each a clear one-line error naming the file (or,
 for the video case, see tests/test_video_cuts_real.py: a recording with the gap marked)."""
 
 from __future__ import annotations
