@@ -18,7 +18,7 @@ the shares and Hellinger distances is the pooled training heads).
 Usage::
 
     PYTHONPATH=src python scripts/train_default_model.py [CORPUS_DIR] --system mfcc-dnn \\
-        --set variance_restore=true --evaluation docs/eval/video_speakers --eval-system mfcc-dnn [-o OUT.hmz]
+        --set variance_restore=true --evaluation docs/eval/video_speakers_seed0 --eval-system mfcc-dnn [-o OUT.hmz]
 """
 
 from __future__ import annotations

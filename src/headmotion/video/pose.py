@@ -20,30 +20,16 @@ FaceMesh z on the scale of x); and ``"pnp"`` — OpenCV ``solvePnP`` of the refe
 default: on the real clips it had the lower frame-to-frame jitter and passed the mirror and
 known-rotation tests (see tests/test_video_pose.py); PnP is kept for comparison.
 
-Camera model (why yaw from video can be weak).  FaceMesh's x and y
-are measured image positions; its z is a network's guess of relative depth.  Cross-checked on all
-59 real clips against an independent estimate (OpenCV ``solvePnP`` of the 2D landmarks against
-mediapipe's canonical face, ``docs/decisions/video_pose_pipeline.md``):
-
-* **line of sight.**  A rigid fit of landmarks (like any weak-perspective / crop-based fit)
-  measures the face's orientation relative to the ray from the camera to the face, not to the
-  camera's axis: a head that moves sideways without turning is seen from a slightly different
-  angle and reads as yaw (up/down: pitch).  With ``width``/``height`` known, each frame's rotation
-  is put back into camera axes, ``R = R_ray R_fit``, where ``R_ray`` turns the optical axis onto the
-  ray through the face centre of a pinhole camera with the principal point at the image centre and
-  focal length ``focal`` (default: the image diagonal, a ≈ 47° horizontal field of view at 16:9,
-  ≈ 40° for a square crop; a longer lens is the safer guess for crops of larger frames, as it
-  corrects less).  This raised the worst clip's yaw agreement from 0.54–0.84 to 0.78–0.90
-  (depending on the focal length the check assumes: the width or the diagonal) and roll's from
-  0.84–0.88 to 0.95–0.97; the yaw SD of the real corpus fell by a median 12 % (translation no
-  longer read as turning).
-* **depth weight** (tried, not kept).  Giving FaceMesh's predicted z half the weight of x, y
-  (alternating fit) moved pitch towards the 2D check on GRID clips, but did not reduce the leak of
-  mouth opening into pitch (median |r| 0.28 → 0.30) and let more blinking in (0.18 → 0.19); on a
-  synthetic face whose lower half swells in depth it cut the pitch error by under 3 %: x, y say
-  little about pitch for a face this flat, so z stays in at full weight.
-* **landmark subset.**  Dropping the lower nose and most cheek points (an "upper face" subset)
-  made every axis agree less (fewer points, more noise); the 122-point set is kept.
+Camera model.  A rigid fit of landmarks measures the face's orientation relative to the ray from
+the camera to the face, not to the camera's axis: a head that moves sideways without turning is
+seen from a slightly different angle and reads as yaw (up/down: pitch).  With ``width``/``height``
+known, each frame's rotation is put back into camera axes, ``R = R_ray R_fit``, where ``R_ray``
+turns the optical axis onto the ray through the face centre of a pinhole camera with the principal
+point at the image centre and focal length ``focal`` (default: the image diagonal, a ≈ 47°
+horizontal field of view at 16:9; a longer lens is the safer guess for crops, as it corrects
+less).  FaceMesh's z (a network's guess of relative depth) keeps full weight, and the 122-point
+rigid set is used whole; the measurements behind these choices are in
+``docs/decisions/video_pose_pipeline.md``.
 
 Axes.  Camera coordinates are x right, y down, z into the scene; the subject faces the camera.
 The project's head frame (:mod:`headmotion.rotations`) has +x to the speaker's left (= camera
