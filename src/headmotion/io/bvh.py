@@ -133,7 +133,12 @@ def _num(tok: str, path, line: int) -> float:
 
 
 def read_bvh_file(path) -> BVHFile:
-    """Parse a BVH file into joints and the raw channel matrix (no rotation maths)."""
+    """Parse a BVH file into joints and the raw channel matrix (no rotation maths).
+
+    The HIERARCHY section (:func:`_parse_hierarchy`), the MOTION header (:func:`_parse_motion_header`)
+    and the frame lines (:func:`_parse_frames`) are read in turn; each checks what it reads before
+    anything is allocated and raises :class:`~headmotion.errors.FormatError` naming the line.
+    """
     path = Path(path)
     text = read_text(path, what="BVH file", errors="replace")
     lines = text.splitlines()
@@ -145,7 +150,17 @@ def read_bvh_file(path) -> BVHFile:
     if lines[i].strip().upper() != "HIERARCHY":
         raise FormatError(f"expected 'HIERARCHY' on the first line, found {lines[i].strip()[:40]!r}",
                           path=path, line=i + 1)
-    i += 1
+    joints, n_channels, i = _parse_hierarchy(lines, i + 1, path)
+    n_frames, frame_time, frames_line, i = _parse_motion_header(lines, i, path)
+    if n_channels == 0:
+        raise FormatError("no joint has CHANNELS, so the frames hold nothing", path=path)
+    data = _parse_frames(lines, i, n_frames, n_channels, frames_line, path)
+    return BVHFile(joints=joints, frames=data, frame_time=frame_time, path=path)
+
+
+def _parse_hierarchy(lines: list[str], i: int, path: Path) -> tuple[list[Joint], int, int]:
+    """The joints of the HIERARCHY section starting at line index ``i``, the number of channels,
+    and the index of the line after ``MOTION``."""
     joints: list[Joint] = []
     stack: list[int | None] = []  # joint index per open brace (None for End Site)
     pending: Joint | None = None
@@ -192,24 +207,10 @@ def read_bvh_file(path) -> BVHFile:
         elif key == "CHANNELS":
             if not stack or stack[-1] is None:
                 raise FormatError("CHANNELS outside a joint", path=path, line=ln)
-            if len(tok) < 2:
-                raise FormatError("CHANNELS needs a count", path=path, line=ln)
-            n = parse_count(tok[1], path=path, line=ln, what="the CHANNELS count", maximum=6)
-            chans = tok[2:]
-            if len(chans) != n:
-                raise FormatError(f"CHANNELS says {n} but lists {len(chans)}", path=path, line=ln)
-            valid = {f"{a}{k}" for a in "XYZ" for k in ("position", "rotation")}
-            for c in chans:
-                if c[:1].upper() + c[1:].lower() not in valid:
-                    raise FormatError(f"unknown channel {c!r}; expected Xposition … Zrotation",
-                                      path=path, line=ln)
-            norm = [c[:1].upper() + c[1:].lower() for c in chans]
-            if len(set(norm)) != len(norm):
-                raise FormatError(f"CHANNELS lists a channel twice: {' '.join(chans)}", path=path, line=ln)
             j = joints[stack[-1]]
-            j.channels = chans
+            j.channels = _channels(tok, path, ln)
             j.start = n_channels
-            n_channels += n
+            n_channels += len(j.channels)
         elif key == "MOTION":
             break
         else:
@@ -220,7 +221,32 @@ def read_bvh_file(path) -> BVHFile:
         raise FormatError("HIERARCHY has unclosed braces", path=path)
     if not joints:
         raise FormatError("HIERARCHY defines no joints", path=path)
-    # Frames: N / Frame Time: t
+    return joints, n_channels, i
+
+
+def _channels(tok: list[str], path: Path, ln: int) -> list[str]:
+    """The channel names of a ``CHANNELS n name...`` line, checked (count, known names, no repeats)."""
+    if len(tok) < 2:
+        raise FormatError("CHANNELS needs a count", path=path, line=ln)
+    n = parse_count(tok[1], path=path, line=ln, what="the CHANNELS count", maximum=6)
+    chans = tok[2:]
+    if len(chans) != n:
+        raise FormatError(f"CHANNELS says {n} but lists {len(chans)}", path=path, line=ln)
+    valid = {f"{a}{k}" for a in "XYZ" for k in ("position", "rotation")}
+    for c in chans:
+        if c[:1].upper() + c[1:].lower() not in valid:
+            raise FormatError(f"unknown channel {c!r}; expected Xposition … Zrotation",
+                              path=path, line=ln)
+    norm = [c[:1].upper() + c[1:].lower() for c in chans]
+    if len(set(norm)) != len(norm):
+        raise FormatError(f"CHANNELS lists a channel twice: {' '.join(chans)}", path=path, line=ln)
+    return chans
+
+
+def _parse_motion_header(lines: list[str], i: int, path: Path) -> tuple[int, float, int, int]:
+    """``Frames: N`` and ``Frame Time: t`` (either order) from line index ``i``: the frame count,
+    the frame time (within :data:`FPS_RANGE`), the line number of ``Frames:`` and the index of the
+    first line after the header."""
     header = {}
     while i < len(lines) and len(header) < 2:
         raw = lines[i].strip()
@@ -246,15 +272,19 @@ def read_bvh_file(path) -> BVHFile:
         raise FormatError(f"Frame Time {header['frame time'][0][:40]!r} is not a sane frame duration: "
                           f"expected {1 / hi:g} to {1 / lo:g} s ({lo:g}–{hi:g} frames/s)", path=path,
                           line=header["frame time"][1])
-    if n_channels == 0:
-        raise FormatError("no joint has CHANNELS, so the frames hold nothing", path=path)
-    # the frame lines present, checked against the declared count before anything is allocated
+    return n_frames, frame_time, header["frames"][1], i
+
+
+def _parse_frames(lines: list[str], i: int, n_frames: int, n_channels: int, frames_line: int,
+                  path: Path) -> np.ndarray:
+    """The ``(n_frames, n_channels)`` channel matrix from the frame lines starting at index ``i``;
+    the line count is checked against ``Frames:`` (on line ``frames_line``) before allocating."""
     body = [(k + 1, ln) for k, ln in enumerate(lines[i:], start=i) if ln.strip()]
     if len(body) != n_frames:
         raise FormatError(
             f"'Frames: {n_frames}' but the file holds {len(body)} frame lines"
             + (" (truncated?)" if len(body) < n_frames else ""),
-            path=path, line=header["frames"][1])
+            path=path, line=frames_line)
     data = np.empty((n_frames, n_channels))
     for t, (ln, raw) in enumerate(body):
         vals = raw.split()
@@ -270,8 +300,8 @@ def read_bvh_file(path) -> BVHFile:
             raise FormatError("frame line holds NaN or inf (or a number too large for a float)",
                               path=path, line=ln)
     if n_frames == 0:
-        raise FormatError("'Frames: 0': the file holds no motion", path=path, line=header["frames"][1])
-    return BVHFile(joints=joints, frames=data, frame_time=frame_time, path=path)
+        raise FormatError("'Frames: 0': the file holds no motion", path=path, line=frames_line)
+    return data
 
 
 def _leaf_name(name: str) -> str:

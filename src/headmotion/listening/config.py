@@ -32,9 +32,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from ..errors import FormatError
+from .config_yaml import _compose, _Ctx, _Node
 
 TEST_TYPES = ("mos_ref", "mushra", "ab")
 DEFAULT_QUESTIONS = {
@@ -48,147 +47,6 @@ VIEWER_STYLES = ("textured", "smooth", "silhouette")
 VIDEO_SUFFIXES = (".mp4", ".webm", ".m4v", ".ogv")
 MOTION_SUFFIXES = (".npz", ".json", ".csv", ".bvh")
 AUDIO_SUFFIXES = (".wav", ".mp3", ".ogg", ".flac", ".m4a")
-
-
-# ---------------------------------------------------------------------------------------------
-# YAML with marks
-# ---------------------------------------------------------------------------------------------
-class _Node:
-    """A plain value together with the line (1-based) it came from."""
-
-    __slots__ = ("value", "line")
-
-    def __init__(self, value, line):
-        self.value = value
-        self.line = line
-
-
-def _convert(node: yaml.Node, path: Path) -> _Node:
-    line = node.start_mark.line + 1
-    if isinstance(node, yaml.MappingNode):
-        out: dict[str, _Node] = {}
-        keylines: dict[str, int] = {}
-        for knode, vnode in node.value:
-            if not isinstance(knode, yaml.ScalarNode):
-                raise FormatError("mapping keys must be plain strings", path=path,
-                                  line=knode.start_mark.line + 1)
-            key = str(knode.value)
-            if key in out:
-                raise FormatError(f"duplicate key {key!r} (first on line {keylines[key]})",
-                                  path=path, line=knode.start_mark.line + 1)
-            keylines[key] = knode.start_mark.line + 1
-            out[key] = _convert(vnode, path)
-        return _Node(out, line)
-    if isinstance(node, yaml.SequenceNode):
-        return _Node([_convert(v, path) for v in node.value], line)
-    return _Node(_scalar(node), line)
-
-
-_RESOLVER_LOADER = yaml.SafeLoader("")
-
-
-def _scalar(node: yaml.ScalarNode):
-    # construct the scalar with PyYAML's own resolver/constructors (ints, floats, bools, null)
-    return _RESOLVER_LOADER.construct_object(node, deep=True)
-
-
-def _compose(text: str, path: Path) -> _Node:
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line = mark.line + 1 if mark is not None else None
-        msg = " ".join(str(p) for p in (exc.context, exc.problem) if p)
-        raise FormatError(f"invalid YAML: {msg}", path=path, line=line) from None
-    except yaml.YAMLError as exc:
-        raise FormatError(f"invalid YAML: {exc}", path=path) from None
-    if root is None:
-        raise FormatError("the file is empty; expected a mapping with at least 'type' and 'items'",
-                          path=path, line=1)
-    return _convert(root, path)
-
-
-class _Ctx:
-    """Validation helpers that raise :class:`FormatError` with the file and line."""
-
-    def __init__(self, path: Path, root_dir: Path):
-        self.path = path
-        self.root_dir = root_dir
-
-    def fail(self, msg: str, node: _Node | None) -> None:
-        raise FormatError(msg, path=self.path, line=None if node is None else node.line)
-
-    def mapping(self, node: _Node, what: str) -> dict[str, _Node]:
-        if not isinstance(node.value, dict):
-            self.fail(f"{what} must be a mapping; got {type(node.value).__name__} {node.value!r}"
-                      if not isinstance(node.value, list) else f"{what} must be a mapping; got a list",
-                      node)
-        return node.value
-
-    def seq(self, node: _Node, what: str) -> list[_Node]:
-        if not isinstance(node.value, list):
-            self.fail(f"{what} must be a list; got {_show(node)}", node)
-        return node.value
-
-    def string(self, node: _Node, what: str, *, allow_empty: bool = False) -> str:
-        if isinstance(node.value, (dict, list)) or node.value is None:
-            self.fail(f"{what} must be a string; got {_show(node)}", node)
-        s = str(node.value)
-        if not s.strip() and not allow_empty:
-            self.fail(f"{what} must not be empty", node)
-        return s
-
-    def integer(self, node: _Node, what: str, lo: int | None = None, hi: int | None = None) -> int:
-        v = node.value
-        if isinstance(v, bool) or not isinstance(v, int):
-            self.fail(f"{what} must be an integer; got {_show(node)}", node)
-        if (lo is not None and v < lo) or (hi is not None and v > hi):
-            rng = f"[{lo if lo is not None else '-inf'}, {hi if hi is not None else 'inf'}]"
-            self.fail(f"{what} must be an integer in the range {rng}; got {v}", node)
-        return int(v)
-
-    def number(self, node: _Node, what: str, lo: float, hi: float) -> float:
-        v = node.value
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            self.fail(f"{what} must be a number; got {_show(node)}", node)
-        if not lo <= v <= hi:
-            self.fail(f"{what} must be in the range [{lo}, {hi}]; got {v}", node)
-        return float(v)
-
-    def boolean(self, node: _Node, what: str) -> bool:
-        if not isinstance(node.value, bool):
-            self.fail(f"{what} must be true or false; got {_show(node)}", node)
-        return bool(node.value)
-
-    def keys(self, m: dict[str, _Node], allowed: set[str], what: str, node: _Node) -> None:
-        for k, v in m.items():
-            if k not in allowed:
-                self.fail(f"unknown key {k!r} in {what}; expected one of {sorted(allowed)}", v)
-
-    def file(self, node: _Node, what: str, suffixes: tuple[str, ...]) -> Path:
-        rel = self.string(node, what)
-        p = Path(rel)
-        if p.is_absolute():
-            self.fail(f"{what} {rel!r} must be a path relative to the test folder {self.root_dir}",
-                      node)
-        full = (self.root_dir / p).resolve()
-        if not full.is_relative_to(self.root_dir):
-            self.fail(f"{what} {rel!r} leaves the test folder {self.root_dir}", node)
-        if full.suffix.lower() not in suffixes:
-            self.fail(f"{what} {rel!r} has an unsupported extension; expected one of "
-                      f"{', '.join(suffixes)}", node)
-        if not full.is_file():
-            self.fail(f"{what} {rel!r} does not exist (looked for {full})", node)
-        return full
-
-
-def _show(node: _Node) -> str:
-    v = node.value
-    if isinstance(v, dict):
-        return "a mapping"
-    if isinstance(v, list):
-        return "a list"
-    return f"{type(v).__name__} {v!r}"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -359,6 +217,17 @@ def load_config(path) -> TestConfig:
     if ttype not in TEST_TYPES:
         ctx.fail(f"'type' must be one of {', '.join(TEST_TYPES)}; got {ttype!r}", top["type"])
 
+    kw = _general_settings(ctx, top, ttype, path)
+    _scale_settings(ctx, top, kw)
+    _demographics_settings(ctx, top, kw)
+    _mushra_settings(ctx, top, ttype, kw)
+    stimuli = _items_and_checks(ctx, top, root, ttype, kw)
+    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+    return TestConfig(path=path, root=root_dir, type=ttype, digest=digest, stimuli=stimuli, **kw)
+
+
+def _general_settings(ctx: _Ctx, top: dict, ttype: str, path: Path) -> dict[str, Any]:
+    """The test's texts, name, seed, viewer style and server limits, as keywords of :class:`TestConfig`."""
     kw: dict[str, Any] = {}
     for key in ("title", "consent", "instructions", "question", "finish_text", "admin_token",
                 "database"):
@@ -391,7 +260,11 @@ def load_config(path) -> TestConfig:
     if "registration_window_s" in top:
         kw["registration_window_s"] = ctx.number(top["registration_window_s"], "'registration_window_s'",
                                                  1, 366 * 24 * 3600)
+    return kw
 
+
+def _scale_settings(ctx: _Ctx, top: dict, kw: dict[str, Any]) -> None:
+    """``scale:`` (points and their labels) into ``kw``."""
     if "scale" in top:
         sc = ctx.mapping(top["scale"], "'scale'")
         ctx.keys(sc, {"points", "labels"}, "'scale'", top["scale"])
@@ -408,6 +281,9 @@ def load_config(path) -> TestConfig:
             kw["scale_labels"] = tuple(str(i + 1) for i in range(points)) if points != 7 else \
                 DEFAULT_MOS_LABELS
 
+
+def _demographics_settings(ctx: _Ctx, top: dict, kw: dict[str, Any]) -> None:
+    """``demographics:`` (the questionnaire; names unique) into ``kw``."""
     if "demographics" in top:
         kw["demographics"] = tuple(_question(ctx, n) for n in ctx.seq(top["demographics"],
                                                                       "'demographics'"))
@@ -416,6 +292,9 @@ def load_config(path) -> TestConfig:
             if names.count(q.name) > 1:
                 ctx.fail(f"demographics question name {q.name!r} is used twice", n)
 
+
+def _mushra_settings(ctx: _Ctx, top: dict, ttype: str, kw: dict[str, Any]) -> None:
+    """``mushra:`` (hidden reference, anchor, screening) into ``kw``; refused for other test types."""
     if ttype == "mushra" and "mushra" in top:
         ms = ctx.mapping(top["mushra"], "'mushra'")
         ctx.keys(ms, {"hidden_reference", "anchor", "screening_threshold", "screening_fraction"},
@@ -435,6 +314,11 @@ def load_config(path) -> TestConfig:
     if "ab" in top:
         ctx.fail("'ab' is not a settings block; pairs are given per item with 'pairs:'", top["ab"])
 
+
+def _items_and_checks(ctx: _Ctx, top: dict, root: _Node, ttype: str, kw: dict[str, Any]) -> dict[str, Stimulus]:
+    """``items:``, ``training:`` (ids unique over both) and ``attention_checks:`` into ``kw``;
+    returns the stimuli they name."""
+    path, root_dir = ctx.path, ctx.root_dir
     stimuli: dict[str, Stimulus] = {}
     if "items" not in top:
         ctx.fail("missing 'items': the list of items to rate", root)
@@ -456,8 +340,7 @@ def load_config(path) -> TestConfig:
         kw["attention_checks"] = tuple(_attention(ctx, n, n_test)
                                        for n in ctx.seq(top["attention_checks"],
                                                         "'attention_checks'"))
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    return TestConfig(path=path, root=root_dir, type=ttype, digest=digest, stimuli=stimuli, **kw)
+    return stimuli
 
 
 def _question(ctx: _Ctx, node: _Node) -> Question:
