@@ -283,25 +283,13 @@ def parts_from_analysis(analysis: VideoAnalysis, *, rec_id: str, fps: float | No
         raise FormatError(f"no face found in any of its {T} frames", path=src)
     P = lm.points[:, RIGID_LANDMARKS].astype(float)
     cuts = q.detect_cuts(P, detected, fps=vfps, image_diff=analysis.image_diff)
-    rotvec = np.full((T, 3), np.nan)
-    residual = np.full(T, np.nan)
     bounds = [0] + cuts + [T]
-    for a, b in zip(bounds[:-1], bounds[1:]):
-        if detected[a:b].sum() >= 3:
-            fit = estimate_pose(P[a:b], detected[a:b], method=method, width=lm.width, height=lm.height)
-            rotvec[a:b] = fit.rotvec
-            residual[a:b] = fit.residual
+    rotvec, residual = _fit_shots(lm, P, detected, bounds, method)
     conf = q.confidence(P, residual, width=lm.width, height=lm.height, n_faces=lm.n_faces)
     usable = conf >= min_confidence
     rotvec[~usable] = np.nan
     # fill short gaps within each shot (never across a cut)
-    max_gap = max(0, int(round(max_gap_s * vfps)))
-    filled = rotvec.copy()
-    gaps_all: list[tuple[int, int, bool]] = []
-    for a, b in zip(bounds[:-1], bounds[1:]):
-        seg, gaps = q.fill_gaps(rotvec[a:b], lm.times[a:b], max_gap=max_gap)
-        filled[a:b] = seg
-        gaps_all += [(a + g0, a + g1, ok) for g0, g1, ok in gaps]
+    filled, gaps_all = _fill_shot_gaps(rotvec, lm.times, bounds, max(0, int(round(max_gap_s * vfps))))
     ok_rows = np.all(np.isfinite(filled), axis=1)
     segs = q.split_segments(ok_rows, cuts, min_len=min_len)
     if not segs:
@@ -332,24 +320,56 @@ def parts_from_analysis(analysis: VideoAnalysis, *, rec_id: str, fps: float | No
                 continue
             motion = motion.slice_frames(0, n)
         in_part = [(g0, g1, okg) for g0, g1, okg in gaps_all if a <= g0 and g1 <= b]
-        sd = np.degrees(motion.rotvec.std(axis=0))
-        jit = q.jitter_deg(motion.rotvec)
-        notes = []
-        if two > 0.05:
-            notes.append(f"two faces in {two:.0%} of frames (kept the tracked one)")
-        row = {"recording": pid, "source": Path(src).name, "seconds": round(motion.duration, 3),
-               "fps": round(motion.fps, 3), "detection": round(float(detected[a:b].mean()), 4),
-               "confidence": round(float(conf[a:b].mean()), 4),
-               "two_faces": round(two, 4), "gaps": len(in_part),
-               "gaps_filled": int(sum(okg for *_, okg in in_part)), "cuts": len(cuts),
-               "sd_pitch": round(float(sd[0]), 3), "sd_yaw": round(float(sd[1]), 3),
-               "sd_roll": round(float(sd[2]), 3), "jitter_pitch": round(float(jit[0]), 4),
-               "jitter_yaw": round(float(jit[1]), 4), "jitter_roll": round(float(jit[2]), 4),
-               "note": "; ".join(notes)}
+        row = _quality_row(pid, src, motion, detected[a:b], conf[a:b], two, in_part, len(cuts))
         parts.append(VideoPart(pid, int(a), int(b), motion, snd, row))
     if not parts:
         raise FormatError("the audio does not cover any part of the video with a face", path=src)
     return parts
+
+
+def _fit_shots(lm, P: np.ndarray, detected: np.ndarray, bounds: list[int], method: str):
+    """Rotation vectors and fit residuals per frame, the pose fitted shot by shot (between cuts);
+    NaN in shots with fewer than 3 detected frames."""
+    T = len(P)
+    rotvec = np.full((T, 3), np.nan)
+    residual = np.full(T, np.nan)
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if detected[a:b].sum() >= 3:
+            fit = estimate_pose(P[a:b], detected[a:b], method=method, width=lm.width, height=lm.height)
+            rotvec[a:b] = fit.rotvec
+            residual[a:b] = fit.residual
+    return rotvec, residual
+
+
+def _fill_shot_gaps(rotvec: np.ndarray, times: np.ndarray, bounds: list[int], max_gap: int):
+    """Gaps of at most ``max_gap`` frames filled within each shot (never across a cut); returns the
+    filled track and every gap as ``(first, end, filled)`` in frames of the whole video."""
+    filled = rotvec.copy()
+    gaps_all: list[tuple[int, int, bool]] = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        seg, gaps = q.fill_gaps(rotvec[a:b], times[a:b], max_gap=max_gap)
+        filled[a:b] = seg
+        gaps_all += [(a + g0, a + g1, ok) for g0, g1, ok in gaps]
+    return filled, gaps_all
+
+
+def _quality_row(pid: str, src, motion: Motion, detected: np.ndarray, conf: np.ndarray, two: float,
+                 gaps: list, n_cuts: int) -> dict:
+    """One row of ``quality.csv`` for a part: detection, confidence, gaps, cuts, SD and jitter."""
+    sd = np.degrees(motion.rotvec.std(axis=0))
+    jit = q.jitter_deg(motion.rotvec)
+    notes = []
+    if two > 0.05:
+        notes.append(f"two faces in {two:.0%} of frames (kept the tracked one)")
+    return {"recording": pid, "source": Path(src).name, "seconds": round(motion.duration, 3),
+            "fps": round(motion.fps, 3), "detection": round(float(detected.mean()), 4),
+            "confidence": round(float(conf.mean()), 4),
+            "two_faces": round(two, 4), "gaps": len(gaps),
+            "gaps_filled": int(sum(okg for *_, okg in gaps)), "cuts": n_cuts,
+            "sd_pitch": round(float(sd[0]), 3), "sd_yaw": round(float(sd[1]), 3),
+            "sd_roll": round(float(sd[2]), 3), "jitter_pitch": round(float(jit[0]), 4),
+            "jitter_yaw": round(float(jit[1]), 4), "jitter_roll": round(float(jit[2]), 4),
+            "note": "; ".join(notes)}
 
 
 def write_quality_csv(rows: Sequence[dict], path) -> None:
