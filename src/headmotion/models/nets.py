@@ -19,7 +19,7 @@
   edge frame; synthesis (:func:`predict_regressor`) mirrors the frames about the edge instead
   (:func:`pad_indices`): the paper is silent, and an edge frame held for
   the 25 frames of context is a sound no speech makes — on real speech cut mid-utterance
-  (4 files, 31 cuts, ``python scripts/diagnosis_i14/edge_padding.py``) the default's last 0.25 s
+  (4 files, 31 cuts; ``docs/decisions/dnn_context_padding.md``) the default's last 0.25 s
   strayed from what the uncut file gives by 2.0° on average (up to 14°, a visible turn as the
   clip ends) with the edge held, 1.3° (up to 9°) mirrored.
 * :class:`StackedAutoencoder` again as the post-filter, Fig. 1 (C): a denoising autoencoder on
