@@ -262,7 +262,7 @@ def bench_stream(res: Results, quick: bool, cache: dict):
     res.add(Row("4 stream", f"f0e-live alone in the paced session ({secs:.0f} s): end-to-end latency median",
                 floor["median_ms"], "ms", "<= 100 ms", floor["median_ms"] <= 100,
                 f"p95 {floor['p95_ms']:.0f} ms; the pipeline floor once the systems use f0e-live"))
-    # the same paced session through an mfcc-dnn's stream (the likely default model)
+    # the same paced session through an mfcc-dnn stream (the default model's system)
     d = cache["mfcc-dnn"]
     with tempfile.TemporaryDirectory() as tmp:
         wav = Path(tmp) / "speech.wav"
