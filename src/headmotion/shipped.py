@@ -60,9 +60,8 @@ def resolve_model_path(model) -> Path:
         return shipped_path(text)
     path = Path(model)
     if not path.exists():
-        hint = "" if path.suffix else " (a name, not a file)"
         raise ModelFileError(f"model {text!r} is neither a shipped model ({', '.join(SHIPPED_FILES)}) nor an "
-                             f"existing model file{hint}; `headmotion models` lists the shipped ones")
+                             "existing model file; `headmotion models` lists the shipped ones")
     return path
 
 

@@ -11,7 +11,6 @@ It parses its options once into :class:`headmotion.synthesis.Controls` and calls
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 from typing import Optional
 
 import typer
