@@ -1,4 +1,4 @@
-"""``headmotion info FILE``, ``headmotion models`` and ``headmotion convert IN OUT`` (issue 2 item 8, issue 7 exports).
+"""``headmotion info FILE``, ``headmotion models`` and ``headmotion convert IN OUT``.
 
 ``info`` describes a motion file (format, frames, rate, duration, joints / markers, head-rotation
 SD per axis) or an audio/video file (decoder, rate, channels, duration) via

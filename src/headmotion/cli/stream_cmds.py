@@ -1,6 +1,6 @@
 """``headmotion stream``: speech in as it comes (raw PCM on stdin, an audio file paced in real time,
 or the microphone) → head rotation out (JSON lines, VMC over OSC, a WebSocket), with any causal
-model (docs/design.md "CLI"; issue 16).
+model (docs/design.md "CLI").
 
 It parses its options once into :class:`headmotion.synthesis.Controls` and calls
 :func:`headmotion.live.session.stream_live`, which resamples the input on the stream (one

@@ -1,4 +1,4 @@
-"""Live head motion: audio inputs, a streaming session and real-time outputs (issue 16).
+"""Live head motion: audio inputs, a streaming session and real-time outputs.
 
 * :mod:`.inputs`    — PCM on stdin, audio files (optionally paced), microphone (sounddevice);
 * :mod:`.session`   — input → motion stream → outputs, bounded queues, end-to-end latency;

@@ -1,4 +1,4 @@
-"""Input → motion stream → outputs, with bounded queues and measured latency (issue 16; the
+"""Input → motion stream → outputs, with bounded queues and measured latency (the
 seeds are silent on live use).
 
 :class:`LiveSession` reads an :class:`~headmotion.live.inputs.AudioSource` in a reader thread

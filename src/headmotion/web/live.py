@@ -1,5 +1,5 @@
 """``headmotion view --live``: the bundled viewer driven by the microphone or an audio file through
-a WebSocket (issue 16 item 4; the seeds are silent on live use).
+a WebSocket (the seeds are silent on live use).
 
 The page (``static/live.html``) captures audio in the browser — ``getUserMedia`` for the
 microphone, or a chosen file decoded and played — and sends it as binary messages of float32
