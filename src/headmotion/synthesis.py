@@ -337,6 +337,7 @@ class SpeechStream:
         self.latency_ms = float(getattr(inner, "latency_ms", 0.0))
         self._inner = inner
         self._resample = Resampler(self.sample_rate, int(model.sample_rate))
+        self._identity = not (controls.still or controls.moves_pose)  # decided once, not per 10 ms push
 
     def push(self, samples) -> Motion:
         """Frames made final by these float32 mono samples (at :attr:`sample_rate`; may be none)."""
@@ -350,7 +351,9 @@ class SpeechStream:
         return self._controlled(rest if len(tail) == 0 else Motion(rv, rest.fps, meta=dict(rest.meta)))
 
     def _controlled(self, motion: Motion) -> Motion:
-        return apply_controls(motion, self.model, self.controls) if len(motion) else motion
+        if self._identity or not len(motion):
+            return motion
+        return apply_controls(motion, self.model, self.controls)
 
 
 def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int = 0, sample_rate: int | None = None,
