@@ -84,7 +84,7 @@ def view(
     open_browser: bool = typer.Option(True, "--open/--no-open", help="open the page in a web browser"),
     live: bool = typer.Option(False, "--live", help="live page: the microphone or an audio file in the browser "
                               "drives the model through a WebSocket, the head moves as you speak"),
-    model: Optional[str] = typer.Option(None, "-m", "--model", help="--live: a model that streams, by shipped "
+    model: Optional[str] = typer.Option(None, "-m", "--model", metavar="NAME|FILE", help="--live: a model that streams, by shipped "
                                         "name or file (default: the shipped 'stream')"),
     seed: int = typer.Option(0, "--seed", min=0, help="--live: random seed of the stream"),
 ):

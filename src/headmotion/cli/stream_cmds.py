@@ -22,7 +22,7 @@ from .synth_cmds import load_cli_model
 
 @app.command()
 def stream(
-    model: Optional[str] = typer.Option(None, "-m", "--model", help="A model that streams: a shipped name "
+    model: Optional[str] = typer.Option(None, "-m", "--model", metavar="NAME|FILE", help="A model that streams: a shipped name "
                                         "('stream', the default, tws-hier) or a model file."),
     input: str = typer.Option("-", "--input", "-i", help="'-' raw 16-bit mono PCM on stdin, 'mic' the microphone, "
                               "or an audio file."),

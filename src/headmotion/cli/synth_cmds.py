@@ -93,7 +93,7 @@ def train(
 def synth(
     speech: Path = typer.Argument(..., help="Speech audio (wav, flac, mp3, or a video's audio track)."),
     output: Path = typer.Option(..., "-o", "--output", help="Output motion: .bvh, .glb, .gltf, .csv, .json or .npz."),
-    model: Optional[str] = typer.Option(None, "-m", "--model", help="A shipped model by name ('default', the "
+    model: Optional[str] = typer.Option(None, "-m", "--model", metavar="NAME|FILE", help="A shipped model by name ('default', the "
                                         "default; 'stream', the causal one; `headmotion models` lists them) "
                                         "or a model file."),
     seed: int = typer.Option(0, "--seed", min=0, help="Random seed (stochastic modes, --samples)."),
