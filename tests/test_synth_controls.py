@@ -6,8 +6,8 @@ import pytest
 
 from headmotion.cli import main
 from headmotion.io import load_motion
-from headmotion.motion.control import per_axis
 from headmotion.rotations import rotvec_to_pitch_yaw_roll
+from headmotion.synthesis import Controls
 from headmotion.types import Motion
 
 pytestmark = pytest.mark.slow
@@ -23,8 +23,8 @@ def speech(examples_dir):
 
 
 def test_per_axis_overrides_one_axis():
-    np.testing.assert_array_equal(per_axis(1.2, yaw=0.5, what="gain"), [1.2, 0.5, 1.2])
-    np.testing.assert_array_equal(per_axis((1, 2, 3), None, None, 7, what="gain"), [1, 2, 7])
+    assert Controls.parse(gain=1.2, gain_pyr=(None, 0.5, None)).gain == (1.2, 0.5, 1.2)
+    assert Controls.parse(gain=(1, 2, 3), gain_pyr=(None, None, 7)).gain == (1.0, 2.0, 7.0)
 
 
 def test_gain_and_offset_per_axis_change_sd_and_mean_exactly(speech, tmp_path):

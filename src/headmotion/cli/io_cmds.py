@@ -1,8 +1,9 @@
-"""``headmotion info FILE`` and ``headmotion convert IN OUT`` (issue 2 item 8, issue 7 exports).
+"""``headmotion info FILE``, ``headmotion models`` and ``headmotion convert IN OUT``.
 
 ``info`` describes a motion file (format, frames, rate, duration, joints / markers, head-rotation
 SD per axis) or an audio/video file (decoder, rate, channels, duration) via
 :func:`headmotion.io.motion.motion_info` and :func:`headmotion.io.audio.audio_info`.
+``models`` lists the shipped models by name (:mod:`headmotion.shipped`).
 ``convert`` reads any motion format and writes BVH, CSV, JSON, NPZ or Live Link Face CSV.
 Built on typer + rich like the rest of the CLI (click alone was considered; typer is the
 project's choice); reader warnings (long gaps, marker fallbacks) are printed as one line each.
@@ -83,26 +84,21 @@ def _model_info(file: Path, as_json: bool) -> None:
 
 def model_card_path(model_file: Path) -> Path:
     """The model card beside a model file: the same name with ``.md``."""
-    return Path(model_file).with_suffix(".md")
+    from ..shipped import card_path
+
+    return card_path(model_file)
 
 
 def _model_card(model: str, as_json: bool) -> None:
-    """``info --model default|PATH``: the model card (``<model>.md`` beside the file), then the file's
+    """``info --model NAME|PATH``: the model card (``<model>.md`` beside the file), then the file's
     summary."""
-    from ..errors import ModelFileError
+    from ..shipped import resolve_model_path
 
-    if model == "default":
-        from .synth_cmds import default_model_path
-
-        path = default_model_path()
-    elif model == "stream":
-        from .synth_cmds import default_stream_model_path
-
-        path = default_stream_model_path()
-    else:
-        path = Path(model)
+    path = resolve_model_path(model)
     if not path.is_file():
-        raise ModelFileError(f"model file not found: {path} (expected 'default' or a .hmz file)")
+        from ..errors import ModelFileError
+
+        raise ModelFileError(f"{path}: is not a file; expected a shipped model name or a .hmz file")
     card = model_card_path(path)
     if as_json:
         _model_info(path, True)
@@ -114,13 +110,31 @@ def _model_card(model: str, as_json: bool) -> None:
     _model_info(path, False)
 
 
+@app.command("models")
+def models(as_json: bool = typer.Option(False, "--json", help="print the list as JSON")):
+    """The models shipped with headmotion, by name (for -m / --model), with one line of their cards."""
+    from ..shipped import list_models
+
+    shipped = list_models()
+    if as_json:
+        console.print_json(json.dumps([{"name": m.name, "path": str(m.path), "summary": m.summary}
+                                       for m in shipped]))
+        return
+    if not shipped:
+        console.print("no shipped model in this installation", highlight=False)
+    for m in shipped:
+        console.print(f"{m.name:<8} {escape(m.summary)}", highlight=False)
+    if shipped:
+        console.print("`headmotion info --model NAME` prints a model's card", highlight=False)
+
+
 @app.command("info")
 def info(
     ctx: typer.Context,
     file: Optional[Path] = typer.Argument(None, help="a motion file (bvh, csv, json, npz, c3d) or an audio/video file"),
     as_json: bool = typer.Option(False, "--json", help="print the information as JSON"),
     model: Optional[str] = typer.Option(None, "--model",
-                                        help="print a model's card: 'default' (the bundled model), 'stream' (the bundled streaming model) or a .hmz file"),
+                                        help="print a model's card: a shipped name ('default', 'stream'; `headmotion models`) or a .hmz file"),
 ):
     """What a motion, audio or model file holds: format, duration, rate, joints/markers, frames;
     ``--model default`` prints the bundled default model's card."""

@@ -84,8 +84,8 @@ def view(
     open_browser: bool = typer.Option(True, "--open/--no-open", help="open the page in a web browser"),
     live: bool = typer.Option(False, "--live", help="live page: the microphone or an audio file in the browser "
                               "drives the model through a WebSocket, the head moves as you speak"),
-    model: Optional[Path] = typer.Option(None, "-m", "--model", help="--live: model file of a causal system "
-                                         "(default: the shipped model)"),
+    model: Optional[str] = typer.Option(None, "-m", "--model", metavar="NAME|FILE", help="--live: a model that streams, by shipped "
+                                        "name or file (default: the shipped 'stream')"),
     seed: int = typer.Option(0, "--seed", min=0, help="--live: random seed of the stream"),
 ):
     """Serve a local page that plays the speech and animates the head(s) in sync (or, with --live,
@@ -95,11 +95,10 @@ def view(
             raise ParameterError("view --live takes no motion files (it makes the motion from the audio); "
                                  f"got {', '.join(map(str, motions))}")
         from ..web.live import serve_live
-        from .synth_cmds import default_stream_model_path, load_cli_model
+        from .synth_cmds import load_cli_model
 
-        path = model if model is not None else default_stream_model_path()  # the low-latency shipped model
-        m = load_cli_model(path)
-        serve_live(m, host=host, port=port, seed=seed, model_path=path, open_browser=open_browser,
+        m = load_cli_model(model, default="stream")  # the low-latency shipped model
+        serve_live(m, host=host, port=port, seed=seed, model_path=model or "stream", open_browser=open_browser,
                    announce=lambda url: err_console.print(f"live page at {url}  (Ctrl-C to stop)"))
         return
     if not motions:

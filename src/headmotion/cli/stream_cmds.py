@@ -1,29 +1,29 @@
 """``headmotion stream``: speech in as it comes (raw PCM on stdin, an audio file paced in real time,
 or the microphone) → head rotation out (JSON lines, VMC over OSC, a WebSocket), with any causal
-model (docs/design.md "CLI"; issue 16).
+model (docs/design.md "CLI").
 
-It calls only the system contract (``model.stream(seed=, gain=, offset=)``, ``model.sample_rate``,
-``model.frame_rate``, the ``causal`` capability) through :func:`headmotion.live.session.stream_live`,
-which resamples the input on the stream (one ``soxr.ResampleStream`` for the session) and runs
-the outputs of :mod:`headmotion.live`.
+It parses its options once into :class:`headmotion.synthesis.Controls` and calls
+:func:`headmotion.live.session.stream_live`, which resamples the input on the stream (one
+``soxr.ResampleStream`` for the session) to the model's rate, pushes it through
+:func:`headmotion.synthesis.open_stream` and runs the outputs of :mod:`headmotion.live`.
 """
 
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 from typing import Optional
 
 import typer
 
 from ..errors import ParameterError
 from .app import app, err_console
-from .synth_cmds import control_from_options, load_cli_model
+from .synth_cmds import load_cli_model
 
 
 @app.command()
 def stream(
-    model: Optional[Path] = typer.Option(None, "-m", "--model", help="Model file of a system that streams (default: the shipped streaming model, tws-hier)."),
+    model: Optional[str] = typer.Option(None, "-m", "--model", metavar="NAME|FILE", help="A model that streams: a shipped name "
+                                        "('stream', the default, tws-hier) or a model file."),
     input: str = typer.Option("-", "--input", "-i", help="'-' raw 16-bit mono PCM on stdin, 'mic' the microphone, "
                               "or an audio file."),
     realtime: bool = typer.Option(False, "--realtime", help="Pace a file at speech speed (demos, latency tests)."),
@@ -58,13 +58,12 @@ def stream(
         raise ParameterError(f"--chunk-ms must be positive; got {chunk_ms}")
     if neck_share is not None and not 0.0 <= neck_share <= 1.0:
         raise ParameterError(f"--neck-share must be between 0 and 1; got {neck_share}")
-    g, o = control_from_options(gain, offset, (gain_pitch, gain_yaw, gain_roll), (offset_pitch, offset_yaw, offset_roll))
-    if model is None:  # the default model (mfcc-dnn) is not causal: the shipped streaming model
-        from .synth_cmds import default_stream_model_path
+    from ..synthesis import Controls
 
-        model = default_stream_model_path()
-    m = load_cli_model(model)
+    controls = Controls.parse(gain=gain, offset_degrees=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
+                              offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll))
+    m = load_cli_model(model, default="stream")  # the default model (mfcc-dnn) is not causal
     stream_live(m, input=input, sample_rate=sample_rate, realtime=realtime, device=device, chunk_ms=chunk_ms,
                 json_stream=None if no_json else sys.stdout, vmc=vmc, websocket=websocket, neck_share=neck_share,
-                seed=seed, stream_kwargs={"gain": g, "offset": o},
+                seed=seed, controls=controls,
                 on_message=lambda msg: err_console.print(msg, markup=False, highlight=False))

@@ -1,4 +1,4 @@
-"""Live head motion: audio inputs, a streaming session and real-time outputs (issue 16).
+"""Live head motion: audio inputs, a streaming session and real-time outputs.
 
 * :mod:`.inputs`    — PCM on stdin, audio files (optionally paced), microphone (sounddevice);
 * :mod:`.session`   — input → motion stream → outputs, bounded queues, end-to-end latency;
@@ -19,9 +19,10 @@ the command parses its options and makes one call, ::
                 json_stream=sys.stdout,             # JSON lines (None for none)
                 vmc=vmc, websocket=websocket,       # "HOST:PORT" strings or None
                 neck_share=neck_share, seed=seed,
-                stream_kwargs={"gain": gain, "offset": offset})   # what model.stream() accepts
+                controls=Controls.parse(gain=gain, offset_degrees=offset))   # headmotion.synthesis
 
-which resamples on the stream to ``model.sample_rate``, runs ``model.stream(seed=..., **kw)``
+which resamples on the stream to ``model.sample_rate``, runs
+:func:`headmotion.synthesis.open_stream` (``seed``, ``controls``)
 and closes every output at the end; the errors it raises are :class:`~headmotion.errors.HeadMotionError` subclasses
 (``AudioDeviceError``, ``NetworkError``, ``ParameterError``) that the CLI prints as one line.
 """

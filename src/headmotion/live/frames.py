@@ -1,4 +1,4 @@
-"""The live frame record and the JSON-lines output (issue 16 item 3; the format of ``headmotion
+"""The live frame record and the JSON-lines output (the format of ``headmotion
 stream``).  Seeds: silent (a transport format).
 
 One record per motion frame: ``{"frame": i, "time": i / fps, "rotvec": [rx, ry, rz],

@@ -1,4 +1,4 @@
-"""Live audio inputs, resampled on the stream (issue 16 item 2; the seeds are silent on live use).
+"""Live audio inputs, resampled on the stream (the seeds are silent on live use).
 
 Every source is an iterator of mono float32 chunks at ``out_rate`` (the model's rate), each about
 ``chunk_ms`` long, resampled on the fly by :class:`Resampler` (``soxr.ResampleStream``):

@@ -1,11 +1,11 @@
-"""Input → motion stream → outputs, with bounded queues and measured latency (issue 16; the
+"""Input → motion stream → outputs, with bounded queues and measured latency (the
 seeds are silent on live use).
 
 :class:`LiveSession` reads an :class:`~headmotion.live.inputs.AudioSource` in a reader thread
 (chunks already resampled to the model's rate) into a bounded queue (``max_queue`` chunks; a
 paced source blocks on a full queue rather than losing audio), pushes each chunk into a
 *motion stream* — any object with ``push(samples) -> Motion`` and ``flush() -> Motion``, e.g.
-``model.stream(seed=0)`` of a causal system — and sends the frame records
+:func:`headmotion.synthesis.open_stream` — and sends the frame records
 (:func:`~headmotion.live.frames.frame_records`) to every output (``send(records)``,
 ``close()``): :class:`~headmotion.live.frames.JsonLinesOutput`,
 :class:`~headmotion.live.vmc.VmcSender`, :class:`~headmotion.live.websocket.WebSocketBroadcaster`.
@@ -185,12 +185,13 @@ def open_outputs(*, json_stream=None, vmc: str | None = None, websocket: str | N
 
 def stream_live(model, *, input: str = "-", sample_rate: int | None = None, realtime: bool = False,
                 device=None, chunk_ms: float = 10.0, json_stream=None, vmc: str | None = None,
-                websocket: str | None = None, neck_share: float | None = None, seed: int | None = 0,
-                stream_kwargs: dict | None = None, stdin=None, max_seconds: float | None = None,
+                websocket: str | None = None, neck_share: float | None = None, seed: int = 0,
+                controls=None, stdin=None, max_seconds: float | None = None,
                 on_message=_stderr, sd=None) -> dict:
     """Everything ``headmotion stream`` does, as one call: open the input (``"-"`` PCM on
     ``stdin`` at ``sample_rate``, ``"mic"`` with ``device``, or a file, ``realtime`` pacing it),
-    resampled on the stream to the model's rate; ``model.stream(seed=seed, **stream_kwargs)``;
+    resampled on the stream to the model's rate; :func:`headmotion.synthesis.open_stream` with
+    ``seed`` and ``controls`` (:class:`~headmotion.synthesis.Controls`);
     the outputs of :func:`open_outputs`; run until the input ends or Ctrl-C; close the outputs.
     Returns the statistics of :meth:`LiveSession.run`."""
     from ..errors import ParameterError
@@ -201,7 +202,9 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
                              "streaming); use a tws-basic, tws-hier, le2012 or DNN model")
     rate = int(model.sample_rate)
     fps = float(model.frame_rate)
-    stream = model.stream(seed=seed, **(stream_kwargs or {}))
+    from ..synthesis import open_stream
+
+    stream = open_stream(model, seed=seed, controls=controls)
     source = open_input(input, out_rate=rate, sample_rate=sample_rate, realtime=realtime, device=device,
                         chunk_ms=chunk_ms, stdin=stdin, on_message=on_message, sd=sd)
     outputs = open_outputs(json_stream=json_stream, vmc=vmc, websocket=websocket, neck_share=neck_share)

@@ -1,4 +1,4 @@
-"""Head rotation out as the VMC protocol over OSC/UDP (issue 16 item 3; the seeds are silent on
+"""Head rotation out as the VMC protocol over OSC/UDP (the seeds are silent on
 live transport).  Receivers: VSeeFace, Warudo, VMagicMirror, Unity's EVMC4U (default port 39539).
 
 Per motion frame one OSC bundle (python-osc) holding::

@@ -1,4 +1,4 @@
-"""Live frames to any number of WebSocket clients (issue 16 item 3; the seeds are silent).
+"""Live frames to any number of WebSocket clients (the seeds are silent).
 
 :class:`WebSocketBroadcaster` listens on ``HOST:PORT`` and sends every frame record
 (:func:`headmotion.live.frames.frame_records`, the JSON of one ``headmotion stream`` line) as one

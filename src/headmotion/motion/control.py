@@ -1,7 +1,7 @@
 """Gain and offset of synthesised motion: the one meaning every system and stream shares.
 
 The seeds are silent on a user-facing amplitude control; the thesis scales template amplitudes
-and the paper has none.  Chosen (issue 17): in pitch / yaw / roll angles (radians, the
+and the paper has none.  Chosen: in pitch / yaw / roll angles (radians, the
 convention of :func:`headmotion.rotations.rotvec_to_pitch_yaw_roll`)::
 
     angles_out = mean_pose + gain * (angles - mean_pose) + offset
@@ -10,7 +10,9 @@ convention of :func:`headmotion.rotations.rotvec_to_pitch_yaw_roll`)::
 as ``mean_pose_``.  So each angle's standard deviation is multiplied by ``|gain|`` exactly, the
 clip mean moves by ``offset`` exactly (for ``gain = 1``), and ``gain = 0`` gives a still head at
 the training mean pose plus ``offset``.  ``gain`` and ``offset`` are each a scalar or a
-per-axis ``(pitch, yaw, roll)`` triple.
+per-axis ``(pitch, yaw, roll)`` triple.  Front ends parse them once into
+:class:`headmotion.synthesis.Controls`, which applies them in its order of the controls (about the
+styled mean pose when a style reference is given).
 
 Library considered: scipy's Rotation (used underneath by :mod:`headmotion.rotations`); the
 scaling itself is one line of numpy.
@@ -62,18 +64,6 @@ def apply_gain(motion: Motion, mean_pose, gain=1.0, offset=0.0) -> Motion:
     return motion.replace(rotvec=pitch_yaw_roll_to_rotvec(pyr[:, 0], pyr[:, 1], pyr[:, 2]))
 
 
-def per_axis(base, pitch=None, yaw=None, roll=None, *, what: str) -> np.ndarray:
-    """``base`` (a scalar or a triple) with any of its pitch / yaw / roll entries replaced.
-
-    The command line's ``--gain 1.2 --gain-yaw 0.5`` is ``per_axis(1.2, yaw=0.5, what="gain")``
-    = ``(1.2, 0.5, 1.2)``: a per-axis option overrides the all-axes one on its axis only."""
-    out = as_triple(base, what).copy()
-    for j, v in enumerate((pitch, yaw, roll)):
-        if v is not None:
-            out[j] = as_triple(v, what)[0]
-    return out
-
-
 def still(motion: Motion, offset=0.0) -> Motion:
     """A motion of ``motion``'s length and rate that does not move: every frame is the rest pose
     (zero rotation) plus ``offset`` (pitch, yaw, roll in radians).  ``--still`` on the command
@@ -93,4 +83,4 @@ def mean_pose_of(rotvecs) -> np.ndarray:
     return rotvec_to_pitch_yaw_roll(np.vstack(arrs)).mean(axis=0)
 
 
-__all__ = ["apply_gain", "apply_gain_angles", "as_triple", "is_identity", "mean_pose_of", "per_axis", "still"]
+__all__ = ["apply_gain", "apply_gain_angles", "as_triple", "is_identity", "mean_pose_of", "still"]

@@ -1,11 +1,11 @@
 """``headmotion view --live``: the bundled viewer driven by the microphone or an audio file through
-a WebSocket (issue 16 item 4; the seeds are silent on live use).
+a WebSocket (the seeds are silent on live use).
 
 The page (``static/live.html``) captures audio in the browser — ``getUserMedia`` for the
 microphone, or a chosen file decoded and played — and sends it as binary messages of float32
 mono PCM to ``/ws`` (after one text message ``{"sample_rate": sr}``).  The server resamples it on
-the stream (:class:`headmotion.live.inputs.Resampler`) to the model's rate, pushes it into a fresh
-``model.stream(seed=...)`` per connection, and sends back each batch of final frames as one text
+the stream to the model's rate and pushes it into a fresh
+:func:`headmotion.synthesis.open_stream` per connection (``sample_rate`` the page's), and sends back each batch of final frames as one text
 message ``{"frames": [record, ...]}`` (the JSON-line records of ``headmotion stream``).  The page
 moves the head to the newest frame and shows the latency: for a frame at audio time τ, the
 browser's wall time on receipt minus the wall time at which the sample at τ was captured (known
@@ -36,7 +36,7 @@ def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
     from fastapi.staticfiles import StaticFiles
 
     from ..live.frames import frame_records
-    from ..live.inputs import Resampler
+    from ..synthesis import open_stream
 
     if not model.can_stream:
         raise ParameterError(f"view --live needs a model that streams (tws-basic, tws-hier, le2012, the DNN "
@@ -51,7 +51,7 @@ def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
 
     @app.get("/api/live")
     def info():
-        st = model.stream(seed=seed)
+        st = open_stream(model, seed=seed)
         return {"system": model.name, "sample_rate": model_sr, "latency_ms": float(getattr(st, "latency_ms", 0.0)),
                 "model": model_path}
 
@@ -64,8 +64,7 @@ def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
                 await websocket.send_text(json.dumps({"error": f"sample_rate must be 8000-192000 Hz; got {sr}"}))
                 await websocket.close()
                 return
-            resample = Resampler(sr, model_sr)
-            stream = model.stream(seed=seed)
+            stream = open_stream(model, seed=seed, sample_rate=sr)
             frame = 0
             await websocket.send_text(json.dumps({"ready": True, "latency_ms": float(getattr(stream, "latency_ms", 0.0))}))
             while True:
@@ -76,15 +75,10 @@ def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
                 if data is None:
                     if not (msg.get("text") and json.loads(msg["text"]).get("end")):
                         continue
-                    # end of the audio: what the resampler still holds, then the stream's rest
-                    tail = stream.push(resample(np.zeros(0, np.float32), last=True))
-                    rest = stream.flush()
-                    rv = np.vstack([tail.rotvec, rest.rotvec])
-                    fps = float(rest.fps)
+                    motion = stream.flush()  # end of the audio: what the resampler and the model still hold
                 else:
-                    x = np.frombuffer(data[: len(data) // 4 * 4], dtype="<f4")
-                    motion = stream.push(resample(x))
-                    rv, fps = motion.rotvec, float(motion.fps)
+                    motion = stream.push(np.frombuffer(data[: len(data) // 4 * 4], dtype="<f4"))
+                rv, fps = motion.rotvec, float(motion.fps)
                 if len(rv):
                     recs = frame_records(rv, fps, frame)
                     frame += len(recs)

@@ -1,0 +1,399 @@
+"""Head motion for speech: the one synthesis path of the library, the commands and the live page.
+
+:func:`synthesize` is what ``headmotion synth`` does, :func:`open_stream` what ``headmotion
+stream`` and the live page do; a Python user calling them gets the motion those commands write.
+Every front end parses its options once into :class:`Controls`, and the controls act in one
+order (docs/design.md "CLI"; the seeds are silent on user controls):
+
+1. the model's motion for the speech (sample ``k`` of ``samples`` with seed ``seed + k``; a
+   deterministic model samples its parameters, ``stochastic="params"``, when ``samples > 1``);
+2. ``style_from``: made to move like a reference (:mod:`headmotion.motion.style`);
+3. ``gain`` about the mean pose — the styled one (the reference's) when a style is applied, else
+   the model's training mean pose — then ``offset`` (:mod:`headmotion.motion.control`);
+4. ``still``: every frame at the rest pose plus the offset, instead of 2–3;
+5. ``fps``: resampled to the output rate.
+
+Audio given as a path longer than :data:`headmotion.systems.long_input.LONG_INPUT_SECONDS` is
+read block by block through the model's stream, in bounded memory, when the model streams
+(:func:`headmotion.systems.long_input.predict_file_in_blocks`).  Shipped models are taken by
+name (:mod:`headmotion.shipped`).  Importing this module imports neither torch nor the systems.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ParameterError
+from .shipped import ShippedModel, list_models, resolve_model_path
+from .types import Audio, Motion
+
+#: the shipped model :func:`synthesize` uses unless told otherwise (offline)
+DEFAULT_MODEL = "default"
+#: the shipped model :func:`open_stream` uses unless told otherwise (causal)
+DEFAULT_STREAM_MODEL = "stream"
+
+
+def _triple(value, what: str, *, degrees: bool = False) -> tuple[float, float, float]:
+    """A number, a ``(pitch, yaw, roll)`` triple or a string ``"x"`` / ``"p,y,r"`` as 3 floats
+    (``degrees``: given in degrees, returned in radians)."""
+    from .motion.control import as_triple
+
+    if isinstance(value, str):
+        try:
+            vals = [float(v) for v in value.split(",")]
+        except ValueError:
+            raise ParameterError(f"{what} must be a number or three comma-separated numbers (pitch,yaw,roll); "
+                                 f"got {value!r}") from None
+        if len(vals) not in (1, 3):
+            raise ParameterError(f"{what} must be one number or three (pitch,yaw,roll); got {value!r}")
+        value = vals[0] if len(vals) == 1 else vals
+    a = as_triple(value, what)
+    return tuple(math.radians(v) if degrees else float(v) for v in a)
+
+
+def _per_axis(base: tuple, axes, what: str, *, degrees: bool = False) -> tuple[float, float, float]:
+    """``base`` with the axes given in ``axes`` (pitch, yaw, roll; None = keep) replaced."""
+    out = list(base)
+    for j, v in enumerate(axes):
+        if v is not None:
+            out[j] = _triple(v, what, degrees=degrees)[0]
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Controls:
+    """What a user may change about the synthesised motion, validated once (see the module
+    docstring for the order in which they act).
+
+    Parameters
+    ----------
+    gain : number, (pitch, yaw, roll) or string ``"G"`` / ``"P,Y,R"``
+        Amplitude scale about the mean pose (1 = as the model moves, 0 = held at the mean pose).
+    offset : number, (pitch, yaw, roll) or string
+        Radians added to pitch, yaw and roll after the gain.
+    still : bool
+        A head that does not move: the rest pose plus ``offset`` on every frame.
+    style_from : str, Path, Motion or None
+        Move like this reference: a motion file, a talking video or a :class:`Motion`.
+    style_strength : float in [0, 1]
+        0 = the model's style, 1 = the reference's.
+    style_keep_pose : bool
+        Keep the model's mean pose (take only amplitude and spectral balance from the reference).
+    fps : float or None
+        Output frame rate (None: the model's).
+    stochastic : str or None
+        What the model samples (``none``, ``choice``, ``params``, ``both``; None: the model's
+        setting), validated by the model.
+    """
+
+    gain: tuple = (1.0, 1.0, 1.0)
+    offset: tuple = (0.0, 0.0, 0.0)
+    still: bool = False
+    style_from: object = None
+    style_strength: float = 1.0
+    style_keep_pose: bool = False
+    fps: float | None = None
+    stochastic: str | None = None
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        set_(self, "gain", _triple(self.gain, "gain"))
+        set_(self, "offset", _triple(self.offset, "offset"))
+        set_(self, "still", bool(self.still))
+        set_(self, "style_keep_pose", bool(self.style_keep_pose))
+        s = self.style_strength
+        if isinstance(s, bool) or not isinstance(s, (int, float, np.floating, np.integer)) or not 0.0 <= s <= 1.0:
+            raise ParameterError(f"style_strength (--style-strength) must be between 0 and 1; got {s!r}")
+        set_(self, "style_strength", float(s))
+        if self.fps is not None:
+            f = self.fps
+            if isinstance(f, bool) or not isinstance(f, (int, float, np.floating, np.integer)) \
+                    or not math.isfinite(f) or f <= 0:
+                raise ParameterError(f"fps (--fps) must be a positive number; got {f!r}")
+            set_(self, "fps", float(f))
+        if self.stochastic is not None and not isinstance(self.stochastic, str):
+            raise ParameterError(f"stochastic (--stochastic) must be one of none, choice, params, both; "
+                                 f"got {self.stochastic!r}")
+        if self.style_from is not None and not isinstance(self.style_from, (str, os.PathLike, Motion)):
+            raise ParameterError(f"style_from (--style-from) must be a file path or a Motion; "
+                                 f"got {type(self.style_from).__name__}")
+
+    @classmethod
+    def parse(cls, *, gain=None, offset=None, offset_degrees=None, gain_pyr=(None, None, None),
+              offset_pyr_degrees=(None, None, None), **rest) -> "Controls":
+        """Controls from a front end's options, each parsed once.
+
+        Parameters
+        ----------
+        gain : number, triple, string ``"G"`` / ``"P,Y,R"`` or None (1)
+        offset : number or triple in radians, or None
+        offset_degrees : number, triple, string or None
+            The offset in degrees (the command line's ``--offset``); not with ``offset``.
+        gain_pyr, offset_pyr_degrees : three of number or None
+            Per-axis overrides (``--gain-pitch`` …, ``--offset-roll`` in degrees): an axis given
+            here replaces that axis of ``gain`` / the offset.
+        **rest
+            The other fields of :class:`Controls`.
+
+        Returns
+        -------
+        Controls
+        """
+        if offset is not None and offset_degrees is not None:
+            raise ParameterError("give the offset in radians (offset) or in degrees (offset_degrees), not both")
+        g = _per_axis(_triple(1.0 if gain is None else gain, "gain"), gain_pyr, "gain")
+        if offset_degrees is not None:
+            o = _triple(offset_degrees, "offset", degrees=True)
+        else:
+            o = _triple(0.0 if offset is None else offset, "offset")
+        o = _per_axis(o, offset_pyr_degrees, "offset", degrees=True)
+        return cls(gain=g, offset=o, **rest)
+
+    @property
+    def moves_pose(self) -> bool:
+        """True when gain or offset changes the motion (not 1 and 0 on every axis)."""
+        return self.gain != (1.0, 1.0, 1.0) or self.offset != (0.0, 0.0, 0.0)
+
+
+def _controls(controls: Controls | None, kwargs: dict) -> Controls:
+    if controls is None:
+        return Controls.parse(**kwargs)
+    if kwargs:
+        raise ParameterError(f"give the controls as `controls=` or as keywords, not both; got {sorted(kwargs)}")
+    if not isinstance(controls, Controls):
+        raise ParameterError(f"controls must be a headmotion.Controls; got {type(controls).__name__}")
+    return controls
+
+
+def load_model(model=DEFAULT_MODEL):
+    """A model ready to synthesise.
+
+    Parameters
+    ----------
+    model : str, Path or Synthesizer
+        A shipped name (``"default"``, ``"stream"``; :func:`list_models`), a model file, or a
+        model already loaded (returned as it is).
+
+    Returns
+    -------
+    Synthesizer
+
+    Raises :class:`~headmotion.errors.ModelFileError` for an unknown name that is not a file (the
+    message lists the shipped names) or a damaged file."""
+    if isinstance(model, (str, os.PathLike)):
+        from .systems.base import load_model as load_file
+
+        return load_file(resolve_model_path(model))
+    if hasattr(model, "frame_rate") and (hasattr(model, "predict") or hasattr(model, "stream")):
+        return model
+    raise ParameterError(f"model must be a shipped name, a model file or a loaded model; got {type(model).__name__}")
+
+
+def _with_stochastic(model, mode: str | None, samples: int):
+    """``model``, or a shallow copy with its ``stochastic`` parameter set (the caller's model is left
+    as it was): ``mode`` when given, ``"params"`` when ``samples > 1`` of a deterministic setting
+    would be copies of one motion."""
+    if mode is None and samples > 1 and model.get_params().get("stochastic") == "none":
+        mode = "params"
+    if mode is None:
+        return model
+    import copy
+
+    return copy.copy(model).set_params(stochastic=mode)
+
+
+def _check_seed(seed, samples: int = 1) -> None:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ParameterError(f"seed (--seed) must be a whole number >= 0; got {seed!r}")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise ParameterError(f"samples (--samples) must be a whole number >= 1; got {samples!r}")
+
+
+def reads_in_blocks(model, audio) -> bool:
+    """True when :func:`synthesize` reads ``audio`` block by block: a path to a recording longer
+    than ``LONG_INPUT_SECONDS`` and a model that streams."""
+    if isinstance(audio, Audio) or not getattr(model, "can_stream", False):
+        return False
+    from .io.audio_blocks import audio_duration
+    from .systems import long_input
+
+    return audio_duration(audio) > long_input.LONG_INPUT_SECONDS
+
+
+def _speech(audio, model):
+    """(Audio or the path to read in blocks, its duration in seconds, whether in blocks)."""
+    if isinstance(audio, Audio):
+        return audio, audio.duration, False
+    if not isinstance(audio, (str, os.PathLike)):
+        raise ParameterError(f"audio must be a headmotion.Audio or a file path; got {type(audio).__name__}")
+    if reads_in_blocks(model, audio):
+        from .io.audio_blocks import audio_duration
+
+        return Path(audio), audio_duration(audio), True
+    from .io import load_audio
+
+    a = load_audio(audio)
+    return a, a.duration, False
+
+
+def _style_reference(controls: Controls):
+    """The style profile of ``controls.style_from`` (None without one), measured once per call."""
+    ref = controls.style_from
+    if ref is None:
+        return None
+    from .motion.style import load_style_reference, style_profile
+
+    return style_profile(ref if isinstance(ref, Motion) else load_style_reference(ref))
+
+
+def apply_controls(motion: Motion, model, controls: Controls, reference=None) -> Motion:
+    """Steps 2–5 of the module docstring on one of ``model``'s motions (``reference``: the style
+    profile of ``controls.style_from``)."""
+    from .motion.control import apply_gain, mean_pose_of, still
+
+    if controls.still:
+        motion = still(motion, controls.offset)
+    else:
+        mean = model.mean_pose_
+        if reference is not None:
+            from .motion.style import apply_style
+
+            keep = controls.style_keep_pose
+            motion = apply_style(motion, reference, strength=controls.style_strength, match_mean=not keep)
+            if not keep and controls.moves_pose:
+                mean = mean_pose_of([motion.rotvec])  # the styled mean pose (the reference's)
+        if controls.moves_pose:
+            motion = apply_gain(motion, mean, controls.gain, controls.offset)
+    if controls.fps is not None:
+        motion = motion.resample(controls.fps)
+    return motion
+
+
+def synthesize(audio, model=DEFAULT_MODEL, *, seed: int = 0, samples: int = 1, controls: Controls | None = None,
+               progress=None, **controls_kwargs) -> list[Motion]:
+    """Head motion for speech: what ``headmotion synth`` writes.
+
+    Parameters
+    ----------
+    audio : Audio, str or Path
+        The speech; a path to a long recording is read block by block in bounded memory.
+    model : str, Path or Synthesizer
+        A shipped name (``"default"``, ``"stream"``), a model file or a loaded model.
+    seed : int
+        Synthesis seed of the first sample; sample ``k`` uses ``seed + k``.
+    samples : int
+        How many different motions to make.
+    controls : Controls, optional
+        The controls; or give their fields as keywords (``gain=1.2, still=True`` …, parsed by
+        :meth:`Controls.parse`).
+    progress : callable, optional
+        ``progress(done_seconds, total_seconds)`` of speech synthesised over all samples.
+
+    Returns
+    -------
+    list of Motion
+        ``samples`` motions, at ``controls.fps`` or the model's frame rate.
+    """
+    c = _controls(controls, controls_kwargs)
+    _check_seed(seed, samples)
+    m = load_model(model)
+    speech, duration, in_blocks = _speech(audio, m)
+    reference = _style_reference(c)
+    m = _with_stochastic(m, c.stochastic, samples)
+    total = duration * samples
+    out = []
+    for k in range(samples):
+        if in_blocks:
+            from .systems.long_input import predict_file_in_blocks
+
+            done = k * duration
+            report = None if progress is None else (lambda s, d=done: progress(d + s, total))
+            motion = predict_file_in_blocks(m, speech, seed=seed + k, progress=report)
+        else:
+            motion = m.predict(speech, seed=seed + k)
+        out.append(apply_controls(motion, m, c, reference))
+        if progress is not None:
+            progress((k + 1) * duration, total)
+    return out
+
+
+class SpeechStream:
+    """Speech in as it comes, head motion out: :meth:`push` samples, get the frames now final.
+
+    Made by :func:`open_stream`; ``sample_rate`` is the rate of the samples pushed,
+    ``frame_rate`` the rate of the frames returned, ``latency_ms`` the model's algorithmic
+    latency."""
+
+    def __init__(self, model, inner, controls: Controls, sample_rate: int):
+        from .live.inputs import Resampler
+
+        self.model, self.controls = model, controls
+        self.sample_rate, self.frame_rate = int(sample_rate), float(model.frame_rate)
+        self.latency_ms = float(getattr(inner, "latency_ms", 0.0))
+        self._inner = inner
+        self._resample = Resampler(self.sample_rate, int(model.sample_rate))
+        self._identity = not (controls.still or controls.moves_pose)  # decided once, not per 10 ms push
+
+    def push(self, samples) -> Motion:
+        """Frames made final by these float32 mono samples (at :attr:`sample_rate`; may be none)."""
+        return self._controlled(self._inner.push(self._resample(samples)))
+
+    def flush(self) -> Motion:
+        """The frames still held, at the end of the speech."""
+        tail = self._inner.push(self._resample(np.zeros(0, np.float32), last=True))
+        rest = self._inner.flush()
+        rv = np.vstack([np.asarray(tail.rotvec).reshape(-1, 3), np.asarray(rest.rotvec).reshape(-1, 3)])
+        return self._controlled(rest if len(tail) == 0 else Motion(rv, rest.fps, meta=dict(rest.meta)))
+
+    def _controlled(self, motion: Motion) -> Motion:
+        if self._identity or not len(motion):
+            return motion
+        return apply_controls(motion, self.model, self.controls)
+
+
+def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int = 0, sample_rate: int | None = None,
+                controls: Controls | None = None, **controls_kwargs) -> SpeechStream:
+    """A stream of head motion from speech pushed as it comes: what ``headmotion stream`` and the
+    live page run.
+
+    Parameters
+    ----------
+    model : str, Path or Synthesizer
+        A model that streams: a shipped name (``"stream"``, the default), a file or a loaded model.
+    seed : int
+        Synthesis seed.
+    sample_rate : int, optional
+        Rate of the samples to be pushed (default: the model's); other rates are resampled on
+        the stream.
+    controls : Controls, optional
+        Gain, offset, still and stochastic apply; a style reference and another output rate need
+        the whole recording (:func:`synthesize`) and are refused.
+
+    Returns
+    -------
+    SpeechStream
+        ``push(samples) -> Motion`` (the frames now final, maybe none), ``flush() -> Motion``.
+    """
+    c = _controls(controls, controls_kwargs)
+    _check_seed(seed)
+    m = load_model(model)
+    if c.style_from is not None:
+        raise ParameterError("style_from needs the whole recording: use synthesize, not a stream")
+    if c.fps is not None and c.fps != float(m.frame_rate):
+        raise ParameterError(f"a stream gives the model's {float(m.frame_rate):g} frames/s; fps={c.fps:g} "
+                             "needs the whole recording (synthesize)")
+    if sample_rate is not None and (isinstance(sample_rate, bool) or not isinstance(sample_rate, (int, np.integer))
+                                    or sample_rate <= 0):
+        raise ParameterError(f"sample_rate must be a positive whole number of Hz; got {sample_rate!r}")
+    m = _with_stochastic(m, c.stochastic, 1)
+    inner = m.stream(seed=seed)
+    return SpeechStream(m, inner, c, int(m.sample_rate) if sample_rate is None else int(sample_rate))
+
+
+__all__ = ["DEFAULT_MODEL", "DEFAULT_STREAM_MODEL", "Controls", "ShippedModel", "SpeechStream", "apply_controls",
+           "list_models", "load_model", "open_stream", "reads_in_blocks", "synthesize"]
