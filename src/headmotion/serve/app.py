@@ -9,6 +9,7 @@ and stream; ``/readyz`` answers 503 until they are.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import time
 from dataclasses import dataclass
@@ -104,13 +105,11 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
 
     @contextlib.asynccontextmanager
     async def lifespan(_app):
-        if not reg.ready:
-            from starlette.concurrency import run_in_threadpool
-
-            await run_in_threadpool(reg.load_all)
-        log_event("ready", models=sorted(reg.models), load_s=round(reg.load_seconds, 2),
-                  keys="required" if keys.required else "none (localhost only)")
+        # the port opens at once; the models load beside it (/readyz answers 503 until they are)
+        loading = None if reg.ready else asyncio.create_task(asyncio.to_thread(_load, reg, keys))
         yield
+        if loading is not None and not loading.done():
+            loading.cancel()
         log_event("shutdown", open_streams=st.slots.total())
 
     app = FastAPI(title="headmotion serve", version=_version(), lifespan=lifespan, redoc_url=None,
@@ -143,7 +142,7 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
     @app.get("/readyz", tags=["operations"], summary="The models are loaded")
     def readyz():
         if not reg.ready:
-            return JSONResponse({"status": "loading"}, status_code=503)
+            return JSONResponse({"status": "failed" if reg.error else "loading", "error": reg.error}, status_code=503)
         return {"status": "ready", "models": sorted(reg.models), "open_streams": st.slots.total()}
 
     @app.get("/metrics", tags=["operations"], summary="Prometheus metrics")
@@ -156,6 +155,7 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
     @app.get("/v1/models", tags=["motion"], summary="The models this server offers, with their cards")
     def models(request: Request):
         authorize(request, st)
+        reg.check_ready()
         return {"models": [reg.cards[n] for n in sorted(reg.cards)],
                 "default_offline": engine.DEFAULT_OFFLINE, "default_stream": engine.DEFAULT_STREAM}
 
@@ -171,6 +171,17 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
                     origins=config.allowed_origins)
     guarded.state = app.state  # tests reach the shared state through the outer app
     return guarded
+
+
+def _load(reg: Registry, keys: KeyStore) -> None:
+    try:
+        reg.load_all()
+    except Exception as exc:  # the worker stays up and says why in /readyz and the log
+        reg.error = f"{type(exc).__name__}: {exc}"
+        log_event("load_failed", error=reg.error)
+        return
+    log_event("ready", models=sorted(reg.models), load_s=round(reg.load_seconds, 2),
+              keys="required" if keys.required else "none (localhost only)")
 
 
 def _version() -> str:

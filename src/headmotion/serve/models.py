@@ -24,13 +24,14 @@ class Registry:
         self.models: dict = {}
         self.cards: dict[str, dict] = {}
         self.load_seconds = 0.0
+        self.error: str | None = None
 
     def load_all(self) -> "Registry":
         t0 = time.perf_counter()
         for name, path in self.files.items():
             model = engine.load(path)
-            self.models[name] = model
             self.cards[name] = engine.card(name, model, path)
+            self.models[name] = model  # last: ``ready`` is true once every model has its card
         self.load_seconds = time.perf_counter() - t0
         return self
 
@@ -38,8 +39,17 @@ class Registry:
     def ready(self) -> bool:
         return len(self.models) == len(self.files)
 
+    def check_ready(self) -> None:
+        """503 while the models load (or when loading failed)."""
+        if not self.ready:
+            from .access import ApiError
+
+            raise ApiError(503, "not_ready", self.error or "the models are still loading; try again shortly "
+                                                         "(GET /readyz says when)", {"retry-after": "2"})
+
     def get(self, name: str | None, *, default: str, streaming: bool = False):
         """The model called ``name`` (``default`` when None), or UnknownModel listing the names."""
+        self.check_ready()
         name = default if name is None else str(name)
         if name not in self.models:
             raise UnknownModel(f"unknown model {name!r}; this server has {sorted(self.models)}")
