@@ -197,6 +197,12 @@ class Session:
         except ApiError as exc:
             status, reason = exc.kind, exc.detail
             await self._fail(ProtocolError(exc.kind, exc.detail, 1013 if exc.status == 429 else 1008))
+        except HeadMotionError as exc:  # an unknown model, a model that cannot stream, bad controls
+            from .models import UnknownModel
+
+            kind = "unknown_model" if isinstance(exc, UnknownModel) else "bad_start"
+            status, reason = kind, str(exc)
+            await self._fail(ProtocolError(kind, str(exc)))
         except _Closed:
             status = "client_closed"
         except Exception as exc:  # a bug: the client is told, the server carries on
