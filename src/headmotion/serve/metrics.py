@@ -31,6 +31,10 @@ class Metrics:
         reg = None if self.multiprocess else CollectorRegistry()
         kw = {"registry": reg} if reg is not None else {}
         self.registry = reg
+        if reg is not None:  # the process's CPU and memory (process_cpu_seconds_total, ...), as the default registry has
+            from prometheus_client import ProcessCollector
+
+            ProcessCollector(registry=reg)
         self.requests = Counter("headmotion_requests", "HTTP requests and stream openings by route and status",
                                 ["route", "status"], **kw)
         gauge_kw = {"multiprocess_mode": "livesum"} if self.multiprocess else {}

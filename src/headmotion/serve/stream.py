@@ -219,8 +219,9 @@ class Session:
 
     async def _receive(self, timeout: float) -> dict:
         try:
-            msg = await asyncio.wait_for(self.ws.receive(), timeout)
-        except asyncio.TimeoutError:
+            async with asyncio.timeout(timeout):  # a timer, not a task per message (as wait_for makes)
+                msg = await self.ws.receive()
+        except TimeoutError:
             raise ProtocolError("idle", f"nothing received for {timeout:g} s; the stream was closed") from None
         if msg["type"] == "websocket.disconnect":
             raise _Closed()
@@ -319,7 +320,6 @@ class Session:
         except asyncio.QueueFull:
             raise ProtocolError("too_slow", f"the client is too far behind: {self.queue.qsize()} messages "
                                             f"unsent; the stream was closed") from None
-        await asyncio.sleep(0)  # let the sender run
 
     async def _send_loop(self) -> None:
         from starlette.websockets import WebSocketDisconnect
