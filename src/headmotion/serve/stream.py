@@ -89,13 +89,13 @@ def parse_start(text: str | None) -> Start:
     if sr is not None and (isinstance(sr, bool) or not isinstance(sr, int) or not 8000 <= sr <= 192000):
         raise bad(f"sample_rate must be a whole number of Hz between 8000 and 192000; got {sr!r:.40}")
     enc = obj.get("encoding", "s16le")
-    if enc not in ENCODINGS:
+    if not isinstance(enc, str) or enc not in ENCODINGS:
         raise bad(f"encoding must be one of {sorted(ENCODINGS)}; got {enc!r:.40}")
     seed = obj.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2 ** 32:
         raise bad(f"seed must be a whole number from 0 to 2**32-1; got {seed!r:.40}")
     frames = obj.get("frames", "json")
-    if frames not in ("json", "binary"):
+    if not isinstance(frames, str) or frames not in ("json", "binary"):
         raise bad(f"frames must be 'json' or 'binary'; got {frames!r:.40}")
     key = obj.get("api_key")
     if key is not None and not isinstance(key, str):
