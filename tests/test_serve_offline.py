@@ -133,6 +133,15 @@ def test_models_health_metrics_headers(c):
     assert "cdn.jsdelivr.net" in c.get("/docs").headers["content-security-policy"]
 
 
+def test_example_page_and_its_files(c):
+    page = c.get("/v1/example")
+    assert page.status_code == 200 and "/v1/example/static/example.js" in page.text
+    assert "<script>" not in page.text  # no inline script: the page runs under the CSP
+    for path in ("/v1/example/static/example.js", "/v1/example/static/example-worklet.js",
+                 "/v1/example/viewer/viewer.js", "/v1/example/viewer/head_mesh.bin"):
+        assert c.get(path).status_code == 200, path
+
+
 def test_host_and_origin_guard(c):
     assert c.get("/healthz", headers={"host": "evil.example"}).status_code == 400
     r = c.post("/v1/motion?model=stream", content=SPEECH.read_bytes(),

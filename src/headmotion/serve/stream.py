@@ -203,15 +203,15 @@ class Session:
             kind = "unknown_model" if isinstance(exc, UnknownModel) else "bad_start"
             status, reason = kind, str(exc)
             await self._fail(ProtocolError(kind, str(exc)))
-        except _Closed:
-            status = "client_closed"
+        except _Closed as exc:  # 1012: the server shuts down (uvicorn closes open streams with it)
+            status = "server_shutdown" if exc.args and exc.args[0] == 1012 else "client_closed"
         except Exception as exc:  # a bug: the client is told, the server carries on
             status, reason = "internal", f"{type(exc).__name__}: {exc}"[:200]
             await self._fail(ProtocolError("internal", "internal error; the stream was closed", 1011))
         finally:
             await self._release()
             self.st.metrics.requests.labels("/v1/stream", status).inc()
-            if status not in ("ok", "client_closed"):
+            if status not in ("ok", "client_closed", "server_shutdown"):
                 self.st.metrics.errors.labels(status).inc()
             log_event("stream", key=None if self.key is None else self.key.name, status=status, reason=reason,
                       frames=self.frames, audio_s=round(self.samples_in / max(1, self.log.get("sr", 1)), 3),
@@ -224,7 +224,7 @@ class Session:
         except TimeoutError:
             raise ProtocolError("idle", f"nothing received for {timeout:g} s; the stream was closed") from None
         if msg["type"] == "websocket.disconnect":
-            raise _Closed()
+            raise _Closed(msg.get("code"))
         return msg
 
     async def _start(self):
