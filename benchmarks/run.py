@@ -505,7 +505,14 @@ def bench_server(res: Results, quick: bool):
                     f"{med('client_cpu_ms_per_answer'):.2f} ms per answer"))
 
 
-GROUPS = ("features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server")
+def bench_serve(res: Results, quick: bool):
+    """``headmotion serve`` under load: benchmarks/serve_bench.py."""
+    from serve_bench import bench_serve as run_serve
+
+    run_serve(res, quick)
+
+
+GROUPS = ("features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server", "serve")
 
 
 def main(argv=None) -> int:
@@ -529,7 +536,7 @@ def main(argv=None) -> int:
             continue
         if args.quick and g == "video":
             continue
-        if args.quick and g == "server" and not args.only:  # about two minutes: only when asked
+        if args.quick and g in ("server", "serve") and not args.only:  # minutes: only when asked
             continue
         fn = globals()[f"bench_{g}"]
         kwargs = {"cache": cache} if g in ("synth", "stream") else {}

@@ -39,6 +39,7 @@ from . import templates_cmds  # noqa: E402,F401  templates encode-error / analys
 from . import eval_cmds  # noqa: E402,F401  evaluate, stats
 from . import render_cmds  # noqa: E402,F401  render, view, plot
 from . import listen_cmds  # noqa: E402,F401  listen serve / analyze
+from . import serve_cmds  # noqa: E402,F401  serve, serve hash-key
 
 #: exit codes (also in ``headmotion --help`` and :mod:`headmotion.errors`)
 EXIT_BAD_INPUT, EXIT_USAGE, EXIT_MISSING_DEPENDENCY, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 2, 3, 4, 130

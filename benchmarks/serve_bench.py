@@ -1,0 +1,439 @@
+"""``benchmarks/run.py --only serve``: ``headmotion serve`` under load, on loopback, the load
+generator on the same cores as the server.
+
+* concurrent paced streams: N clients each send 10 ms chunks of real speech (s16le, 16 kHz) in
+  real time to one worker with the shipped streaming model; a frame at audio time t is late by
+  (arrival − wall time the sample at t was sent − the model's lookahead); N grows (1, 2, 3, 4, 6,
+  8, 12, …) until the p95 passes 50 ms or a frame is lost or repeated — the largest N that held and
+  the curve, and the server's CPU per stream;
+* offline: requests per second and p95 latency for 10 s clips with the default model, 1 and 2
+  workers, 4 clients at once;
+* memory per open stream (server RSS with K streams open, minus before, ÷ K) and memory over a
+  long stream (30 minutes of audio sent faster than real time: the RSS at its start and end);
+* faults: a client that vanishes mid-stream frees its slot (time until a new stream of the same
+  one-stream key is accepted); malformed messages each get one error and a close, the server
+  carries on; a worker killed with SIGKILL under load — streams on the other worker go on and
+  clients that reconnect get a stream.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+P95_BUDGET_MS = 50.0
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Server:
+    """``headmotion serve`` in a child process, ready when /readyz says so."""
+
+    def __init__(self, *, workers: int = 1, keys: list[tuple] | None = None):
+        import httpx
+
+        self.tmp = tempfile.TemporaryDirectory(prefix="hm-serve-bench-")
+        self.port = _free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        args = [sys.executable, "-m", "headmotion", "serve", "--port", str(self.port), "--workers", str(workers)]
+        if keys:
+            from headmotion.serve.auth import key_line
+
+            kf = Path(self.tmp.name) / "keys.txt"
+            kf.write_text("".join(key_line(k, name=n, streams=s, rate=r) + "\n" for k, n, s, r in keys))
+            args += ["--api-keys", str(kf)]
+        env = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+        self.log = open(Path(self.tmp.name) / "server.log", "w")
+        self.proc = subprocess.Popen(args, env=env, stdout=self.log, stderr=subprocess.STDOUT)
+        deadline = time.time() + 240
+        good = 0  # consecutive ready answers: with several workers, each must have loaded its models
+        while time.time() < deadline and good < (1 if workers == 1 else 30):
+            try:
+                ok = httpx.get(self.url + "/readyz", timeout=2).status_code == 200
+                good = good + 1 if ok and len(self.workers()) >= workers else 0
+            except httpx.HTTPError:
+                good = 0
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"server exited: {Path(self.log.name).read_text()[-2000:]}")
+            time.sleep(0.3 if good == 0 else 0.05)
+        if good == 0:
+            raise RuntimeError("server not ready in 240 s")
+
+    def workers(self) -> list:
+        """The worker processes (the server process itself with one worker)."""
+        import psutil
+
+        me = psutil.Process(self.proc.pid)
+        kids = [c for c in me.children() if "resource_tracker" not in " ".join(c.cmdline())]
+        return kids or [me]
+
+    def rss(self) -> float:
+        import psutil
+
+        procs = [psutil.Process(self.proc.pid), *psutil.Process(self.proc.pid).children(recursive=True)]
+        return sum(_rss(p) for p in procs)
+
+    def stop(self) -> None:
+        self.proc.send_signal(signal.SIGINT)
+        try:
+            self.proc.wait(20)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+        self.log.close()
+        self.tmp.cleanup()
+
+
+def _rss(p) -> float:
+    try:
+        return float(p.memory_info().rss)
+    except Exception:  # noqa: BLE001 - a process that just ended
+        return 0.0
+
+
+def speech_pcm(seconds: float, seed: int = 0) -> np.ndarray:
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from run import speech_audio
+
+    x = speech_audio(seconds, seed).samples
+    return (np.clip(x, -1, 1) * 32767).astype("<i2")
+
+
+async def paced_stream(url: str, pcm: np.ndarray, *, key: str | None = None, chunk: int = 160, sr: int = 16000,
+                       t_start: float | None = None) -> dict:
+    """One real-time client: chunks sent at the wall time their last sample would be captured."""
+    import websockets
+
+    hdr = {"authorization": f"Bearer {key}"} if key else {}
+    lat = []
+    async with websockets.connect(url.replace("http", "ws") + "/v1/stream", additional_headers=hdr,
+                                  max_size=None) as ws:
+        await ws.send(json.dumps({"type": "start", "encoding": "s16le", "frames": "binary", "sample_rate": sr}))
+        ready = json.loads(await ws.recv())
+        lookahead = ready["latency_ms"] / 1000
+        fps = ready["fps"]
+        t0 = time.perf_counter() if t_start is None else t_start
+        n_chunks = len(pcm) // chunk
+
+        async def send():
+            for k in range(n_chunks):
+                due = t0 + (k + 1) * chunk / sr
+                delay = due - time.perf_counter()
+                if delay > 0:
+                    await asyncio.sleep(delay)
+                await ws.send(pcm[k * chunk:(k + 1) * chunk].tobytes())
+            await ws.send(json.dumps({"type": "end"}))
+
+        sender = asyncio.create_task(send())
+        end = None
+        try:
+            await _read(ws, sender, lat, fps, t0, lookahead, frames_box := [0, True])
+        finally:
+            if not sender.done():
+                sender.cancel()
+            await asyncio.gather(sender, return_exceptions=True)
+        frames, order_ok, end = frames_box[0], frames_box[1], frames_box[2] if len(frames_box) > 2 else None
+    return {"lat": lat, "frames": frames, "ok": order_ok and end is not None and end["frames"] == frames}
+
+
+async def _read(ws, sender, lat, fps, t0, lookahead, box) -> None:
+    """Frames of one paced stream: count, order and lateness into ``lat``; ``box`` = [frames, in
+    order, end message]."""
+    async for msg in ws:
+        now = time.perf_counter()
+        if isinstance(msg, bytes):
+            first, n = int.from_bytes(msg[4:8], "little"), int.from_bytes(msg[8:12], "little")
+            box[1] &= first == box[0]
+            box[0] += n
+            if not sender.done():  # the tail after the end message is not paced audio
+                # every frame of the batch: its audio time as sent in real time
+                lat.extend(now - (t0 + (first + np.arange(n)) / fps) - lookahead)
+        else:
+            d = json.loads(msg)
+            if d["type"] == "end":
+                box.append(d)
+            elif d["type"] == "error":
+                raise RuntimeError(d)
+
+
+def stream_level(url: str, n: int, seconds: float, pcm_pool) -> dict:
+    async def main():
+        t0 = time.perf_counter() + 0.5
+        jobs = [paced_stream(url, pcm_pool[k % len(pcm_pool)], t_start=t0 + (k % 10) * 0.001) for k in range(n)]
+        return await asyncio.gather(*jobs, return_exceptions=True)
+
+    cpu0 = server_cpu(url)
+    res = asyncio.run(main())
+    cpu = server_cpu(url) - cpu0
+    errs = [r for r in res if isinstance(r, BaseException)]
+    ok = [r for r in res if not isinstance(r, BaseException)]
+    lat = np.concatenate([r["lat"] for r in ok]) * 1000 if ok else np.array([np.inf])
+    want = int(round(seconds * 100))
+    complete = all(r["ok"] and abs(r["frames"] - want) <= 1 for r in ok) and not errs
+    return {"n": n, "p50": float(np.percentile(lat, 50)), "p95": float(np.percentile(lat, 95)),
+            "complete": complete, "errors": [repr(e)[:100] for e in errs][:3],
+            "cpu_per_stream_s": cpu / (n * seconds)}
+
+
+def server_cpu(url: str) -> float:
+    """CPU seconds the server's process has used so far (from its Prometheus process metrics)."""
+    import httpx
+
+    for line in httpx.get(url + "/metrics", timeout=10).text.splitlines():
+        if line.startswith("process_cpu_seconds_total"):
+            return float(line.split()[1])
+    return float("nan")
+
+
+def bench_streams(res, Row, quick: bool) -> None:
+    seconds = 6.0 if quick else 10.0
+    pool = [speech_pcm(seconds, seed=s) for s in range(4)]
+    srv = Server()
+    curve, best = [], 0
+    try:
+        for n in (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128):
+            if quick and n > 16:
+                break
+            r = stream_level(srv.url, n, seconds, pool)
+            curve.append(r)
+            if r["p95"] > P95_BUDGET_MS or not r["complete"]:
+                break
+            best = n
+    finally:
+        srv.stop()
+    pts = ", ".join(f"{r['n']}: {r['p95']:.0f}{'' if r['complete'] else ' (frames lost)'}" for r in curve)
+    cpu = np.median([r["cpu_per_stream_s"] for r in curve])
+    res.add(Row("10 serve", f"paced real-time streams (10 ms chunks, {seconds:g} s of speech each), 1 worker, "
+                            "largest N with p95 lateness <= 50 ms and no frame lost",
+                best, "streams", ">= 1", best >= 1,
+                f"p95 ms beyond the 64 ms lookahead by N: {pts}; server CPU {cpu * 100:.1f}% of a core per "
+                f"stream (so about {1 / cpu:.0f} streams per free core); client on the same cores"))
+
+
+def bench_offline(res, Row, quick: bool) -> None:
+    import concurrent.futures as cf
+    import io
+
+    import httpx
+    import soundfile as sf
+
+    buf = io.BytesIO()
+    sf.write(buf, speech_pcm(10.0, seed=7), 16000, format="WAV", subtype="PCM_16")
+    body = buf.getvalue()
+    n_req = 8 if quick else 24
+    for workers in (1, 2):
+        srv = Server(workers=workers)
+        try:
+            def one(_, url=srv.url):
+                t = time.perf_counter()
+                r = httpx.post(url + "/v1/motion", content=body, headers={"content-type": "audio/wav"}, timeout=300)
+                assert r.status_code == 200, r.text[:200]
+                return time.perf_counter() - t
+
+            one(0)  # warm-up
+            t0 = time.perf_counter()
+            with cf.ThreadPoolExecutor(4) as ex:
+                lat = list(ex.map(one, range(n_req)))
+            wall = time.perf_counter() - t0
+        finally:
+            srv.stop()
+        res.add(Row("10 serve", f"offline 10 s clips, default model, {workers} worker{'s' if workers > 1 else ''}, "
+                                f"4 clients: requests/s", n_req / wall, "req/s", "-", None,
+                    f"{n_req} requests; p50 {np.percentile(lat, 50) * 1000:.0f} ms"))
+        res.add(Row("10 serve", f"offline 10 s clips, {workers} worker{'s' if workers > 1 else ''}: p95 latency",
+                    float(np.percentile(lat, 95) * 1000), "ms", "-", None, "4 requests in flight at a time"))
+
+
+def bench_memory(res, Row, quick: bool) -> None:
+    import websockets
+
+    k = 20 if quick else 50
+    long_s = 300.0 if quick else 1800.0
+    srv = Server()
+    try:
+        async def hold():
+            url = srv.url.replace("http", "ws") + "/v1/stream"
+            socks = []
+            pcm = speech_pcm(1.0).tobytes()
+            base = srv.rss()
+            for _ in range(k):
+                ws = await websockets.connect(url, max_size=None)
+                await ws.send(json.dumps({"type": "start", "encoding": "s16le", "frames": "binary"}))
+                await ws.recv()
+                for i in range(0, len(pcm), 3200):
+                    await ws.send(pcm[i:i + 3200])
+                socks.append(ws)
+            await asyncio.sleep(1.0)
+            per = (srv.rss() - base) / k
+            for ws in socks:
+                await ws.close()
+            return per, base
+
+        per, base = asyncio.run(hold())
+        res.add(Row("10 serve", f"memory per open stream ({k} streams, 1 s of audio each)", per / 1e6, "MB", "-", None,
+                    f"server RSS {base / 1e6:.0f} MB before"))
+
+        async def long_stream():
+            url = srv.url.replace("http", "ws") + "/v1/stream"
+            samples = []
+            pcm = speech_pcm(60.0, seed=3).tobytes()
+            async with websockets.connect(url, max_size=None) as ws:
+                await ws.send(json.dumps({"type": "start", "encoding": "s16le", "frames": "binary"}))
+                await ws.recv()
+
+                async def drain():
+                    async for _ in ws:
+                        pass
+
+                reader = asyncio.create_task(drain())
+                t0 = time.perf_counter()
+                for _minute in range(int(long_s // 60)):
+                    for i in range(0, len(pcm), 3200):
+                        await ws.send(pcm[i:i + 3200])
+                    samples.append(srv.rss())
+                await ws.send(json.dumps({"type": "end"}))
+                await reader
+                return samples, time.perf_counter() - t0
+
+        rss, wall = asyncio.run(long_stream())
+        res.add(Row("10 serve", f"memory over one stream of {long_s / 60:.0f} min of audio (sent faster than real time)",
+                    (rss[-1] - rss[0]) / 1e6, "MB growth", "<= 20 MB", (rss[-1] - rss[0]) / 1e6 <= 20,
+                    f"server RSS after minute 1 {rss[0] / 1e6:.0f} MB, after the last {rss[-1] / 1e6:.0f} MB, "
+                    f"max {max(rss) / 1e6:.0f} MB; {wall:.0f} s wall"))
+    finally:
+        srv.stop()
+
+
+def bench_faults(res, Row, _quick: bool) -> None:
+    import httpx
+    import websockets
+
+    srv = Server(keys=[("k-one", "one", 1, 6000)])
+    hdr = {"authorization": "Bearer k-one"}
+    url = srv.url.replace("http", "ws") + "/v1/stream"
+    try:
+        async def vanish():
+            ws = await websockets.connect(url, additional_headers=hdr)
+            await ws.send(json.dumps({"type": "start", "encoding": "s16le"}))
+            await ws.recv()
+            await ws.send(speech_pcm(1.0).tobytes())
+            ws.transport.abort()  # the client vanishes: no close frame
+            t0 = time.perf_counter()
+            while True:
+                async with websockets.connect(url, additional_headers=hdr) as ws2:
+                    await ws2.send(json.dumps({"type": "start"}))
+                    d = json.loads(await ws2.recv())
+                    if d["type"] == "ready":
+                        return time.perf_counter() - t0
+                await asyncio.sleep(0.005)
+
+        dt = asyncio.run(vanish())
+        res.add(Row("10 serve", "a client vanishing mid-stream frees its slot (one-stream key: time until a "
+                                "new stream is accepted)", dt * 1000, "ms", "<= 1000 ms", dt <= 1.0, "TCP abort, no close frame"))
+
+        bad = [("binary first", [b"\x00\x00"]), ("wrong first message", ['{"type":"hello"}']),
+               ("odd byte count", ['{"type":"start"}', b"\x00\x01\x02"]),
+               ("huge frame", ['{"type":"start"}', b"\x00" * (2 * 1024 * 1024)]),
+               ("text where binary is due", ['{"type":"start"}', "audio"]),
+               ("unknown model", ['{"type":"start","model":"nope"}'])]
+
+        async def malformed():
+            out = []
+            for name, msgs in bad:
+                async with websockets.connect(url, additional_headers=hdr, max_size=None) as ws:
+                    for m in msgs:
+                        await ws.send(m)
+                    got = await _all_messages(ws)
+                    errs = [json.loads(m) for m in got if isinstance(m, str) and '"error"' in m]
+                    out.append((name, len(errs) == 1, ws.close_code, errs[0]["error"] if errs else None))
+            async with websockets.connect(url, additional_headers={"authorization": "Bearer bad"}) as ws:
+                await ws.send('{"type":"start"}')
+                got = await _all_messages(ws)
+                out.append(("bad key", len(got) == 1, ws.close_code, json.loads(got[0])["error"]))
+            return out
+
+        out = asyncio.run(malformed())
+        alive = httpx.get(srv.url + "/readyz").status_code == 200
+        ok = all(o[1] for o in out) and alive
+        res.add(Row("10 serve", "malformed messages: one error and a close each, server carries on", sum(o[1] for o in out),
+                    f"of {len(out)}", "all", ok, "; ".join(f"{n}: {k} ({c})" for n, _, c, k in out)))
+    finally:
+        srv.stop()
+    _kill_worker(res, Row)
+
+
+async def _all_messages(ws) -> list:
+    """Every message until the server closes, whatever the close code."""
+    import websockets
+
+    got = []
+    try:
+        async for m in ws:
+            got.append(m)
+    except websockets.ConnectionClosed:
+        pass
+    return got
+
+
+def _kill_worker(res, Row) -> None:
+    """Two workers, 6 paced streams; one worker gets SIGKILL; clients whose stream broke reconnect."""
+    srv = Server(workers=2)
+    try:
+        pool = [speech_pcm(8.0, seed=s) for s in range(2)]
+
+        async def client(k):
+            broken, tries = 0, 0
+            while tries < 20:
+                tries += 1
+                try:
+                    r = await paced_stream(srv.url, pool[k % 2])
+                    return {"broken": broken, "ok": r["ok"]}
+                except Exception:  # noqa: BLE001 - the stream broke with its worker: reconnect
+                    broken += 1
+                    await asyncio.sleep(0.2)
+            return {"broken": broken, "ok": False}
+
+        async def main():
+            tasks = [asyncio.create_task(client(k)) for k in range(6)]
+            await asyncio.sleep(3.0)
+            victim = srv.workers()[0]
+            os.kill(victim.pid, signal.SIGKILL)
+            return await asyncio.gather(*tasks)
+
+        out = asyncio.run(main())
+        broken = sum(o["broken"] > 0 for o in out)
+        ok = all(o["ok"] for o in out)
+        res.add(Row("10 serve", "a worker killed (SIGKILL) under load, 2 workers, 6 paced streams: streams "
+                                "completed after reconnecting", sum(o["ok"] for o in out), "of 6", "6", ok,
+                    f"{broken} of 6 streams were on the killed worker (uvicorn's workers share one socket and "
+                    f"the kernel need not spread connections evenly); each reconnected and was served in full"))
+    finally:
+        srv.stop()
+
+
+def bench_serve(res, quick: bool) -> None:
+    """The ``serve`` group of benchmarks/run.py."""
+    from harness import Row
+
+    for part in (bench_streams, bench_offline, bench_memory, bench_faults):
+        try:
+            part(res, Row, quick)
+        except Exception as exc:  # noqa: BLE001 - one failing part must not hide the others
+            res.add(Row("10 serve", part.__name__, None, "", "", False, f"error: {type(exc).__name__}: {exc}"[:200]))
+
+
+__all__ = ["bench_serve", "Server", "paced_stream"]

@@ -1,0 +1,202 @@
+"""The app factory of ``headmotion serve``: a FastAPI app with the offline route
+(:mod:`.offline`), the stream route (:mod:`.stream`), the model list, health, readiness and
+metrics, the OpenAPI page (``/docs``, ``/openapi.json``) and the browser example (``/v1/example``),
+behind the Host/Origin guard (:mod:`.security`) and one JSON log line per request.
+
+The models are loaded once per worker, when it starts (the lifespan), and shared by every request
+and stream; ``/readyz`` answers 503 until they are.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, JSONResponse, Response
+from fastapi.staticfiles import StaticFiles
+from starlette.routing import WebSocketRoute
+
+from ..errors import HeadMotionError
+from . import engine
+from .access import ApiError, authorize
+from .auth import KeyStore, RateLimiter, Slots, load_keys
+from .config import ServeConfig
+from .metrics import Metrics, log_event
+from .models import Registry, UnknownModel
+from .security import Guard, allowed_hosts, plain
+
+STATIC = Path(__file__).resolve().parent / "static"
+VIEWER_STATIC = Path(__file__).resolve().parents[1] / "web" / "static"
+
+
+@dataclass
+class ServeState:
+    """What every route of one worker shares."""
+
+    config: ServeConfig
+    registry: Registry
+    keys: KeyStore
+    limiter: RateLimiter
+    slots: Slots
+    metrics: Metrics
+    started: float
+
+
+class AccessLog:
+    """ASGI middleware: one structured log line and one request count per HTTP request (streams
+    log their own line when they end)."""
+
+    def __init__(self, app, state_ref):
+        self.app, self.state_ref = app, state_ref
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        t0, status = time.perf_counter(), [500]
+
+        async def send_status(msg):
+            if msg["type"] == "http.response.start":
+                status[0] = msg["status"]
+            await send(msg)
+
+        try:
+            await self.app(scope, receive, send_status)
+        finally:
+            st = self.state_ref()
+            path = scope.get("path", "")
+            route = path if path.startswith("/v1/") or path in ("/healthz", "/readyz", "/metrics") else "other"
+            if route.startswith("/v1/example"):
+                route = "/v1/example"
+            extra = (scope.get("state") or {})
+            if st is not None:
+                st.metrics.requests.labels(route, str(status[0])).inc()
+            if path not in ("/healthz", "/readyz", "/metrics"):
+                log_event("request", method=scope.get("method"), path=path, status=status[0],
+                          ms=round((time.perf_counter() - t0) * 1000, 1), key=extra.get("key"),
+                          **(extra.get("log") or {}))
+
+
+def create_app(config: ServeConfig | None = None, *, registry: Registry | None = None):
+    """The server's ASGI app.
+
+    Parameters
+    ----------
+    config : ServeConfig, optional
+        Host, key file, model folder, limits (default: localhost, no keys, the shipped models).
+    registry : Registry, optional
+        Models already loaded (tests share one); by default they are loaded at startup.
+
+    Returns
+    -------
+    ASGI app (the Host/Origin guard around FastAPI).
+    """
+    from . import offline
+    from .stream import stream_endpoint
+
+    config = config or ServeConfig()
+    keys = KeyStore(None if config.api_keys is None else load_keys(config.api_keys))
+    reg = registry or Registry(engine.model_files(None if config.models_dir is None else Path(config.models_dir)))
+    st = ServeState(config, reg, keys, RateLimiter(), Slots(), Metrics(), time.time())
+
+    @contextlib.asynccontextmanager
+    async def lifespan(_app):
+        # the port opens at once; the models load beside it (/readyz answers 503 until they are)
+        loading = None if reg.ready else asyncio.create_task(asyncio.to_thread(_load, reg, keys))
+        yield
+        if loading is not None and not loading.done():
+            loading.cancel()
+        log_event("shutdown", open_streams=st.slots.total())
+
+    app = FastAPI(title="headmotion serve", version=_version(), lifespan=lifespan, redoc_url=None,
+                  description="Natural head motion (pitch, yaw, roll) from speech: offline (POST /v1/motion) "
+                              "and streaming (WebSocket /v1/stream; protocol in docs/serve.md). "
+                              "Send `Authorization: Bearer KEY` when the server has API keys.")
+    app.state.serve = st
+
+    @app.exception_handler(ApiError)
+    async def api_error(_request: Request, exc: ApiError):
+        st.metrics.errors.labels(exc.kind).inc()
+        return JSONResponse({"error": exc.kind, "detail": exc.detail}, status_code=exc.status, headers=exc.headers)
+
+    @app.exception_handler(HeadMotionError)
+    async def library_error(_request: Request, exc: HeadMotionError):
+        kind = "unknown_model" if isinstance(exc, UnknownModel) else "bad_input"
+        st.metrics.errors.labels(kind).inc()
+        return JSONResponse({"error": kind, "detail": str(exc)}, status_code=404 if kind == "unknown_model" else 400)
+
+    @app.exception_handler(RequestValidationError)
+    async def validation_error(_request: Request, exc: RequestValidationError):
+        st.metrics.errors.labels("bad_parameter").inc()
+        msgs = "; ".join(f"{'.'.join(str(p) for p in e.get('loc', ())[1:])}: {e.get('msg')}" for e in exc.errors())
+        return JSONResponse({"error": "bad_parameter", "detail": msgs}, status_code=400)
+
+    @app.get("/healthz", tags=["operations"], summary="The process answers")
+    def healthz():
+        return {"status": "ok"}
+
+    @app.get("/readyz", tags=["operations"], summary="The models are loaded")
+    def readyz():
+        if not reg.ready:
+            return JSONResponse({"status": "failed" if reg.error else "loading", "error": reg.error}, status_code=503)
+        return {"status": "ready", "models": sorted(reg.models), "open_streams": st.slots.total()}
+
+    @app.get("/metrics", tags=["operations"], summary="Prometheus metrics")
+    def metrics(request: Request):
+        if keys.required:
+            authorize(request, st)
+        body, ctype = st.metrics.render()
+        return Response(body, media_type=ctype)
+
+    @app.get("/v1/models", tags=["motion"], summary="The models this server offers, with their cards")
+    def models(request: Request):
+        authorize(request, st)
+        reg.check_ready()
+        return {"models": [reg.cards[n] for n in sorted(reg.cards)],
+                "default_offline": engine.DEFAULT_OFFLINE, "default_stream": engine.DEFAULT_STREAM}
+
+    @app.get("/v1/example", include_in_schema=False)
+    def example():
+        return FileResponse(STATIC / "example.html", media_type="text/html")
+
+    app.include_router(offline.router)
+    app.router.routes.append(WebSocketRoute("/v1/stream", stream_endpoint))
+    app.mount("/v1/example/static", StaticFiles(directory=STATIC), name="example-static")
+    app.mount("/v1/example/viewer", StaticFiles(directory=VIEWER_STATIC), name="example-viewer")
+    guarded = Guard(AccessLog(app, lambda: st), hosts=allowed_hosts(config.host, config.allowed_hosts),
+                    origins=config.allowed_origins)
+    guarded.state = app.state  # tests reach the shared state through the outer app
+    return guarded
+
+
+def _load(reg: Registry, keys: KeyStore) -> None:
+    try:
+        reg.load_all()
+    except Exception as exc:  # the worker stays up and says why in /readyz and the log
+        reg.error = f"{type(exc).__name__}: {exc}"
+        log_event("load_failed", error=reg.error)
+        return
+    log_event("ready", models=sorted(reg.models), load_s=round(reg.load_seconds, 2),
+              keys="required" if keys.required else "none (localhost only)")
+
+
+def _version() -> str:
+    from .. import __version__
+
+    return str(__version__)
+
+
+def app_from_env():
+    """The app of one worker process (``uvicorn --factory``): settings from ``HEADMOTION_SERVE_CONFIG``."""
+    from .metrics import setup_logging
+
+    config = ServeConfig.from_env()
+    setup_logging(config.log_level)
+    return create_app(config)
+
+
+__all__ = ["create_app", "app_from_env", "ServeState", "plain"]

@@ -1,0 +1,369 @@
+"""``WS /v1/stream``: speech in as it arrives, head motion out as it becomes final.
+
+Protocol (docs/serve.md has examples):
+
+1. The client sends one text message, ``{"type": "start", "model": "stream", "sample_rate": 16000,
+   "encoding": "s16le"|"f32le", "seed": 0, "frames": "json"|"binary", "gain": G|[p,y,r],
+   "offset": D|[p,y,r] (degrees), "still": false}`` (every field but ``type`` optional; a browser,
+   which cannot set headers on a WebSocket, may add ``"api_key"``).
+2. The server answers ``{"type": "ready", "model", "system", "fps", "latency_ms", ...}``.
+3. The client sends binary messages of mono PCM in that encoding — any number of whole samples per
+   message.  The server resamples them to the model's rate and pushes them into the model's stream.
+4. Frames come back as soon as they are final: JSON ``{"type": "frames", "first": i, "fps",
+   "audio_time", "frames": [{"frame", "time", "rotvec", "pitch_yaw_roll_deg"}, ...]}`` (the records
+   of ``headmotion stream``), or binary: a 24-byte header ``<4s I I f d`` = (``b"HMF1"``, first
+   frame, frame count, fps, audio seconds received) then per frame six little-endian float32:
+   rotation vector (radians) and pitch, yaw, roll (degrees).  Frame ``i`` is at audio time
+   ``i / fps``.
+5. ``{"type": "end"}`` flushes the tail; the server sends the last frames, ``{"type": "end",
+   "frames": N, "audio_seconds": S}`` and closes (1000).
+
+Errors: one text message ``{"type": "error", "error": KIND, "detail": SENTENCE}`` then a close with
+a code (1008 policy: bad start / message / key / client too far behind; 1007 bad audio bytes; 1009
+too large or too long; 1013 no free stream slot or rate limit; 1011 internal).  Back-pressure:
+outgoing messages wait in a bounded queue (``queue_messages``); a client that lets it fill is
+closed with ``too_slow``, so a slow reader never grows the server's memory.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import struct
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import HeadMotionError
+from . import engine
+from .access import ApiError, check_rate, identify
+from .metrics import log_event
+
+HEADER = struct.Struct("<4sIIfd")
+MAGIC = b"HMF1"
+ENCODINGS = {"s16le": ("<i2", 32768.0), "f32le": ("<f4", 1.0)}
+START_FIELDS = {"type", "model", "sample_rate", "encoding", "seed", "frames", "gain", "offset", "still", "api_key"}
+
+
+class ProtocolError(Exception):
+    """A message the protocol does not allow: ``kind``, a sentence and the close code."""
+
+    def __init__(self, kind: str, detail: str, code: int = 1008):
+        super().__init__(detail)
+        self.kind, self.detail, self.code = kind, detail, code
+
+
+@dataclass(frozen=True)
+class Start:
+    model: str | None
+    sample_rate: int | None
+    encoding: str
+    seed: int
+    frames: str
+    controls: engine.Controls
+    api_key: str | None
+
+
+def parse_start(text: str | None) -> Start:
+    """The first message, checked field by field (ProtocolError ``bad_start`` naming the field)."""
+    def bad(detail):
+        return ProtocolError("bad_start", detail)
+
+    if text is None:
+        raise bad("the first message must be a text JSON object {\"type\": \"start\", ...}; got binary")
+    try:
+        obj = json.loads(text)
+    except (ValueError, RecursionError):
+        raise bad("the first message is not JSON; expected {\"type\": \"start\", ...}") from None
+    if not isinstance(obj, dict) or obj.get("type") != "start":
+        raise bad("the first message must be a JSON object with \"type\": \"start\"")
+    unknown = sorted(set(obj) - START_FIELDS)
+    if unknown:
+        raise bad(f"unknown fields {unknown}; the start message takes {sorted(START_FIELDS)}")
+    model = obj.get("model")
+    if model is not None and not isinstance(model, str):
+        raise bad(f"model must be a name (text); got {model!r:.40}")
+    sr = obj.get("sample_rate")
+    if sr is not None and (isinstance(sr, bool) or not isinstance(sr, int) or not 8000 <= sr <= 192000):
+        raise bad(f"sample_rate must be a whole number of Hz between 8000 and 192000; got {sr!r:.40}")
+    enc = obj.get("encoding", "s16le")
+    if not isinstance(enc, str) or enc not in ENCODINGS:
+        raise bad(f"encoding must be one of {sorted(ENCODINGS)}; got {enc!r:.40}")
+    seed = obj.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2 ** 32:
+        raise bad(f"seed must be a whole number from 0 to 2**32-1; got {seed!r:.40}")
+    frames = obj.get("frames", "json")
+    if not isinstance(frames, str) or frames not in ("json", "binary"):
+        raise bad(f"frames must be 'json' or 'binary'; got {frames!r:.40}")
+    key = obj.get("api_key")
+    if key is not None and not isinstance(key, str):
+        raise bad("api_key must be text")
+    try:
+        controls = engine.Controls.parse(gain=_number_or_triple(obj.get("gain"), "gain"),
+                                         offset_deg=_number_or_triple(obj.get("offset"), "offset"),
+                                         still=_flag(obj.get("still", False)))
+    except HeadMotionError as exc:
+        raise bad(str(exc)) from None
+    return Start(model, sr, enc, seed, frames, controls, key)
+
+
+def _number_or_triple(v, what):
+    ok = v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)) or (
+        isinstance(v, list) and len(v) == 3 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v))
+    if not ok:
+        raise ProtocolError("bad_start", f"{what} must be a number or [pitch, yaw, roll]; got {v!r:.40}")
+    if v is not None and not all(math.isfinite(x) for x in (v if isinstance(v, list) else [v])):
+        raise ProtocolError("bad_start", f"{what} must be finite; got {v!r:.40}")
+    return v
+
+
+def _flag(v):
+    if not isinstance(v, bool):
+        raise ProtocolError("bad_start", f"still must be true or false; got {v!r:.40}")
+    return v
+
+
+def decode_chunk(data: bytes, encoding: str) -> np.ndarray:
+    """Float32 samples of one binary message (ProtocolError when not whole samples or not finite)."""
+    dtype, scale = ENCODINGS[encoding]
+    width = np.dtype(dtype).itemsize
+    if len(data) % width:
+        raise ProtocolError("bad_audio", f"a {encoding} message of {len(data)} bytes is not a whole number of "
+                                         f"{width}-byte samples", 1007)
+    x = np.frombuffer(data, dtype=dtype).astype(np.float32)
+    if scale != 1.0:
+        x /= np.float32(scale)
+    elif not np.all(np.isfinite(x)):
+        raise ProtocolError("bad_audio", "the audio holds NaN or infinite samples", 1007)
+    return x
+
+
+def frames_message(rotvec: np.ndarray, fps: float, first: int, audio_time: float, fmt: str):
+    """One outgoing message for frames ``first …`` (text for JSON, bytes for binary)."""
+    if fmt == "json":
+        from ..live.frames import frame_records
+
+        return json.dumps({"type": "frames", "first": first, "fps": fps, "audio_time": round(audio_time, 4),
+                           "frames": frame_records(rotvec, fps, first)}, separators=(",", ":"))
+    from ..rotations import rotvec_to_pitch_yaw_roll
+
+    rv = np.asarray(rotvec, dtype=np.float64).reshape(-1, 3)
+    body = np.hstack([rv, rotvec_to_pitch_yaw_roll(rv, degrees=True)]).astype("<f4")
+    return HEADER.pack(MAGIC, first, len(rv), fps, audio_time) + body.tobytes()
+
+
+def parse_binary_frames(data: bytes) -> tuple[int, float, float, np.ndarray]:
+    """(first frame, fps, audio time, ``(n, 6)`` float32) of a binary frames message (for clients)."""
+    magic, first, n, fps, audio_time = HEADER.unpack_from(data)
+    if magic != MAGIC or len(data) != HEADER.size + 24 * n:
+        raise ValueError("not a headmotion binary frames message")
+    return first, float(fps), audio_time, np.frombuffer(data, "<f4", offset=HEADER.size).reshape(n, 6)
+
+
+class _Closed(Exception):
+    pass
+
+
+async def stream_endpoint(websocket) -> None:
+    """The ``/v1/stream`` handler: one session per connection."""
+    await Session(websocket, websocket.app.state.serve).run()
+
+
+class Session:
+    """One stream connection (see the module docstring)."""
+
+    def __init__(self, ws, st):
+        self.ws, self.st, self.lim = ws, st, st.config.limits
+        self.key = None
+        self.slot = False
+        self.queue: asyncio.Queue = asyncio.Queue(maxsize=self.lim.queue_messages)
+        self.sender = None
+        self.frames = 0
+        self.samples_in = 0
+        self.t0 = time.perf_counter()
+        self.log = {}
+
+    async def run(self) -> None:
+        await self.ws.accept()
+        status, reason = "ok", None
+        try:
+            start = await self._start()
+            await self._loop(start)
+        except ProtocolError as exc:
+            status, reason = exc.kind, exc.detail
+            await self._fail(exc)
+        except ApiError as exc:
+            status, reason = exc.kind, exc.detail
+            await self._fail(ProtocolError(exc.kind, exc.detail, 1013 if exc.status == 429 else 1008))
+        except HeadMotionError as exc:  # an unknown model, a model that cannot stream, bad controls
+            from .models import UnknownModel
+
+            kind = "unknown_model" if isinstance(exc, UnknownModel) else "bad_start"
+            status, reason = kind, str(exc)
+            await self._fail(ProtocolError(kind, str(exc)))
+        except _Closed as exc:  # 1012: the server shuts down (uvicorn closes open streams with it)
+            status = "server_shutdown" if exc.args and exc.args[0] == 1012 else "client_closed"
+        except Exception as exc:  # a bug: the client is told, the server carries on
+            status, reason = "internal", f"{type(exc).__name__}: {exc}"[:200]
+            await self._fail(ProtocolError("internal", "internal error; the stream was closed", 1011))
+        finally:
+            await self._release()
+            self.st.metrics.requests.labels("/v1/stream", status).inc()
+            if status not in ("ok", "client_closed", "server_shutdown"):
+                self.st.metrics.errors.labels(status).inc()
+            log_event("stream", key=None if self.key is None else self.key.name, status=status, reason=reason,
+                      frames=self.frames, audio_s=round(self.samples_in / max(1, self.log.get("sr", 1)), 3),
+                      wall_s=round(time.perf_counter() - self.t0, 3), **{k: v for k, v in self.log.items() if k != "sr"})
+
+    async def _receive(self, timeout: float) -> dict:
+        try:
+            async with asyncio.timeout(timeout):  # a timer, not a task per message (as wait_for makes)
+                msg = await self.ws.receive()
+        except TimeoutError:
+            raise ProtocolError("idle", f"nothing received for {timeout:g} s; the stream was closed") from None
+        if msg["type"] == "websocket.disconnect":
+            raise _Closed(msg.get("code"))
+        return msg
+
+    async def _start(self):
+        msg = await self._receive(self.lim.start_timeout_s)
+        header = dict(self.ws.scope.get("headers") or []).get(b"authorization")
+        header = None if header is None else header.decode("latin-1")
+        if self.st.keys.required and header is None and msg.get("text"):
+            try:  # a browser's key travels in the start message
+                k = json.loads(msg["text"]).get("api_key")
+                header = f"Bearer {k}" if isinstance(k, str) else None
+            except (ValueError, AttributeError, RecursionError):
+                pass
+        self.key = identify(self.st, header)  # before anything else is looked at: a stranger learns nothing
+        start = parse_start(msg.get("text") if msg.get("bytes") is None else None)
+        check_rate(self.st, self.key)
+        name, model = self.st.registry.get(start.model, default=engine.DEFAULT_STREAM, streaming=True)
+        if self.st.slots.total() >= self.lim.max_streams:
+            raise ProtocolError("busy", f"this worker carries its limit of {self.lim.max_streams} streams; "
+                                        f"try again later", 1013)
+        if not self.st.slots.take(self.key):
+            raise ProtocolError("too_many_streams", f"key {self.key.name!r} has its {self.key.streams} concurrent "
+                                                    f"streams open", 1013)
+        self.slot = True
+        self.st.metrics.active_streams.inc()
+        self.model, self.name, self.start = model, name, start
+        self.log = {"model": name, "encoding": start.encoding, "frames_format": start.frames,
+                    "sr": start.sample_rate or int(model.sample_rate)}
+        return start
+
+    async def _loop(self, start: Start) -> None:
+        from ..live.inputs import Resampler
+
+        model = self.model
+        model_sr = int(model.sample_rate)
+        sr = start.sample_rate or model_sr
+        try:
+            stream = engine.open_stream(model, seed=start.seed, controls=start.controls)
+        except HeadMotionError as exc:
+            raise ProtocolError("bad_start", str(exc)) from None
+        resample = Resampler(sr, model_sr)
+        fps = float(model.frame_rate)
+        self.sender = asyncio.create_task(self._send_loop())
+        await self._put(json.dumps({"type": "ready", "model": self.name, "system": model.name, "fps": fps,
+                                    "latency_ms": float(stream.latency_ms), "sample_rate": sr,
+                                    "model_sample_rate": model_sr, "encoding": start.encoding,
+                                    "frames": start.frames}), None)
+        max_samples = self.lim.max_stream_seconds * sr
+        while True:
+            msg = await self._receive(self.lim.idle_timeout_s)
+            t_recv = time.perf_counter()
+            data = msg.get("bytes")
+            if data is not None:
+                if len(data) > self.lim.max_message_bytes:
+                    raise ProtocolError("too_large", f"a message of {len(data)} bytes; the limit is "
+                                                     f"{self.lim.max_message_bytes} bytes", 1009)
+                x = decode_chunk(data, start.encoding)
+                self.samples_in += len(x)
+                if self.samples_in > max_samples:
+                    raise ProtocolError("too_long", f"the stream passed its limit of "
+                                                    f"{self.lim.max_stream_seconds:g} s of audio", 1009)
+                await self._emit(stream.push(resample(x)), fps, sr, start.frames, t_recv)
+                continue
+            text = msg.get("text") or ""
+            try:
+                obj = json.loads(text)
+            except (ValueError, RecursionError):
+                obj = None
+            if not (isinstance(obj, dict) and obj.get("type") == "end" and set(obj) <= {"type"}):
+                raise ProtocolError("bad_message", "after the start message only binary audio and "
+                                                   "{\"type\": \"end\"} are accepted")
+            tail = stream.push(resample(np.zeros(0, np.float32), last=True))
+            await self._emit(tail, fps, sr, start.frames, t_recv)
+            await self._emit(stream.flush(), fps, sr, start.frames, t_recv)
+            await self._put(json.dumps({"type": "end", "frames": self.frames,
+                                        "audio_seconds": round(self.samples_in / sr, 4)}), None)
+            await self._put(None, None)  # close after the queue is sent
+            await self.sender
+            return
+
+    async def _emit(self, motion, fps: float, sr: int, fmt: str, t_recv: float) -> None:
+        n = len(motion)
+        if n:
+            await self._put(frames_message(motion.rotvec, fps, self.frames, self.samples_in / sr, fmt), t_recv)
+            self.frames += n
+            self.st.metrics.frames.inc(n)
+
+    async def _put(self, item, t_recv) -> None:
+        if self.sender is not None and self.sender.done():
+            exc = self.sender.exception()
+            raise exc if exc is not None else _Closed()
+        try:
+            self.queue.put_nowait((item, t_recv))
+        except asyncio.QueueFull:
+            raise ProtocolError("too_slow", f"the client is too far behind: {self.queue.qsize()} messages "
+                                            f"unsent; the stream was closed") from None
+
+    async def _send_loop(self) -> None:
+        from starlette.websockets import WebSocketDisconnect
+
+        while True:
+            item, t_recv = await self.queue.get()
+            try:
+                if item is None:
+                    await self.ws.close(1000)
+                    return
+                if isinstance(item, bytes):
+                    await self.ws.send_bytes(item)
+                else:
+                    await self.ws.send_text(item)
+            except (WebSocketDisconnect, RuntimeError, OSError):
+                raise _Closed() from None
+            if t_recv is not None:
+                self.st.metrics.frame_latency.observe(time.perf_counter() - t_recv)
+
+    async def _fail(self, exc: ProtocolError) -> None:
+        if self.sender is not None and not self.sender.done():
+            self.sender.cancel()
+            try:
+                await self.sender
+            except (asyncio.CancelledError, Exception):
+                pass
+        try:
+            await self.ws.send_text(json.dumps({"type": "error", "error": exc.kind, "detail": exc.detail}))
+            await self.ws.close(exc.code, reason=f"{exc.kind}: {exc.detail}"[:120])
+        except Exception:  # the client is gone already
+            pass
+
+    async def _release(self) -> None:
+        if self.sender is not None and not self.sender.done():
+            self.sender.cancel()
+            try:
+                await self.sender
+            except (asyncio.CancelledError, Exception):
+                pass
+        if self.slot:
+            self.slot = False
+            self.st.slots.give(self.key)
+            self.st.metrics.active_streams.dec()
+
+
+__all__ = ["stream_endpoint", "parse_start", "decode_chunk", "frames_message", "parse_binary_frames",
+           "ProtocolError", "Start", "HEADER", "MAGIC"]
