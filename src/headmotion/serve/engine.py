@@ -1,13 +1,10 @@
 """The server's one door into synthesis: every call the service makes into the library goes
-through this module (models by name, offline synthesis, streams), so that the routes never touch
-a system's methods directly.
+through this module, and this module calls the library's one synthesis path
+(:mod:`headmotion.synthesis`: ``load_model``, ``synthesize``, ``open_stream``, ``list_models``),
+so a request gets exactly the motion ``headmotion synth`` / ``headmotion stream`` give.
 
-It is written on the systems' contract (:mod:`headmotion.systems.base`: ``load_model``,
-``predict(audio, seed=, gain=, offset=)``, ``stream(seed=, gain=, offset=)``) and the controls of
-``headmotion synth`` (:mod:`headmotion.motion.control`).  When the library's single synthesis
-module (``headmotion.synthesis``: ``load_model``, ``synthesize``, ``open_stream``, ``Controls``)
-is present, the bodies of :func:`load`, :func:`synthesize` and :func:`open_stream` become one
-call each into it; the signatures here stay.
+The request-level :class:`Controls` (offsets in degrees on the wire, radians kept) map one-to-one
+onto :class:`headmotion.synthesis.Controls`.
 """
 
 from __future__ import annotations
@@ -20,9 +17,14 @@ import numpy as np
 from ..errors import ModelFileError, ParameterError
 from ..types import Audio, Motion
 
-DATA = Path(__file__).resolve().parents[1] / "data"
+def _shipped() -> dict[str, Path]:
+    from .. import synthesis
+
+    return {m.name: Path(m.path) for m in synthesis.list_models()}
+
+
 #: the models shipped in the package, by the names the API knows them by
-SHIPPED = {"default": DATA / "default_model.hmz", "stream": DATA / "default_stream_model.hmz"}
+SHIPPED = _shipped()
 DEFAULT_OFFLINE, DEFAULT_STREAM = "default", "stream"
 
 
@@ -42,30 +44,18 @@ class Controls:
         """Controls from request values: ``gain`` / ``offset_deg`` a number, a (p, y, r) triple or
         the CLI's text ``"1.2"`` / ``"1,0.5,1"``; the per-axis values override them on their axis.
         Offsets are given in degrees (as on the command line) and kept in radians."""
-        from ..motion.control import per_axis
+        from .. import synthesis
 
-        g = per_axis(_triple(gain, "gain", 1.0), *gain_pyr, what="gain")
-        o_deg = per_axis(_triple(offset_deg, "offset", 0.0), *offset_pyr_deg, what="offset")
         if fps is not None:
-            fps = float(fps)
+            try:
+                fps = float(fps)
+            except (TypeError, ValueError):
+                raise ParameterError(f"fps must be a number of frames per second; got {fps!r}") from None
             if not (np.isfinite(fps) and 1.0 <= fps <= 1000.0):
                 raise ParameterError(f"fps must be between 1 and 1000 frames per second; got {fps}")
-        return cls(tuple(float(v) for v in g), tuple(float(v) for v in np.radians(o_deg)), bool(still), fps)
-
-
-def _triple(value, what: str, default: float):
-    if value is None:
-        return default
-    if isinstance(value, str):
-        try:
-            vals = [float(v) for v in value.split(",")]
-        except ValueError:
-            raise ParameterError(f"{what} must be a number or three comma-separated numbers "
-                                 f"(pitch,yaw,roll); got {value!r}") from None
-        if len(vals) not in (1, 3):
-            raise ParameterError(f"{what} must be one number or three (pitch,yaw,roll); got {value!r}")
-        return vals[0] if len(vals) == 1 else vals
-    return value
+        c = synthesis.Controls.parse(gain=gain, offset_degrees=offset_deg, gain_pyr=gain_pyr,
+                                     offset_pyr_degrees=offset_pyr_deg, still=still, fps=fps)
+        return cls(c.gain, c.offset, c.still, c.fps)
 
 
 def model_files(models_dir: Path | None = None) -> dict[str, Path]:
@@ -85,9 +75,9 @@ def model_files(models_dir: Path | None = None) -> dict[str, Path]:
 
 def load(path: Path):
     """A loaded model (read once; shared by every request of this worker)."""
-    from ..systems.base import load_model
+    from .. import synthesis
 
-    return load_model(path)
+    return synthesis.load_model(path)
 
 
 def card(name: str, model, path: Path) -> dict:
@@ -106,55 +96,36 @@ def card(name: str, model, path: Path) -> dict:
             "card": summary}
 
 
+def _library_controls(controls: Controls):
+    from .. import synthesis
+
+    return synthesis.Controls(gain=controls.gain, offset=controls.offset, still=controls.still, fps=controls.fps)
+
+
 def synthesize(model, audio: Audio, *, seed: int = 0, samples: int = 1,
                controls: Controls = Controls()) -> list[Motion]:
-    """``samples`` motions for ``audio`` (sample k with seed ``seed + k``), the controls applied
-    as ``headmotion synth`` applies them (gain/offset about the mean pose, or a still head plus
-    the offset; then the frame rate)."""
-    from ..motion.control import still as still_motion
+    """``samples`` motions for ``audio`` (sample k with seed ``seed + k``) from
+    :func:`headmotion.synthesis.synthesize`, the controls applied as ``headmotion synth`` applies them."""
+    from .. import synthesis
 
     if not 1 <= int(samples) <= 16:
         raise ParameterError(f"samples must be between 1 and 16; got {samples}")
-    out = []
-    for k in range(int(samples)):
-        if controls.still:
-            m = still_motion(model.predict(audio, seed=seed + k), controls.offset)
-        else:
-            m = model.predict(audio, seed=seed + k, gain=controls.gain, offset=controls.offset)
-        out.append(m if controls.fps is None else m.resample(controls.fps))
-    return out
-
-
-class _StillStream:
-    """A stream whose frames are the rest pose plus the offset (``still``), as many and as final
-    as the model's."""
-
-    def __init__(self, inner, offset):
-        self.inner, self.offset, self.latency_ms = inner, offset, inner.latency_ms
-
-    def push(self, samples) -> Motion:
-        from ..motion.control import still
-
-        return still(self.inner.push(samples), self.offset)
-
-    def flush(self) -> Motion:
-        from ..motion.control import still
-
-        return still(self.inner.flush(), self.offset)
+    return synthesis.synthesize(audio, model, seed=seed, samples=int(samples), controls=_library_controls(controls))
 
 
 def open_stream(model, *, seed: int = 0, controls: Controls = Controls()):
-    """A fresh stream of ``model``: ``push(float32 samples at model.sample_rate) -> Motion`` of
-    the frames now final, ``flush() -> Motion`` of the rest; ``latency_ms`` its lookahead.
-    Frames come at the model's rate (``controls.fps`` applies to offline synthesis only)."""
+    """A fresh stream of ``model`` (:func:`headmotion.synthesis.open_stream`): ``push(float32
+    samples at model.sample_rate) -> Motion`` of the frames now final, ``flush() -> Motion`` of the
+    rest; ``latency_ms`` its lookahead.  Frames come at the model's rate (``controls.fps`` applies
+    to offline synthesis only)."""
+    from .. import synthesis
+
     if not model.can_stream:
         raise ParameterError(f"model {model.name!r} cannot stream; choose a model whose card lists "
                              f"'causal' or 'streaming'")
     if controls.fps is not None:
         raise ParameterError("fps is an offline control; a stream sends frames at the model's rate")
-    if controls.still:
-        return _StillStream(model.stream(seed=seed), controls.offset)
-    return model.stream(seed=seed, gain=controls.gain, offset=controls.offset)
+    return synthesis.open_stream(model, seed=seed, controls=_library_controls(controls))
 
 
 def check_loaded(files: dict[str, Path]) -> None:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 
-from ..listening.app import SECURITY_HEADERS, default_allowed_hosts, split_host
+from ..listening.guard import SECURITY_HEADERS, default_allowed_hosts, split_host
 
 DOCS_CSP = ("default-src 'self'; script-src 'self' 'unsafe-inline' https://cdn.jsdelivr.net; "
             "style-src 'self' 'unsafe-inline' https://cdn.jsdelivr.net; img-src 'self' data: "
