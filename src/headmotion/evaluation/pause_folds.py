@@ -1,5 +1,4 @@
-"""Cut one long take into evaluation folds at its pauses (issue 14: "the ZEGGS take split into
-4–6 folds at pauses").
+"""Cut one long take into evaluation folds at its pauses (e.g. the ZEGGS mocap take into 4–6 folds).
 
 The seeds evaluate on corpora of many recordings (thesis §5.9 leave-one-recording-out); a single
 long take — the one mocap recording with speech we have — has to be cut before it can be
