@@ -1,5 +1,6 @@
-"""Cross-validation of synthesis systems: train per fold, synthesise held-out speech, score
-(thesis §5.9 leave-one-recording-out; paper §4.1 train / valid / test split, §4.3 metrics).
+"""Cross-validation of synthesis systems beside anchors and model files: fit per fold, make the
+motion of held-out speech, score it (thesis §5.9 leave-one-recording-out; paper §4.1 train /
+valid / test split, §4.3 metrics).
 
 :func:`evaluate` builds the folds (:mod:`.folds`), fits every condition on each fold's training
 recordings, makes its motion for each held-out recording and scores it against the recorded
@@ -45,7 +46,7 @@ per-recording circular-shift p-values, :func:`.realism.stouffer`).  The motions 
 in :attr:`EvaluationResult.motions` for the realism figures.
 
 Metrics per (condition, recording) — names as in ``metrics.csv``
---------------------------------------------------------------
+----------------------------------------------------------------
 ``nmse`` (+ ``nmse_rx|ry|rz``), ``cca_global`` and ``cca_local`` (predicted vs recorded motion,
 local over ``window_s`` = 3 s = 300 frames at 100 fps; paper Table 2), ``fcca`` and ``fcca_local`` (thesis eq 4.5
 with motion + Δ, since "in all cases we included the first derivative of the trajectory", §4.3.1;
