@@ -48,7 +48,7 @@ def realism_summary(result: EvaluationResult) -> dict[str, dict[str, float]]:
                   "fcca_n_pooled") + pooled:
             v = _vals(result, s, k, ["ALL"])
             d[k] = float(v[0]) if len(v) else float("nan")
-        if not np.isfinite(d["spectral_l1_pooled"]):  # metrics.csv written before it: the same mean shares
+        if not np.isfinite(d["spectral_l1_pooled"]):  # a metrics.csv without the pooled row: the same mean shares
             d["spectral_l1_pooled"] = _pooled_l1_from_rows(result, s, recs)
         out[s] = d
     return out
