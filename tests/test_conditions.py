@@ -105,3 +105,24 @@ def test_cli_scores_a_model_file_beside_anchors(small, tmp_path):
                              env=env, timeout=120)
     assert missing.returncode != 0 and "gone.hmz not found" in missing.stderr
     assert "Traceback" not in missing.stderr
+
+
+def test_a_new_measure_plugs_in_per_recording_and_pooled(small, monkeypatch):
+    """A measure appended to the scoring tuples lands in the rows of every condition."""
+    from headmotion.evaluation import scoring as S
+
+    def frames(s):
+        return {"frames": float(len(s.pred))}
+
+    def seed_seen(p):
+        return [{"system": c, "recording": "ALL", "metric": "seed_seen", "value": float(p.seed)}
+                for c in p.conditions if p.options.get("on", True)]
+
+    monkeypatch.setattr(S, "RECORDING_MEASURES", S.RECORDING_MEASURES + (S.Measure("frames", frames),))
+    monkeypatch.setattr(S, "POOLED_MEASURES", S.POOLED_MEASURES + (S.PooledMeasure("seed seen", seed_seen),))
+    res = P.evaluate(small, ["still", "shifted"], features=envelope, n_shifts=10, feature_sets=[], fig48=False,
+                     seed=5)
+    for c in res.systems:
+        assert list(res.values(c, "frames")) == [float(len(r.motion)) for r in small]
+        assert list(res.values(c, "seed_seen")) == [5.0]
+    assert "seed seen" in res.timings

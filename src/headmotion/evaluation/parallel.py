@@ -1,5 +1,5 @@
-"""Corpus-wide work spread over joblib or a Dask cluster: the cross-validation folds *and* the
-corpus-wide feature extraction run on ``--scheduler ADDRESS``.
+"""Corpus-wide work spread over joblib or a Dask cluster (folds *and* corpus-wide
+feature extraction run on ``--scheduler ADDRESS``).
 
 * :func:`run_map` — ``[fn(item) for item in items]`` in order, serially, with joblib
   (``n_jobs``) or on a Dask cluster (``scheduler`` = address or ``distributed.Client``); used for

@@ -1,4 +1,5 @@
-"""Cut one long take into evaluation folds at its pauses (e.g. the ZEGGS mocap take into 4–6 folds).
+"""Cut one long take into evaluation folds at its pauses (the ZEGGS take in
+4–6 folds at pauses).
 
 The seeds evaluate on corpora of many recordings (thesis §5.9 leave-one-recording-out); a single
 long take — the one mocap recording with speech we have — has to be cut before it can be

@@ -198,7 +198,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
               "fold_tests": {t.fold: list(t.test.ids) for t in tasks}}
     result = assemble(results, corpus=corpus, conditions=conditions, table=table, table_warnings=table_warns,
                       fig48=fig48, n_shifts=n_shifts, trajectory_recording=trajectory_recording, config=config,
-                      timings=timings, splits=splits)
+                      timings=timings, splits=splits, seed=int(seed))
     result.timings["total_wall"] = time.perf_counter() - t_start
     return result
 

@@ -27,13 +27,17 @@ REALISM_COLUMNS = (
     ("diversity", "diversity", 2))
 #: anchors: the ruler of the realism table (ground truth, uncoupled-but-real, unreal)
 RULER = (GROUND_TRUTH, "shifted", "desync", "shaped-noise", "other-speaker", "still")
+#: per-condition values pooled over the held-out recordings (recording ``ALL``) that
+#: :func:`realism_summary` carries; a pooled measure whose value the summary should show goes here
+POOLED_SUMMARY_KEYS = ("fcca_excess_pooled", "fcca_p_pooled", "fcca_local_excess_pooled", "fcca_local_p_pooled",
+                       "fcca_n_pooled", "speed_hellinger_pooled", "speed_hellinger_pooled_k", "accel_hellinger_pooled",
+                       "spectral_l1_pooled")
 
 
 def realism_summary(result: EvaluationResult) -> dict[str, dict[str, float]]:
     """``{condition: {metric: median over held-out recordings}}`` of the realism measures, plus
     the pooled coupling (``fcca_excess_pooled``, ``fcca_p_pooled``, …) and ``n``."""
-    pooled = ("speed_hellinger_pooled", "speed_hellinger_pooled_k", "accel_hellinger_pooled", "spectral_l1_pooled")
-    keys = {k for k, _, _ in REALISM_COLUMNS if k not in pooled} | {"band_1.5_4_ref", "limit_cycle_ref", "pause_ratio_ref",
+    keys = {k for k, _, _ in REALISM_COLUMNS if k not in POOLED_SUMMARY_KEYS} | {"band_1.5_4_ref", "limit_cycle_ref", "pause_ratio_ref",
                                                  "drift_ref", "bc_ref", "band_0.5_1.5", "band_4_10", "sd_pitch",
                                                  "sd_yaw", "sd_roll", "speed_mean"}
     recs = set(result.recordings)
@@ -44,8 +48,7 @@ def realism_summary(result: EvaluationResult) -> dict[str, dict[str, float]]:
             v = _vals(result, s, k, recs)
             d[k] = float(np.median(v)) if len(v) else float("nan")
         d["n"] = float(len(_vals(result, s, "spectral_l1", recs)))
-        for k in ("fcca_excess_pooled", "fcca_p_pooled", "fcca_local_excess_pooled", "fcca_local_p_pooled",
-                  "fcca_n_pooled") + pooled:
+        for k in POOLED_SUMMARY_KEYS:
             v = _vals(result, s, k, ["ALL"])
             d[k] = float(v[0]) if len(v) else float("nan")
         if not np.isfinite(d["spectral_l1_pooled"]):  # a metrics.csv without the pooled row: the same mean shares
@@ -249,5 +252,5 @@ def realism_figures_for(result: EvaluationResult, out_dir) -> list[Path]:
     return figs
 
 
-__all__ = ["REALISM_COLUMNS", "RULER", "realism_summary", "realism_targets", "ruler_anchor", "coupling_line",
+__all__ = ["REALISM_COLUMNS", "RULER", "POOLED_SUMMARY_KEYS", "realism_summary", "realism_targets", "ruler_anchor", "coupling_line",
            "realism_md", "realism_figures_for"]

@@ -279,6 +279,17 @@ REPORT_SECTIONS = (_intro_md, _table2_md, _fcca_md, realism_md, _feature_table_m
                    _fig48_md)
 
 
+def _evaluation_figures(result: EvaluationResult, folder) -> list[Path]:
+    from .figures import evaluation_figures  # matplotlib: imported when figures are drawn
+
+    return evaluation_figures(result, folder)
+
+
+#: the figure makers of the report, each ``make(result, folder) -> [paths]``; a figure for a new
+#: per-condition measure goes in here
+REPORT_FIGURES = (_evaluation_figures, realism_figures_for)
+
+
 def render_report(result: EvaluationResult, *, title: str = "headmotion evaluation", figures: list[str] = ()) -> str:
     """The Markdown report (see the module docstring): title, :data:`REPORT_SECTIONS`, figures,
     timings and warnings."""
@@ -309,10 +320,8 @@ def write_report(result: EvaluationResult, out_dir, *, figures: bool = True, tit
     saved = write_motions(result, out / "motions") if save_motions else []
     figs: list[Path] = []
     if figures:
-        from .figures import evaluation_figures
-
-        figs = evaluation_figures(result, out / "figures")
-        figs += realism_figures_for(result, out / "figures")
+        for make in REPORT_FIGURES:
+            figs += make(result, out / "figures")
     rel = [f"figures/{p.name}" for p in figs]
     atomic_write_text(out / "report.md", render_report(result, title=title, figures=rel))
     cfg = dict(result.config)
@@ -343,5 +352,5 @@ def write_motions(result: EvaluationResult, out_dir) -> list[Path]:
     return paths
 
 
-__all__ = ["write_metrics_csv", "read_metrics_csv", "render_report", "REPORT_SECTIONS", "feature_table_section", "write_report", "write_motions",
+__all__ = ["write_metrics_csv", "read_metrics_csv", "render_report", "REPORT_SECTIONS", "REPORT_FIGURES", "feature_table_section", "write_report", "write_motions",
            "realism_summary", "realism_targets", "ruler_anchor", "coupling_line", "realism_figures_for"]

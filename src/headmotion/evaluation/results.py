@@ -8,6 +8,7 @@ over each condition's held-out recordings (:data:`.scoring.POOLED_MEASURES`).
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -15,7 +16,8 @@ import numpy as np
 
 from ..types import Motion
 from .conditions import GROUND_TRUTH
-from .scoring import POOLED_MEASURES, PooledScoring, fig48_rows, rows_of
+from . import scoring as S
+from .scoring import PooledScoring, fig48_rows, rows_of
 
 
 @dataclass
@@ -60,10 +62,11 @@ class EvaluationResult:
 
 def assemble(results: Sequence[dict], *, corpus, conditions: Sequence[str], table: dict, table_warnings: list[str],
              fig48: bool, n_shifts: int, trajectory_recording: str | None, config: dict, timings: dict,
-             splits: dict[str, str]) -> EvaluationResult:
+             splits: dict[str, str], seed: int = 0, options: dict | None = None) -> EvaluationResult:
     """One :class:`EvaluationResult` from the folds' :func:`~.running.run_fold` results (in fold
     order) and the feature table (``{recording: {metric: value}}``); ``conditions`` = every
-    condition's name, the ground truth first."""
+    condition's name, the ground truth first; ``options`` = settings of the pooled measures
+    (:attr:`.scoring.PooledScoring.options`)."""
     rows: list[dict] = []
     traj: dict[str, np.ndarray] = {}
     gt: dict = {}
@@ -89,9 +92,11 @@ def assemble(results: Sequence[dict], *, corpus, conditions: Sequence[str], tabl
         rows += fig48_rows(gt)
     pooled = PooledScoring(rows=list(rows), conditions=list(conditions), motions=motions,
                            references={rid: Motion(g[0], g[3]) for rid, g in gt.items()}, samples=k_samples,
-                           n_shifts=n_shifts)
-    for measure in POOLED_MEASURES:
-        rows += measure(pooled)
+                           n_shifts=n_shifts, seed=int(seed), options=dict(options or {}))
+    for measure in S.POOLED_MEASURES:
+        t0 = time.perf_counter()
+        rows += measure.fn(pooled)
+        timings[measure.name] = timings.get(measure.name, 0.0) + time.perf_counter() - t0
     recs = [rid for rid in corpus.ids if rid in gt]
     fps = gt[trajectory_recording][3] if trajectory_recording in gt else 100.0
     return EvaluationResult(rows=rows, config=config, systems=list(conditions), recordings=recs,

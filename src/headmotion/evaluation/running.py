@@ -27,7 +27,8 @@ from .condition_specs import ConditionSpec
 from .conditions import GROUND_TRUTH
 from .feature_table import extract_one
 from .parallel import sub_seed
-from .scoring import RECORDING_MEASURES, RecordingScoring, conform, realism_context, rows_of
+from . import scoring as S
+from .scoring import RecordingScoring, conform, realism_context, rows_of
 
 #: the reference condition, scored first in every fold
 GROUND_TRUTH_SPEC = ConditionSpec(GROUND_TRUTH, "anchor", GROUND_TRUTH, GROUND_TRUTH)
@@ -129,7 +130,7 @@ def draw_samples(task: FoldTask, condition, spec: ConditionSpec, rec, first: np.
 def _measure(task: FoldTask, scoring: RecordingScoring, vals: dict, out: dict) -> None:
     """Every per-recording measure of :mod:`.scoring` into ``vals`` (a guarded one that fails: a
     warning, unless ``strict``)."""
-    for measure in RECORDING_MEASURES:
+    for measure in S.RECORDING_MEASURES:
         if not measure.guarded:
             vals.update(measure.fn(scoring))
             continue

@@ -15,7 +15,7 @@ Per recording, a condition's motion passes through :data:`RECORDING_MEASURES` in
 * ``embedding`` — conditions with a learned speech embedding: its local CCA with the motion.
 
 Pooled over a condition's held-out recordings (recording ``ALL``), :data:`POOLED_MEASURES`, each
-``measure(p: PooledScoring) -> rows``: :func:`pooled_rows` (mean FCCA excess, Stouffer p) and
+``measure.fn(p: PooledScoring) -> rows``: :func:`pooled_rows` (mean FCCA excess, Stouffer p) and
 :func:`pooled_histogram_rows` (speed / acceleration Hellinger and spectral L1 over the test set).
 
 A new measure plugs in by appending to one of the two tuples: a per-recording one returns its
@@ -25,7 +25,7 @@ value}`` rows.  Both land in ``metrics.csv`` unchanged.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -255,6 +255,15 @@ class PooledScoring:
     #: ``{condition: {recording: [K motions]}}`` samples of the sampled conditions
     samples: dict
     n_shifts: int
+    #: the evaluation's seed
+    seed: int = 0
+    #: switches and settings of optional pooled measures, by name (what ``evaluate`` passes on)
+    options: dict = field(default_factory=dict)
+
+    @property
+    def fps(self) -> dict[str, float]:
+        """Frame rate of every held-out recording."""
+        return {rid: float(m.fps) for rid, m in self.references.items()}
 
 
 def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references: dict[str, Motion],
@@ -353,10 +362,20 @@ def _pooled_histograms(p: PooledScoring) -> list[dict]:
     return pooled_histogram_rows(p.motions, p.references, samples=p.samples) if p.motions else []
 
 
+@dataclass(frozen=True)
+class PooledMeasure:
+    """A measure over each condition's held-out recordings together: ``fn(pooled) -> rows``
+    (``{system, recording: "ALL", metric, value}``); its time is reported under ``name``."""
+
+    name: str
+    fn: Callable[[PooledScoring], list[dict]]
+
+
 #: measures pooled over each condition's held-out recordings, in the order their rows are written
-POOLED_MEASURES: tuple[Callable[[PooledScoring], list[dict]], ...] = (_pooled_coupling, _pooled_histograms)
+POOLED_MEASURES: tuple[PooledMeasure, ...] = (PooledMeasure("pooled coupling", _pooled_coupling),
+                                              PooledMeasure("pooled histograms", _pooled_histograms))
 
 
 __all__ = ["score_recording", "conform", "rows_of", "RecordingScoring", "Measure", "RECORDING_MEASURES",
-           "PooledScoring", "POOLED_MEASURES", "pooled_rows", "pooled_histogram_rows", "fig48_rows",
+           "PooledScoring", "PooledMeasure", "POOLED_MEASURES", "pooled_rows", "pooled_histogram_rows", "fig48_rows",
            "realism_context", "DEFAULT_WINDOW_S", "FIG48_WINDOWS_S", "AXES"]
