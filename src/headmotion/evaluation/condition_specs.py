@@ -72,7 +72,7 @@ def _model_file(name: str, path: Path) -> ConditionSpec:
         raise ParameterError(f"model file {path} not found (a --systems entry that is neither a system, an "
                              f"anchor nor a shipped model is read as a model file)")
     load_model(path)  # a damaged or foreign file fails now (ModelFileError), not in every fold
-    return ConditionSpec(name, "model", str(path), name)
+    return ConditionSpec(name, "model", str(path.resolve()), name)
 
 
 def condition_spec(entry) -> ConditionSpec:
