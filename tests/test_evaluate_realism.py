@@ -114,7 +114,8 @@ def test_deterministic_system_gets_no_diversity(corpus):
 
 def test_report_has_realism_table_targets_and_coupling(res):
     md = render_report(res)
-    assert "## Realism" in md and "**The ruler.**" in md
+    assert "## Realism\n" in md and "**The ruler.**" in md and "**Realism targets**" in md
+    assert "issue" not in md.lower()
     assert "- **energy**: pooled FCCA excess" in md and "tied to speech across the corpus" in md
     summ = realism_summary(res)
     tg = realism_targets(summ)

@@ -8,6 +8,7 @@ import pytest
 from headmotion.corpus import Corpus, Recording
 from headmotion.errors import ParameterError
 from headmotion.evaluation import protocols as P
+from headmotion.evaluation.folds import longest_held_out
 from headmotion.systems.base import Synthesizer
 from headmotion.types import Audio, FeatureTrack, Motion
 
@@ -352,5 +353,5 @@ def test_trajectory_default_is_the_longest_held_out_recording(tmp_path):
     mem.save(tmp_path / "c")
     disk = Corpus.load(tmp_path / "c", sample_rate=SR)
     folds = P.make_folds(disk, "loo")
-    assert P._longest_held_out(folds) == "A2"
+    assert longest_held_out(folds) == "A2"
     assert not any(test._cache for _, _, test, _ in folds)  # the fold tasks stay lazy

@@ -2,7 +2,10 @@
 
 Thin wrappers over :func:`headmotion.evaluation.protocols.evaluate` / :mod:`.report` and
 :func:`headmotion.evaluation.corpus_stats.corpus_stats`; the heavy modules are imported inside
-the commands.
+the commands.  ``--systems`` names conditions as :mod:`headmotion.evaluation.condition_specs`
+resolves them: ``headmotion evaluate corpus/ --systems default,stream,mine.hmz,desync -o r/`` scores
+the shipped models and a model file on every held-out recording, without retraining, beside the
+desync anchor.
 """
 
 from __future__ import annotations
@@ -20,9 +23,12 @@ from .app import app, console, progress_bar
 def evaluate_cmd(
     corpus_dir: Path = typer.Argument(..., help="corpus directory (with corpus.csv)"),
     systems: str = typer.Option(..., "--systems", "-s",
-                                help="comma-separated systems and anchors, e.g. tws-hier,tws-basic,shaped-noise,desync; "
-                                     "a system with parameters as NAME[KEY=VALUE;...], e.g. "
-                                     "'mfcc-dnn,mfcc-dnn[drift_share=0.3]' (same training and synthesis seeds)"),
+                                help="comma-separated conditions: systems trained on every fold (tws-hier, mfcc-dnn, …; "
+                                     "with parameters as NAME[KEY=VALUE;...], e.g. 'mfcc-dnn,mfcc-dnn[drift_share=0.3]', "
+                                     "same training and synthesis seeds), anchors (desync, shifted, other-speaker, "
+                                     "shaped-noise, still), and trained models scored as they are, without retraining: "
+                                     "the shipped 'default' and 'stream' models or a model file (mine.hmz). "
+                                     "A system name always means training that system"),
     output: Path = typer.Option(..., "-o", "--output", help="report directory (metrics.csv, report.md, figures/)"),
     protocol: str = typer.Option("loo", "--protocol",
                                  help="loo (leave one recording out, thesis §5.9), split (paper §4.1) or speakers "
@@ -50,7 +56,10 @@ def evaluate_cmd(
                                       help="also write every condition's held-out motion as motions/CONDITION/RECORDING.npz"),
     strict: bool = typer.Option(False, "--strict", help="stop when a system fails on a fold (default: warn, go on)"),
 ):
-    """Cross-validate systems on a corpus and write metrics.csv, report.md and figures."""
+    """Cross-validate systems on a corpus and write metrics.csv, report.md and figures.
+
+    Trained models (the shipped 'default' and 'stream', or a .hmz file) are scored as they are on
+    every held-out recording of every fold, so they line up with the systems trained per fold."""
     from ..corpus import Corpus
     from ..evaluation.protocols import evaluate
     from ..evaluation.report import write_report

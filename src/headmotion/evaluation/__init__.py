@@ -6,12 +6,17 @@
   Hellinger, limit cycles, saturation, pauses, diversity, beat consistency, pooled coupling);
   :mod:`.realism_figures` draws them.
 * :mod:`.chance` — chance levels of CCA-type scores by circular shifts; the paper's chance score.
-* :mod:`.protocols` — cross-validation (leave-one-recording-out, the paper split) of systems and
-  of the :mod:`.anchors` (evaluation conditions: ground truth, desync, other speaker, shaped
-  noise, still).
+* :mod:`.protocols` — :func:`~.protocols.evaluate`, cross-validation of every condition: folds
+  (:mod:`.folds`, :mod:`.pause_folds`), fitting and running the conditions per fold
+  (:mod:`.running`), per-recording and pooled scores (:mod:`.scoring`), the result
+  (:mod:`.results`).
+* :mod:`.conditions` — the one contract of what is evaluated: trained systems, model files and the
+  :mod:`.anchors` (ground truth, desync, shifted, other speaker, shaped noise, still);
+  :mod:`.condition_specs` resolves the names ``--systems`` takes.
 * :mod:`.parallel` — runs folds and per-recording work on joblib or a Dask cluster;
   :mod:`.feature_table` — corpus features and the paper's Table 1 on it.
-* :mod:`.report`, :mod:`.figures` — metrics.csv, report.md and PNG figures in the seeds' layouts.
+* :mod:`.report`, :mod:`.realism_report`, :mod:`.figures` — metrics.csv, report.md and PNG figures
+  in the seeds' layouts.
 * :mod:`.corpus_stats` — thesis §3.5 dataset statistics (lengths, speaking rate, cross-entropy
   distance, MDS, speaker/task dependency); :mod:`.stats_report` writes them.
 

@@ -1,29 +1,24 @@
 """Evaluation anchors (thesis §4.2.4, §4.3.1, §5.9 Table 5.8): ground truth, desynchronised,
 other speaker, head-motion-shaped noise, still head.
 
-Anchors are evaluation conditions, not synthesis systems: they need the evaluation corpus, not
-speech.  Their protocol (:class:`Anchor`):
-
-* ``fit(corpus) -> self`` stores the reference motions (and, for shaped noise, the average
-  magnitude spectrum of their motion);
-* ``motion_for(recording, *, seed=None) -> Motion`` makes the anchor's motion for one recording,
-  with exactly the recording's length and frame rate;
-* ``needs_other_speakers`` (class attribute): fit it on the *other* speakers' recordings.
-
-:data:`ANCHORS` maps the names ``headmotion evaluate --systems`` accepts to the classes;
-:func:`create_anchor` makes one.
+Anchors are evaluation conditions (:class:`~headmotion.evaluation.conditions.Condition`) that make
+their motion from the corpus's recorded motion, not from speech: ``fit(corpus)`` stores the
+reference motions (and, for shaped noise, the average magnitude spectrum of their motion);
+``motion_for(recording, *, seed=None)`` makes the anchor's motion for one recording, with exactly
+the recording's length and frame rate; ``needs_other_speakers``: fit it on the *other* speakers'
+recordings.  :data:`ANCHORS` maps the names ``headmotion evaluate --systems`` accepts to the
+classes; :func:`create_anchor` makes one.
 
 Definitions:
 
 * ``ground-truth`` — the recording's own motion.
 * ``desync`` — the motion of *another recording of the same speaker* (cut or looped to length);
   when the fold has none (held-out speakers, or a speaker with one recording) the recording's own
-  motion circularly shifted by half its length (chosen here, issue 14: the same spectrum and
-  amplitude as the ground truth, uncoupled from the speech).
-* ``shifted`` — the recording's own motion circularly shifted by half its length (chosen here, issue
-  14: the ruler of the realism targets — exactly the recording's amplitude and nearly its spectrum
-  and speed distribution, uncoupled from its speech; the "desync" of
-  ``docs/natural_motion_diagnosis.md``).
+  motion circularly shifted by half its length (chosen here: the same spectrum and amplitude as
+  the ground truth, uncoupled from the speech).
+* ``shifted`` — the recording's own motion circularly shifted by half its length (chosen here: the
+  ruler of the realism targets — exactly the recording's amplitude and nearly its spectrum and
+  speed distribution, uncoupled from its speech).
 * ``other-speaker`` — the motion of a recording of a *different speaker* (cut or looped).
 * ``shaped-noise`` — white noise filtered in the frequency domain by the magnitude spectrum of real
   head motion, inverted back to the time domain, then smoothed with a 5-point Gaussian (thesis
@@ -37,11 +32,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from abc import ABC, abstractmethod
+from abc import abstractmethod
 from typing import ClassVar
 
 from ..errors import NotFittedError, ParameterError
 from ..types import Motion
+from .conditions import GROUND_TRUTH, Condition
 
 
 def loop_to_length(rv: np.ndarray, T: int) -> np.ndarray:
@@ -54,14 +50,20 @@ def loop_to_length(rv: np.ndarray, T: int) -> np.ndarray:
     return out[:T]
 
 
-class Anchor(ABC):
-    """An evaluation condition: fitted on a corpus, gives the motion for one recording."""
+class Anchor(Condition):
+    """An evaluation condition made from recorded motion: fitted on a corpus, gives the motion for
+    one recording."""
 
     name: ClassVar[str] = ""
     #: fit on the other speakers' recordings (the evaluation arranges it)
     needs_other_speakers: ClassVar[bool] = False
+    #: the motion comes from the training recordings (else from the recording alone: fit reads none)
+    uses_training: ClassVar[bool] = True
 
     def fit(self, corpus) -> "Anchor":
+        if not self.uses_training:
+            self.fitted_ = True
+            return self
         recs = list(corpus)
         if not recs:
             raise ParameterError(f"anchor {self.name!r} needs a corpus with at least one recording")
@@ -74,6 +76,7 @@ class Anchor(ABC):
         self.mean_ = allr.mean(axis=0)
         self.sd_ = allr.std(axis=0)
         self._after_fit()
+        self.fitted_ = True
         return self
 
     def _after_fit(self) -> None:  # noqa: B027  (an optional hook, empty by default)
@@ -81,7 +84,7 @@ class Anchor(ABC):
 
     def motion_for(self, recording, *, seed: int | None = None) -> Motion:
         """The anchor's motion for ``recording`` (its length and frame rate)."""
-        if not hasattr(self, "refs_"):
+        if not getattr(self, "fitted_", False):
             raise NotFittedError(f"anchor {self.name!r} is not fitted: call fit(corpus)")
         return Motion(self._rotvec_for(recording, seed), recording.motion.fps, meta={"system": self.name})
 
@@ -103,7 +106,9 @@ class Anchor(ABC):
 class GroundTruth(Anchor):
     """The recording's own motion."""
 
-    name = "ground-truth"
+    name = GROUND_TRUTH
+    reference = True
+    uses_training = False
 
     def _rotvec_for(self, recording, seed):  # noqa: ARG002  (deterministic)
         return np.asarray(recording.motion.rotvec)
@@ -127,6 +132,7 @@ class Shifted(Anchor):
     """The recording's own motion circularly shifted by half its length."""
 
     name = "shifted"
+    uses_training = False
 
     def _rotvec_for(self, recording, seed):  # noqa: ARG002  (deterministic)
         rv = np.asarray(recording.motion.rotvec)

@@ -1,0 +1,187 @@
+"""Running one cross-validation fold: fit every condition on the fold's training recordings, make
+its motion for every held-out recording and score it (thesis §5.9; paper §4.1, §4.3).
+
+:func:`run_fold` treats every condition alike (:mod:`.conditions`): the ground truth, the anchors,
+the systems trained on the fold and the model files scored as they are.  A condition is fitted on
+the fold's training recordings, or on the other speakers' when it declares ``needs_other_speakers``;
+its motion for a held-out recording comes from ``motion_for(recording, seed=)`` and goes through
+the per-recording measures of :mod:`.scoring`.  A condition declared ``sampled`` also gives
+``samples`` motions per recording for the diversity measure.
+
+Every seed derives from ``(seed, fold or recording, the condition's seed name[, k])``
+(:func:`.parallel.sub_seed`), so serial, joblib and Dask runs give the same numbers.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..corpus import Corpus
+from . import metrics as M
+from .condition_specs import ConditionSpec
+from .conditions import GROUND_TRUTH
+from .feature_table import extract_one
+from .parallel import sub_seed
+from . import scoring as S
+from .scoring import RecordingScoring, conform, realism_context, rows_of
+
+#: the reference condition, scored first in every fold
+GROUND_TRUTH_SPEC = ConditionSpec(GROUND_TRUTH, "anchor", GROUND_TRUTH, GROUND_TRUTH)
+
+
+@dataclass(frozen=True)
+class FoldTask:
+    """Everything one fold needs (picklable: shipped to joblib / Dask workers).  ``systems`` are
+    the :class:`~.condition_specs.ConditionSpec` of the conditions besides the ground truth."""
+
+    fold: str
+    train: Corpus
+    test: Corpus
+    others: Corpus | None
+    systems: tuple
+    features: Any
+    seed: int
+    window_s: float
+    n_shifts: int
+    trajectory_recording: str | None
+    fig48: bool
+    strict: bool = False
+    samples: int = 4
+    realism: bool = True
+
+
+@M.single_threaded
+def run_fold(task: FoldTask) -> dict:
+    """Fit every condition on ``task.train``, make and score its motion for ``task.test``.
+
+    Returns ``{"rows", "trajectories", "gt" (recording → (motion, features, speaker, fps)),
+    "timings", "warnings", "motions" (condition → recording → the scored motion), "samples"
+    (condition → recording → the K samples of a sampled condition)}``."""
+    out = {"rows": [], "trajectories": {}, "gt": {}, "timings": {}, "warnings": [], "motions": {}, "samples": {}}
+    tests = list(task.test)
+    t0 = time.perf_counter()
+    feats = {rec.id: extract_one(task.features, rec.audio, fps=float(rec.motion.fps), n_frames=len(rec.motion))
+             for rec in tests}
+    out["timings"]["features"] = time.perf_counter() - t0
+    contexts: dict = {}
+    if task.realism:
+        t0 = time.perf_counter()
+        contexts = {rec.id: realism_context(rec, out["warnings"]) for rec in tests}
+        out["timings"]["realism context"] = time.perf_counter() - t0
+    for rec in tests:
+        out["gt"][rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats[rec.id])[0], dtype=np.float32),
+                             rec.speaker, float(rec.motion.fps))
+    for spec in (GROUND_TRUTH_SPEC,) + tuple(task.systems):
+        run_condition(task, spec, tests, feats, contexts, out)
+    return out
+
+
+def fit_condition(task: FoldTask, spec: ConditionSpec, out: dict):
+    """The condition fitted for this fold, or None (skipped or failed, with a warning)."""
+    name = spec.name
+    condition = spec.make(random_state=sub_seed(task.seed, task.fold, spec.seed_name))
+    train = task.train
+    if condition.needs_other_speakers:
+        if task.others is None or not len(task.others):
+            out["warnings"].append(f"{name}: no other speaker in the corpus; skipped for fold {task.fold}")
+            return None
+        train = task.others
+    t0 = time.perf_counter()
+    try:
+        # warnings of training (e.g. tws-hier using fewer clusters on a short fold) go into the
+        # report, once each, instead of the console
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            condition.fit(train)
+        msgs = condition.fit_warnings
+        for w in caught:
+            m = str(w.message) if issubclass(w.category, UserWarning) else f"{w.category.__name__}: {w.message}"
+            if m not in msgs:
+                msgs.append(m)
+        out["warnings"] += [f"{name}, fold {task.fold}: {m.removeprefix(f'{name}: ')}" for m in msgs]
+    except Exception as exc:
+        if task.strict:
+            raise
+        out["warnings"].append(
+            f"{name} could not be trained for fold {task.fold} ({len(train)} recordings, "
+            f"{sum(len(r.motion) / r.motion.fps for r in train):.0f} s): {type(exc).__name__}: {exc}")
+        return None
+    out["timings"][f"fit:{name}"] = out["timings"].get(f"fit:{name}", 0.0) + time.perf_counter() - t0
+    return condition
+
+
+def draw_samples(task: FoldTask, condition, spec: ConditionSpec, rec, first: np.ndarray) -> list[np.ndarray] | None:
+    """``task.samples`` motions of a sampled condition for the recording (the scored one first),
+    seeds ``(seed, recording, seed name, k)``; None for conditions not sampled."""
+    if task.samples < 2 or not condition.sampled:
+        return None
+    out = [first]
+    for k in range(1, task.samples):
+        m = condition.motion_for(rec, seed=sub_seed(task.seed, rec.id, spec.seed_name, k))
+        out.append(conform(m, rec.motion, spec.name, rec.id))
+    return out
+
+
+def _measure(task: FoldTask, scoring: RecordingScoring, vals: dict, out: dict) -> None:
+    """Every per-recording measure of :mod:`.scoring` into ``vals`` (a guarded one that fails: a
+    warning, unless ``strict``)."""
+    for measure in S.RECORDING_MEASURES:
+        if not measure.guarded:
+            vals.update(measure.fn(scoring))
+            continue
+        try:
+            vals.update(measure.fn(scoring))
+        except Exception as exc:
+            if task.strict:
+                raise
+            out["warnings"].append(f"{scoring.condition.name}: {measure.name} on {scoring.recording.id}: "
+                                   f"{type(exc).__name__}: {exc}")
+
+
+def run_condition(task: FoldTask, spec: ConditionSpec, tests, feats: dict, contexts: dict, out: dict) -> None:
+    """Fit one condition, make and score its motion for every held-out recording."""
+    condition = fit_condition(task, spec, out)
+    if condition is None:
+        return
+    name = spec.name
+    t0 = time.perf_counter()
+    for rec in tests:
+        rseed = sub_seed(task.seed, rec.id, spec.seed_name)
+        try:
+            pred = conform(condition.motion_for(rec, seed=rseed), rec.motion, name, rec.id)
+        except Exception as exc:
+            if task.strict:
+                raise
+            out["warnings"].append(f"{name} failed to synthesise {rec.id}: {type(exc).__name__}: {exc}")
+            continue
+        samples = None
+        if task.realism:
+            try:
+                samples = draw_samples(task, condition, spec, rec, pred)
+            except Exception as exc:
+                if task.strict:
+                    raise
+                out["warnings"].append(f"{name}: samples for {rec.id}: {type(exc).__name__}: {exc}")
+        scoring = RecordingScoring(condition=condition, recording=rec, pred=pred, features=feats[rec.id], seed=rseed,
+                                   base_seed=task.seed, window_s=task.window_s, n_shifts=task.n_shifts,
+                                   others=task.others, context=contexts.get(rec.id),
+                                   samples=samples)
+        vals: dict[str, float] = {}
+        _measure(task, scoring, vals, out)
+        if task.realism:
+            out["motions"].setdefault(name, {})[rec.id] = np.asarray(pred, dtype=np.float32)
+            if samples is not None and len(samples) > 1:
+                out["samples"].setdefault(name, {})[rec.id] = [np.asarray(x, dtype=np.float32) for x in samples]
+        out["rows"] += rows_of(name, rec.id, vals)
+        if rec.id == task.trajectory_recording:
+            out["trajectories"][name] = pred
+    key = f"predict+score:{name}"
+    out["timings"][key] = out["timings"].get(key, 0.0) + time.perf_counter() - t0
+
+
+__all__ = ["FoldTask", "run_fold", "fit_condition", "run_condition", "draw_samples", "GROUND_TRUTH_SPEC"]
