@@ -28,16 +28,15 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ParameterError
-
-#: shipped model name → file in the package's ``data`` folder
-SHIPPED_MODELS = {"default": "default_model.hmz", "stream": "default_stream_model.hmz"}
+from ..shipped import SHIPPED_FILES as SHIPPED_MODELS  # shipped name → file (the one registry)
+from ..shipped import shipped_path
 
 
 def shipped_model_path(name: str) -> Path:
     """The file of a shipped model (:data:`SHIPPED_MODELS`)."""
     if name not in SHIPPED_MODELS:
         raise ParameterError(f"unknown shipped model {name!r}; expected one of {sorted(SHIPPED_MODELS)}")
-    return Path(__file__).resolve().parents[1] / "data" / SHIPPED_MODELS[name]
+    return shipped_path(name)
 
 
 @dataclass(frozen=True)
