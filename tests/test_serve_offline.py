@@ -160,3 +160,15 @@ def test_default_model_is_offline_default():
         rv = next(v for v in _npz(r.content).values() if v.ndim == 2 and v.shape[1] == 3)
         np.testing.assert_allclose(rv, want.rotvec, atol=1e-9)
         assert json.loads(cl.get("/v1/models").text)["default_offline"] == "default"
+
+
+def test_container_sniffed_when_the_request_does_not_say():
+    """A body sent without a Content-Type (or with curl's form default) is recognised from its
+    first bytes; an unknown body still gets the clear 415."""
+    from headmotion.serve.offline import sniff_container
+
+    assert sniff_container(b"RIFF\x00\x00\x00\x00WAVEfmt ") == ".wav"
+    assert sniff_container(b"fLaC\x00") == ".flac"
+    assert sniff_container(b"OggS\x00") == ".ogg"
+    assert sniff_container(b"ID3\x04") == ".mp3"
+    assert sniff_container(b"garbage") is None

@@ -59,6 +59,18 @@ async def read_body(request: Request, limit: int) -> bytes:
     return body
 
 
+#: Content-Types that say nothing about the body (absent, or what ``curl --data-binary`` sends by
+#: default): the container is recognised from its first bytes instead
+SNIFFED_TYPES = frozenset({"", "application/x-www-form-urlencoded"})
+_MAGIC = ((b"RIFF", ".wav"), (b"fLaC", ".flac"), (b"OggS", ".ogg"), (b"ID3", ".mp3"), (b"\xff\xfb", ".mp3"),
+          (b"\xff\xf3", ".mp3"), (b"\xff\xf2", ".mp3"))
+
+
+def sniff_container(body: bytes) -> str | None:
+    """The file suffix of a speech file from its first bytes (WAV, FLAC, Ogg, MP3), or None."""
+    return next((suffix for magic, suffix in _MAGIC if body.startswith(magic)), None)
+
+
 def decode_audio(body: bytes, content_type: str, encoding: str | None, sample_rate: int | None) -> Audio:
     """The speech of a request body: raw PCM when ``encoding`` is given, else a file."""
     if encoding is not None:
@@ -78,6 +90,8 @@ def decode_audio(body: bytes, content_type: str, encoding: str | None, sample_ra
         return Audio(x, int(sample_rate))
     ctype = content_type.split(";", 1)[0].strip().lower()
     suffix = AUDIO_TYPES.get(ctype)
+    if suffix is None and ctype in SNIFFED_TYPES:  # no type, or curl's default: read the file's own header
+        suffix = sniff_container(body)
     if suffix is None:
         raise ApiError(415, "bad_audio", f"Content-Type {ctype or '(none)'!r} is not speech; send "
                                          f"{sorted(AUDIO_TYPES)} or raw PCM with encoding= and sample_rate=")
