@@ -66,12 +66,12 @@ SYSTEMS: dict[str, str] = {
     "tws-basic": "headmotion.systems.tws.basic:TwsBasic",
     "tws-hier": "headmotion.systems.tws.hier:TwsHier",
     "le2012": "headmotion.systems.le2012:Le2012",
-    "cccae": "headmotion.systems.dnn:CccaeSystem",
-    "ae-dnn": "headmotion.systems.dnn:AeDnnSystem",
-    "mfcc-dnn": "headmotion.systems.dnn:MfccDnnSystem",
-    "fbank-dnn": "headmotion.systems.dnn:FbankDnnSystem",
-    "f0e-dnn": "headmotion.systems.dnn:F0eDnnSystem",
-    "wav-dnn": "headmotion.systems.dnn:WavDnnSystem",
+    "cccae": "headmotion.systems.dnn.registered:CccaeSystem",
+    "ae-dnn": "headmotion.systems.dnn.registered:AeDnnSystem",
+    "mfcc-dnn": "headmotion.systems.dnn.registered:MfccDnnSystem",
+    "fbank-dnn": "headmotion.systems.dnn.registered:FbankDnnSystem",
+    "f0e-dnn": "headmotion.systems.dnn.registered:F0eDnnSystem",
+    "wav-dnn": "headmotion.systems.dnn.registered:WavDnnSystem",
 }
 
 #: capability names

@@ -125,7 +125,7 @@ from ..errors import ParameterError
 from ..features import ANALYSIS_RATE
 from ..models.gmm import GMMRegression
 from ..motion.control import mean_pose_of
-from ..rotations import pitch_yaw_roll_to_rotvec, pitch_yaw_roll_to_rotvec_one, rotvec_to_pitch_yaw_roll
+from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
 from .base import CAUSAL, Synthesizer, cross_fitted, pair_shortest
 from .tws.features import make_feature_config
@@ -346,7 +346,7 @@ class Le2012(Synthesizer):
             return IDLE_FALLBACK
         best, err = IDLE_FALLBACK, np.inf
         for idle in IDLE_GRID:
-            got = pooled_pause_ratio(pause_speech_speeds(self._finish(*raw, idle=float(idle), chain=self._post_chain()),
+            got = pooled_pause_ratio(pause_speech_speeds(self._finish(*raw, idle=float(idle)),
                                                          k, fps=self.fps_) for raw, k in zip(raws, masks))
             if np.isfinite(got) and abs(got - target) < err:
                 best, err = float(idle), abs(got - target)
@@ -358,20 +358,26 @@ class Le2012(Synthesizer):
         stages) against the training heads ``motions`` (rotation vectors at ``fps_``): the band
         gains, then the speed map on that synthesis passed through the band stage as synthesis
         will pass it."""
-        from . import dnn_post
-        from ..motion import speed_shaping
+        from ..motion.post import speed_shaping
+        from ..motion.post.restore import CausalPost, band_gains
 
-        pred, targ = pair_shortest((self._finish(*raw, idle=self._idle_value(), chain=None) for raw in raws), motions)
-        self.post_bank_ = dnn_post.band_gains(pred, targ, fps=self.fps_, cap=POST_BAND_CAP)
-        pred = [dnn_post.CausalPost(band_gains=self.post_bank_, fps=self.fps_).push(x) for x in pred]
-        self.speed_map_ = speed_shaping.delivered_speed_map(pred, targ, fps=self.fps_, lag=speed_shaping.shaping_lag(self.fps_),
-                                                  max_gain=speed_shaping.SPEED_MAX_GAIN)
+        pred, targ = pair_shortest((self._finish(*raw, idle=self._idle_value(), post=False) for raw in raws), motions)
+        self.post_bank_ = band_gains(pred, targ, fps=self.fps_, cap=POST_BAND_CAP)
+        pred = [CausalPost(band_gains=self.post_bank_, fps=self.fps_).push(x) for x in pred]
+        self.speed_map_ = speed_shaping.delivered_speed_map(pred, targ, fps=self.fps_,
+                                                            lag=speed_shaping.shaping_lag(self.fps_),
+                                                            max_gain=speed_shaping.SPEED_MAX_GAIN)
 
-    def _post_chain(self):
-        """The post stages with fresh state (:class:`_PostChain`), or None without them."""
-        if not self.post_restore or getattr(self, "post_bank_", None) is None:
-            return None
-        return _PostChain(self.post_bank_, self.speed_map_, self.fps_)
+    def _post_chain(self, idle: float | None, pose, *, post: bool = True):
+        """The post-processing chain with fresh state (:data:`~headmotion.motion.post.chain.
+        LE2012_ORDER`): settling at ``idle`` (None or 1: none) towards ``pose``, the rotation, and
+        with ``post`` (and ``post_restore`` and the tables) the band gains and the speed shaper."""
+        from ..motion.post import LE2012_ORDER, PostChain, PostTables
+
+        tables = post and self.post_restore and getattr(self, "post_bank_", None) is not None
+        return PostChain(PostTables(fps=self.fps_, order=LE2012_ORDER, idle=idle, pause_pose=pose,
+                                    band_gains=self.post_bank_ if tables else None,
+                                    speed_map=self.speed_map_ if tables else None))
 
     # -- synthesis ----------------------------------------------------------------------------
     def _conditionals(self, Fs: np.ndarray):
@@ -509,7 +515,7 @@ class Le2012(Synthesizer):
         return np.maximum(10.0 / ex * np.log10(loud) - 60.0, -100.0)
 
     def _speech_tracker(self):
-        from .tws.speech import SpeechDetector
+        from ..features.speech_activity import SpeechDetector
 
         return SpeechDetector(col=0, mu=0.0, sd=1.0, db_per_unit=1.0, fps=float(self.fps_)).start()
 
@@ -580,8 +586,7 @@ class Le2012(Synthesizer):
         T = _n(len(audio.samples), audio.sample_rate, self.fps_)
         if T == 0:
             return Motion(np.zeros((0, 3)), self.fps_)
-        rv = self._finish(*self._raw_synthesis(audio, seed, flags=self._settle()), idle=self._idle_value(),
-                          chain=self._post_chain())
+        rv = self._finish(*self._raw_synthesis(audio, seed, flags=self._settle()), idle=self._idle_value())
         return Motion(rv, self.fps_, meta={"system": self.name})
 
     def _raw_synthesis(self, audio: Audio, seed: int | None, *, flags: bool):
@@ -607,15 +612,10 @@ class Le2012(Synthesizer):
             mask = np.asarray(speaking_mask(audio, fps=self.fps_, n_frames=T), dtype=bool)
         return out, mask, pose
 
-    def _finish(self, out, mask, pose, *, idle: float | None, chain) -> np.ndarray:
-        """Rotation vectors from the ascent's angles: settled in pauses at ``idle`` (None or 1: not),
-        then through ``chain`` (the post stages, or None)."""
-        if idle is not None and idle < 1.0 and len(out) >= 2:
-            from ..motion.pauses import settle_in_pauses
-
-            out = settle_in_pauses(out, mask, fps=self.fps_, idle=float(idle), mean_pose=pose, causal=True)
-        rv = pitch_yaw_roll_to_rotvec(out[:, 0], out[:, 1], out[:, 2])
-        return rv if chain is None else chain.push(rv)
+    def _finish(self, out, mask, pose, *, idle: float | None, post: bool = True) -> np.ndarray:
+        """Rotation vectors from the ascent's angles through the post-processing chain
+        (:meth:`_post_chain`): settled in pauses at ``idle``, with ``post`` the post stages."""
+        return self._post_chain(idle, pose, post=post).push(out, mask)
 
     def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0):
         """:meth:`Synthesizer.stream`, with the reason when this model's features cannot stream."""
@@ -675,22 +675,6 @@ class Le2012(Synthesizer):
         self._set_capabilities(self._config())
 
 
-class _PostChain:
-    """``post_restore``'s stages with their state: per-band gains about the running mean, then the
-    speed shaper; ``push`` takes the next rotation vectors ``(n, 3)`` and returns as many (chunking
-    does not change the output)."""
-
-    def __init__(self, bank, table, fps: float):
-        from ..motion.speed_shaping import product_shaper
-        from .dnn_post import CausalPost
-
-        self.post = CausalPost(band_gains=bank, fps=fps)
-        self.shaper = product_shaper(table, fps)
-
-    def push(self, rv: np.ndarray) -> np.ndarray:
-        return self.shaper.push(self.post.push(np.asarray(rv, dtype=np.float64)))
-
-
 class Le2012Stream:
     """:meth:`Le2012.stream`: push float samples at the model's ``sample_rate``; every frame is
     final once its ``prosody-live`` features are (``latency_ms``, 24.2 ms at 100 fps), and the
@@ -707,8 +691,6 @@ class Le2012Stream:
     on its first frame."""
 
     def __init__(self, model: Le2012, *, seed: int | None):
-        from ..motion.pauses import CausalPauseWeight, PauseSettler
-
         self.m = model
         self.fps = model.fps_
         self.feats = LiveFeatures(model._config(), model.sample_rate_)
@@ -719,12 +701,10 @@ class Le2012Stream:
         self.scale = float(model.start_sd) * float(model.z_mu_[3])
         self.t = 0                        # frames produced so far
         self.last = np.zeros((0, 3))      # the last (up to) two frames, before settling
-        self.chain = model._post_chain()
         self.settle = model._settle()
+        self.chain = model._post_chain(model._idle_value() if self.settle else None, self.pose)
         if self.settle:
             self.tracker = model._speech_tracker()
-            self.weigher = CausalPauseWeight(fps=self.fps)
-            self.settler = PauseSettler(fps=self.fps, idle=float(model._idle_value()), mean_pose=self.pose)
             self.db_scale = 10.0 / float(dict(model._config().params).get("exponent", 0.3))
         if model.compiled:  # load (or compile) the kernels now, not on the first frame (~0.6 s)
             _, stacked = model._cond_rows(np.zeros((1, len(model.z_mu_) - 5)), pad=2)
@@ -753,16 +733,10 @@ class Le2012Stream:
         self.last = np.array(hist, dtype=np.float64)
         self.t += n
         if n == 1:  # a 10 ms push: the settling and the rotation on scalars (same values)
-            row = x[0].tolist()
-            if self.settle:
-                row = self.settler.push_one(row, self.weigher.push_one(self._speech_one(float(F_raw[0, 1]))))
-            rv = np.array([pitch_yaw_roll_to_rotvec_one(*row)])
-            return Motion(rv if self.chain is None else self.chain.push(rv), self.fps)
-        if self.settle:
-            w = self.weigher.push(self.tracker.push_db(m._loudness_db(F_raw)))
-            x = self.settler.push(x, w)
-        rv = pitch_yaw_roll_to_rotvec(x[:, 0], x[:, 1], x[:, 2])
-        return Motion(rv if self.chain is None else self.chain.push(rv), self.fps)
+            flag = self._speech_one(float(F_raw[0, 1])) if self.settle else True
+            return Motion(np.array([self.chain.push_one(x[0].tolist(), flag)]), self.fps)
+        flags = self.tracker.push_db(m._loudness_db(F_raw)) if self.settle else None
+        return Motion(self.chain.push(x, flags), self.fps)
 
     def _speech_one(self, loudness: float) -> bool:
         """The speech flag of one frame from its raw loudness (:meth:`Le2012._loudness_db` on a scalar)."""

@@ -1,6 +1,7 @@
-"""Speech / non-speech per frame from the template-warping systems' own features, decided causally
-(frame ``t`` from frames ``<= t``), so that pauses are the same in the stream and offline (issue 14
-§3, issue 16).  The seeds are silent on pauses.
+"""Speech / non-speech per frame decided causally (frame ``t`` from frames ``<= t``), from a
+system's own feature frames or from frame energies in dBFS, so that pauses are the same in the
+stream and offline; every synthesis system's pause settling reads it.  The seeds are silent on
+pauses.
 
 The detector is the causal counterpart of :func:`headmotion.features.vad.speaking_mask`'s energy
 rule (cheaper: the percentiles are updated every ``update_frames`` (10) frames from every
