@@ -56,7 +56,7 @@ def runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def pause_mask(speech_mask, *, fps: float, min_pause_s: float = 0.5) -> np.ndarray:
-    """True in the non-speech runs at least ``min_pause_s`` long (the pauses of issue 14 §3)."""
+    """True in the non-speech runs at least ``min_pause_s`` long (the pauses the realism measure counts)."""
     s = np.asarray(speech_mask, bool)
     out = np.zeros(len(s), bool)
     n = int(round(min_pause_s * float(fps)))

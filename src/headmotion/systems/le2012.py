@@ -1,8 +1,8 @@
 """The Le et al. (2012) baseline, "le2012" (thesis §2.3 eq 2.19–2.21; §5.5.1 eq 5.15).
 
 Head rotation as Euler angles (pitch, yaw, roll; intrinsic yaw → pitch → roll, see
-:mod:`headmotion.rotations`); speech features pitch and loudness (the ``prosody`` feature set, an
-openSMILE-like estimate).  Five 10-component GMMs, trained by EM (scikit-learn):
+:mod:`headmotion.rotations`); speech features pitch and loudness (the ``prosody-live`` feature
+set).  Five 10-component GMMs, trained by EM (scikit-learn):
 
 * one per angle κ over ``(κ_t, p_t, l_t)``;
 * one over the angular-velocity norm ``v_t = ‖θ_t − θ_{t−1}‖`` (eq 2.19) with ``(p_t, l_t)``;
@@ -11,110 +11,41 @@ openSMILE-like estimate).  Five 10-component GMMs, trained by EM (scikit-learn):
 
 Synthesis is causal: for every frame, ``θ_t`` maximises the product of eq 2.21 given the two
 previously synthesised frames, by gradient ascent (analytic gradients of the GMM log densities;
-started from a constant-velocity prediction).
+started from a constant-velocity prediction).  The "fair" variant (``joint=True``, eq 5.15)
+replaces the five GMMs by one over ``(pitch, yaw, roll, v, a, p, l)``.
 
-Additions that are not in Le et al. (2012) nor the thesis (issue 14, diagnosis §3.5), each a
-parameter whose "off" value gives the literal system (``pull_tau_s=None, start_sd=0, idle=None``):
+Additions that are in neither Le et al. (2012) nor the thesis, each a parameter whose "off" value
+gives the literal system (``pull_tau_s=None, start_sd=0, idle=None, post_restore=False``;
+``docs/decisions/le2012-additions.md``):
 
-* ``pull_tau_s`` (default 2 s): a leaky pull towards the training mean pose inside the causal
-  ascent — every frame starts from ``p1 + (p1 - p2) - (p1 - mean) / (pull_tau_s · fps)`` instead of
-  the constant-velocity prediction.  Without it the ascent has momentum and nothing that brings the
-  head back: on the ZEGGS take it wandered 9.4° (SD of the 5 s running mean; the recording 3.3°)
-  into the limits of the training range.
-* ``start_sd`` (default 0.5): seeded stochasticity.  The paper and the thesis are silent (the
-  synthesis is a deterministic MAP ascent); we add, to every frame's starting point, Gaussian noise
-  of ``start_sd`` × the training motion's mean per-frame speed per angle, drawn from
-  ``numpy.random.default_rng(seed)``, so the ascent ends in different local maxima for different
-  seeds; the same seed gives the same motion.
-* ``idle`` (default ``"auto"`` since the eighth session; 0.6 with ``post_restore`` before, 0.4 before that): pauses — :func:`headmotion.motion.pauses.settle_in_pauses` in its
-  *causal* mode (the synthesis is causal, so a pause is recognised once it has lasted 0.5 s).
-  Speech flags: with the live feature set, the adaptive causal energy detector of
-  :mod:`headmotion.systems.tws.speech` (the one implementation template warping uses) on the
-  loudness column converted back to dB; older model files (``prosody``) keep
-  :func:`headmotion.features.vad.speaking_mask`, whose thresholds use the whole clip.
+* ``pull_tau_s`` (2 s): a leaky pull towards the training mean pose inside the ascent — every frame
+  starts from ``p1 + (p1 - p2) - (p1 - mean) / (pull_tau_s · fps)``; without it the ascent has
+  momentum and nothing that brings the head back;
+* ``start_sd`` (0.5): seeded Gaussian noise of ``start_sd`` × the training motion's mean per-frame
+  speed on every frame's starting point (``numpy.random.default_rng(seed)``), so different seeds
+  end in different local maxima;
+* then the post-processing chain of :mod:`headmotion.motion.post` in
+  :data:`~headmotion.motion.post.chain.LE2012_ORDER`: pause settling at ``idle`` (causal speech
+  flags from :mod:`headmotion.features.speech_activity` on the loudness, or
+  :func:`headmotion.features.vad.speaking_mask` for the whole-clip ``prosody`` set of older model
+  files), the rotation, and with ``post_restore`` per-band variance restoration about the running
+  mean (gains at most :data:`POST_BAND_CAP`) and the speed shaper (map corrected in closed loop);
+* ``idle="auto"``: the idle level measured at training — the grid value (:data:`IDLE_GRID`) whose
+  synthesis of the training speech has the pooled pause/speech speed ratio nearest the training
+  heads' (:data:`IDLE_FALLBACK` when the speech has no pause);
+* ``cross_fit``: the post stages and ``idle="auto"`` fitted on the synthesis of each training
+  recording by a model trained on the other half of the speakers
+  (:func:`headmotion.systems.base.cross_fitted`; ``docs/decisions/cross-fitting.md``).
 
-* ``post_restore`` (default True; seventh session): after the settling, the product's two post
-  stages, both fitted at training on this system's own synthesis of the training speech (recording
-  k with seed k) against the training heads: per-band variance restoration about the running mean
-  (:class:`headmotion.systems.dnn_post.CausalPost`, gains ``sqrt(var_heads / var_synthesis)`` per
-  band and axis, at most :data:`POST_BAND_CAP`; as the DNN's ``restore_bands``), then the speed
-  shaper of :mod:`headmotion.motion.speed_shaping` (as the template systems').  The ascent settles
-  into the GMMs' modes and moves at 0.4–0.6 of the recorded SD on the video corpus with too few
-  fast frames (pooled speed Hellinger 0.25–0.27 held out, bar 0.06; fifth session).  Both stages
-  are causal and stateful, so the stream still equals offline synthesis.  Model files without the
-  tables load with it off.  Held out (``headmotion evaluate``; ``docs/eval/s7_le2012_video_s0``,
-  ``s7_le2012_zeggs_s0``; before: ``s5_all_video_s0``, ``s5_all_zeggs_s0``): video pooled spectral
-  L1 0.338 → 0.130 (bar 0.213), SD ratios 0.57 / 0.38 / 0.41 → 1.20 / 1.02 / 0.92, pooled speed
-  Hellinger 0.247 → 0.080 (bar 0.061), 4 → 6 of 7 targets; ZEGGS L1 0.176 → 0.029, but pitch SD
-  0.83 → 1.55 (bar 1.5) and the pause ratio 0.46 → 0.55 (0.26–0.48), 5 → 4 of 7.  The cost: the
-  weak speech coupling le2012 had on video is gone (pooled FCCA p 0.047 → 0.73; the restored slow
-  band is mostly the seeded start's wander, which the gains amplify with the rest).
-  ``idle`` was 0.6 with it (0.4 before): the shaper maps the slow pause motion slower still (video
-  pause ratio 0.33 at 0.4, 0.43 at 0.6; recorded 0.58).
-
-  Since the tenth session the speed map is corrected in closed loop
-  (:func:`headmotion.motion.speed_shaping.delivered_speed_map`): on a video fold the static map,
-  run through the causal shaper, delivered a 95th-percentile speed of 43 °/s on the very synthesis
-  it was fitted on where the heads have 50; held out (``docs/eval/s10_loop_*``) pooled speed
-  Hellinger 0.072 → 0.060 / 0.059 → 0.057 on the video seeds (bar 0.061), 0.071 → 0.070 on ZEGGS.
-
-* ``idle="auto"`` (the default since the eighth session): the idle level is *measured* at training
-  — the training heads' pooled pause/speech speed ratio (pauses = non-speech runs ≥ 0.5 s of
-  :func:`headmotion.features.vad.speaking_mask`, as ``evaluate`` measures it) is the target, and
-  ``idle_`` is the value of the grid 0, 0.05, …, 1 whose synthesis of the training speech (with the
-  post stages) comes nearest; the post stages are then refitted with it (twice over).  No fixed
-  value fits both corpora here: the held-out pause ratio goes 0.33 / 0.46 / 0.55 / 0.66 / 0.79 on
-  the ZEGGS take (recorded 0.37) and – / 0.33 / 0.43 / 0.55 / 0.68 on video (recorded 0.58) for
-  idle 0.2 / 0.4 / 0.6 / 0.8 / 1 (``docs/eval/s8_le_idle_*``).  A corpus without pauses keeps
-  :data:`IDLE_FALLBACK` with a warning.  A number sets the level by hand.  Held out
-  (``docs/eval/s8_le2012_*``; before: ``s7_le2012_*``, idle 0.6): video pause ratio 0.43 → 0.50
-  (seed 0) and 0.57 (seed 1; recorded 0.58), seed 1 meets 7 of 7 targets; on the ZEGGS folds it
-  chooses 0.6 and stays at 0.56 (recorded 0.37): there, its synthesis of the *training* speech is
-  already as calm in pauses as the heads (0.36 against 0.36 at 0.6), its synthesis of held-out
-  speech is not — the GMMs fitted on 50 s of one take know its training pauses.
-
-* ``cross_fit`` (default True since the ninth session; added in the eighth): the post stages and
-  ``idle="auto"`` fitted on the synthesis of each training recording's speech by a model trained
-  on the *other* half of the recordings, i.e. on speech the GMMs have not seen, as at synthesis
-  (whole speakers per half where there are several, since the tenth session:
-  :func:`headmotion.systems.base.cross_fitted`; video seed 0 pooled speed Hellinger 0.081 →
-  0.072, pooled spectral L1 0.144 → 0.080).
-  Measured against ``cross_fit=False`` (``docs/eval/s8_le2012x_*``, paired seeds): ZEGGS SD
-  ratios 1.55 / 1.04 / 1.19 → 1.11 / 1.13 / 1.08, pooled speed Hellinger 0.119 → 0.088, pause
-  ratio 0.56 → 0.50, pooled spectral L1 0.027 → 0.167; video 6/7 and 7/7 either way (SD ratios
-  0.83–0.94 against 0.65–1.19).  Against the circular shift's bars (L1 0.109, H 0.058) that was 4
-  of 7 either way and it stayed off; against the thesis's desync (another fold of the take: L1
-  0.201, H 0.107; :func:`headmotion.evaluation.report.ruler_anchor`) it is 6 of 7 against 4
-  (``docs/eval/s9_le2012_*``), so it is on.  It costs two more GMM fits at training.  The pause
-  ratio stays noisy on four folds of one take: per fold the held-out ratio was 0.34 / 0.75 / 0.33 /
-  0.35 against the take's 0.49 / 0.27 / 0.47 / 0.26, with the idle chosen 0.55 / 0.45 / 0.6 /
-  0.35; a fixed 0.2 or 0.4 meets all seven there but not the video corpus's 0.58.
-
-Streaming (issue 16): new models use the ``prosody-live`` feature set
-(:class:`headmotion.features.streaming.StreamingProsody`: YIN pitch + cIntensity loudness,
-computed by the same code offline and on a stream, final 24.2 ms after a frame's start at 100 fps).
-The ascent is causal (frame ``t`` needs features up to ``t`` and the two previous frames), the
-seeded start noise is drawn frame by frame from one generator (chunked draws equal one draw), and
-the pause settling is a causal recursion, so :meth:`Le2012.stream` gives offline ``predict``'s
-frames with a latency of the features alone (``latency_ms`` = 24.2 ms).  Model files with the
-whole-clip ``prosody`` set load and predict as before but cannot stream (their ``capabilities``
-lack "causal"; retrain with ``features="prosody-live"``).
-
-Defaults chosen on held-out data before ``post_restore`` (``scripts/p2dnn_measure.py le2012``; ZEGGS 4 folds / video
-corpus 2 speaker-disjoint folds, 2 seeds): the pull alone stops the wandering (ZEGGS saturation
-11 % → 0, SD ratio 1.6–1.8 → 0.5–0.6) but makes pull + momentum a damped oscillator (limit-cycle
-index 0.31, 1.5–4 Hz share 0.14 on video); the seeded start (0.5) breaks it (ZEGGS: spectral L1
-0.12–0.16, SD ratio 0.73–1.27, LC 0.18, diversity 1.3; video: L1 0.34–0.45, SD ratio 0.4–0.6,
-diversity 0.64); idle 0.4 brings the pause/speech speed ratio to 0.42 (ZEGGS, recording 0.37) and
-0.61 (video, 0.57) where 0.7 left 0.55 / 0.69.  Coupling: none of this ties le2012 to speech
-(pooled FCCA p 0.36–0.94); it should not be the default.
-
-The "fair" variant (``joint=True``, eq 5.15) replaces the five GMMs by one 10-component GMM over
-``(pitch, yaw, roll, v, a, p, l)``, so the angles are optimised jointly and their positions
-relative to each other are modelled, as template warping does.
+Streaming: with ``prosody-live`` (YIN pitch + cIntensity loudness, computed by the same code
+offline and on a stream) the ascent, the seeded noise (drawn frame by frame from one generator) and
+the post-processing chain are causal, so :meth:`Le2012.stream` gives offline ``predict``'s frames
+with the features' latency alone (24.2 ms).  Model files with the whole-clip ``prosody`` set
+predict as before but cannot stream.
 
 Library considered: scikit-learn's GaussianMixture (fitting); the per-frame optimiser is
-hand-written because calling scipy.optimize per frame is ~100× slower.
+hand-written (a compiled numba kernel, :mod:`._le2012_kernel`) because calling scipy.optimize per
+frame is ~100× slower.
 """
 
 from __future__ import annotations
@@ -488,8 +419,7 @@ class Le2012(Synthesizer):
         pull = 1.0 / (float(tau) * self.fps_) if tau else 0.0
         jitter = np.zeros((T, 3))
         if self.start_sd:
-            s = self.seed if seed is None else seed
-            rng = np.random.default_rng(None if s is None else int(s))
+            rng = np.random.default_rng(None if seed is None else int(seed))
             jitter = float(self.start_sd) * float(self.z_mu_[3]) * rng.standard_normal((T, 3))
         return pull, np.asarray(self.start_, dtype=np.float64), jitter
 
@@ -682,10 +612,10 @@ class Le2012Stream:
     two frames, the noise generator, the speech tracker, the pause settler and the post stages — bounded.
 
     Cost per 10 ms chunk (one frame; ``benchmarks/run.py --only stream``): ~0.15 ms of CPU (0.23 ms
-    with ``post_restore``'s band split and speed shaper, seventh session) — the
+    with ``post_restore``'s band split and speed shaper) — the
     features ~0.06, the compiled conditioning and ascent, then the speech flag, pause weight,
     settling and Euler → rotation vector on scalars (the one-frame paths of
-    :mod:`headmotion.motion.pauses`, :mod:`headmotion.systems.tws.speech` and
+    :mod:`headmotion.motion.post`, :mod:`headmotion.features.speech_activity` and
     :func:`headmotion.rotations.pitch_yaw_roll_to_rotvec_one`, equal to the batch code).  The
     numba kernels are loaded when the stream starts (~0.5 s for the first stream of a process), not
     on its first frame."""
@@ -695,8 +625,7 @@ class Le2012Stream:
         self.fps = model.fps_
         self.feats = LiveFeatures(model._config(), model.sample_rate_)
         self.latency_ms = self.feats.latency_ms
-        s = model.seed if seed is None else seed
-        self.rng = np.random.default_rng(None if s is None else int(s))
+        self.rng = np.random.default_rng(None if seed is None else int(seed))
         self.pull, self.pose, _ = model._start_terms(0, seed)
         self.scale = float(model.start_sd) * float(model.z_mu_[3])
         self.t = 0                        # frames produced so far

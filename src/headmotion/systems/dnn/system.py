@@ -223,8 +223,8 @@ class DnnSystem(Synthesizer):
         return post_tables(self)
 
     def _post(self, seed: int | None) -> DnnPost:
-        """The post-processing chain with fresh state, its drift seeded with ``seed``."""
-        return DnnPost(post_tables(self), seed=self.seed if seed is None else seed)
+        """The post-processing chain with fresh state, its drift seeded with ``seed`` (filled by the contract)."""
+        return DnnPost(post_tables(self), seed=seed)
 
     def _predict_values(self, feats: np.ndarray, *, seed: int | None = None, post: bool = True) -> np.ndarray:
         """Model-rate features ``(T, D)`` → rotation vectors ``(T, 3)`` at the model rate; with
@@ -249,12 +249,12 @@ class DnnSystem(Synthesizer):
                 f"this {self.name} model works at {float(self.model_fps):g} frames/s; the feature track is at {fps:g}")
         self._validate_params()
         with training.torch_context(0, self.n_threads, deterministic=False):
-            rv = self._predict_values(values, seed=seed)
+            rv = self._predict_values(values, seed=self._synthesis_seed(seed))
         return Motion(rv, float(self.model_fps), meta={"system": self.name})
 
     def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
         """Head motion for ``audio`` at the model rate (:func:`headmotion.align.n_frames` frames);
-        ``seed`` (default: the ``seed`` parameter) drives the posture drift."""
+        ``seed`` drives the posture drift."""
         mfps = float(self.model_fps)
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)

@@ -278,7 +278,6 @@ class TwsBase(Synthesizer):
         T = _n_frames(len(audio.samples), audio.sample_rate, self.fps_)
         if T == 0:
             return Motion(np.zeros((0, 3)), self.fps_, meta={"system": self.name})
-        seed = self.seed if seed is None else seed
         gen = Generator(self, rng=np.random.default_rng(seed), fps=self.fps_)
         blocked = self.blocked and self._config().name not in LIVE_FEATURES
         gen.push_features(self._features_blocks(audio, T) if blocked else self._features_full(audio, T))
@@ -286,7 +285,7 @@ class TwsBase(Synthesizer):
         return Motion(gen.render_settled(0, T), self.fps_, meta={"system": self.name, "seed": seed})
 
     def _stream(self, *, seed: int | None) -> TwsStream:
-        return TwsStream(self, seed=self.seed if seed is None else seed)
+        return TwsStream(self, seed=seed)
 
     def _init_generation(self) -> dict:
         """Per-utterance state handed to ``_choose`` (none by default)."""
