@@ -99,7 +99,9 @@ class PostTables:
         """Whether the chain slows down in pauses (and so needs speech flags)."""
         return "settle" in self.order and self.idle is not None and float(self.idle) < 1.0
 
+    @property
     def restores(self) -> bool:
+        """Whether the ``restore`` stage changes anything (gains or drift)."""
         return "restore" in self.order and (self.band_gains is not None or self.gv is not None
                                             or float(self.drift_share) > 0)
 
@@ -176,7 +178,7 @@ class _Limit:
 def _stage(name: str, t: PostTables, rng):
     """The stage ``name`` with fresh state, or None when its table says it is off."""
     if name == "restore":
-        return _Restore(t, rng) if t.restores() else None
+        return _Restore(t, rng) if t.restores else None
     if name == "denormalise":
         return _Denormalise(t) if t.norm_mean is not None else None
     if name == "to_rotvec":

@@ -93,24 +93,10 @@ class TwsBase(Synthesizer):
         if isinstance(idle, bool) or not isinstance(idle, (int, float, np.integer, np.floating)) or not 0 <= idle <= 1:
             raise ParameterError(f"the 'idle' parameter of {self.name} must be in [0, 1] (speed in pauses as a "
                                  f"fraction of speech; 1 = no settling); got {idle!r}")
-        if not isinstance(self.log_params, (bool, np.bool_)):
-            raise ParameterError(f"the 'log_params' parameter of {self.name} must be True or False; "
-                                 f"got {self.log_params!r}")
-        if not isinstance(self.speed_shaping, (bool, np.bool_)):
-            raise ParameterError(f"the 'speed_shaping' parameter of {self.name} must be True or False; "
-                                 f"got {self.speed_shaping!r}")
-        if not isinstance(self.slow_band_restore, (bool, np.bool_)):
-            raise ParameterError(f"the 'slow_band_restore' parameter of {self.name} must be True or False; "
-                                 f"got {self.slow_band_restore!r}")
-        if not isinstance(self.amplitude_match, (bool, np.bool_)):
-            raise ParameterError(f"the 'amplitude_match' parameter of {self.name} must be True or False; "
-                                 f"got {self.amplitude_match!r}")
-        if not isinstance(self.cross_fit, (bool, np.bool_)):
-            raise ParameterError(f"the 'cross_fit' parameter of {self.name} must be True or False; "
-                                 f"got {self.cross_fit!r}")
-        if not isinstance(self.soft_limit, (bool, np.bool_)):
-            raise ParameterError(f"the 'soft_limit' parameter of {self.name} must be True or False; "
-                                 f"got {self.soft_limit!r}")
+        for k in ("log_params", "speed_shaping", "slow_band_restore", "amplitude_match", "cross_fit", "soft_limit"):
+            if not isinstance(getattr(self, k), (bool, np.bool_)):
+                raise ParameterError(f"the {k!r} parameter of {self.name} must be True or False; "
+                                     f"got {getattr(self, k)!r}")
         if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
             raise ParameterError(f"the 'fps' parameter of {self.name} must be a positive number or None; got {self.fps!r}")
 
