@@ -12,9 +12,9 @@ feature set's frame energy (column ``energy``; dB for ``f0e``, natural log for
 95th percentiles of the energy over the past ``window_s`` (3 s) of the utterance; where that window
 has less than ``min_snr_db`` of dynamic range it is speech iff the frame is above ``silence_db``
 (-50 dBFS).  Adaptive, because an absolute threshold learned on the training audio does not carry
-over to other recordings (a first try, a linear classifier on the normalised features trained on
-the training audio's VAD labels, reached 0.97 balanced accuracy on ZEGGS but left the head moving
-in the pauses of other speech files).  At training the agreement with ``speaking_mask`` on the
+over to other recordings (a linear classifier on the normalised features trained on the training
+audio's VAD labels reaches 0.97 balanced accuracy on ZEGGS but leaves the head moving in the pauses
+of other speech files).  At training the agreement with ``speaking_mask`` on the
 training audio is recorded (``accuracy``, balanced).  Feature sets without an energy column get no
 detector (no pause settling).
 
