@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from headmotion.motion import speed_shaping
-from headmotion.systems import dnn_post
+from headmotion.motion.post import speed_shaping
+from headmotion.motion.post import restore as dnn_post
 
 torch = pytest.importorskip("torch")
 pytestmark = pytest.mark.usefixtures("torch_one_thread")
@@ -139,12 +139,12 @@ def test_seeds_differ_same_seed_same_and_pauses_slow_down(fitted, tmp_path):
     assert back.get_params() == m.get_params()
     np.testing.assert_array_equal(back.predict(audio, seed=1).rotvec, a)
     # pauses: with idle 0 the head is still where the causal pause weight is 1 (the adaptive energy
-    # detector of systems/tws/speech.py on the frames' dBFS energy, CausalPauseWeight)
+    # detector of features/speech_activity.py on the frames' dBFS energy, CausalPauseWeight)
     m.set_params(idle=0.0)
     still = m.predict(audio, seed=1).rotvec
     from headmotion.motion.pauses import CausalPauseWeight
-    from headmotion.systems.dnn_stream import frame_energy_db
-    from headmotion.systems.tws.speech import SpeechDetector
+    from headmotion.systems.dnn.synthesis import frame_energy_db
+    from headmotion.features.speech_activity import SpeechDetector
 
     e = frame_energy_db(audio.samples, sample_rate=audio.sample_rate, fps=100.0, n_frames=len(still))
     flags = SpeechDetector(col=0, mu=0.0, sd=1.0, db_per_unit=1.0, fps=100.0).flags(e[:, None])

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from headmotion.motion import speed_shaping
-from headmotion.systems import dnn_post
+from headmotion.motion.post import speed_shaping
+from headmotion.motion.post import restore as dnn_post
 
 FPS = 100.0
 
@@ -103,20 +103,22 @@ def test_slow_band_gain_scales_the_slow_band_only():
 
     from headmotion.errors import ParameterError
     from headmotion.systems import create
-    from headmotion.systems.dnn_stream import DnnPostStages
+    from headmotion.motion.post import PostChain
+    from headmotion.systems.dnn.synthesis import post_tables
 
     gains = np.full((4, 3), 2.0)
     system = SimpleNamespace(drift_share=0.0, seed=0, band_gains_=gains, variance_restore=True, restore_bands=True,
                              gv_=np.ones(3), motion_sd_=np.ones(3), model_fps=FPS, drift_tau_s=4.0,
-                             slow_band_gain=1.5)
-    post = DnnPostStages.make_post(system, 0)
-    np.testing.assert_allclose(post.band_gains[0], 3.0)
-    np.testing.assert_allclose(post.band_gains[1:], 2.0)
+                             slow_band_gain=1.5, idle=None, speed_shaping=False, range_limit=False,
+                             motion_norm_=SimpleNamespace(mean_=np.zeros(3), std_=np.ones(3)))
+    tables = post_tables(system).only("restore")
+    np.testing.assert_allclose(tables.band_gains[0], 3.0)
+    np.testing.assert_allclose(tables.band_gains[1:], 2.0)
     assert np.all(gains == 2.0)  # the model's own gains are left alone
     # a slow sinusoid about its mean comes out ≈ 1.5 × 2 larger, a fast one 2 ×
     for f_hz, factor in ((0.05, 3.0), (7.0, 2.0)):
         y = sine(f_hz, seconds=200.0)
-        out = DnnPostStages.make_post(system, 0).push(y)[-4000:]
+        out = PostChain(tables, seed=0).push(y)[-4000:]
         assert out.std(axis=0) / y[-4000:].std(axis=0) == pytest.approx(np.full(3, factor), rel=0.08)
     for bad in (0, -1.0, "2", True, float("nan")):
         with pytest.raises(ParameterError, match="slow_band_gain"):

@@ -1,5 +1,5 @@
 """The DNN systems' stream: streamed == offline ``predict`` within the documented
-tolerance (systems/dnn_stream.py), for any chunking; the stated lookahead; the running-mean post
+tolerance (systems/dnn/streaming.py), for any chunking; the stated lookahead; the running-mean post
 stage chunk-invariant; PAPER_PARAMS unchanged; ``headmotion stream --input FILE`` with an mfcc-dnn."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from headmotion.systems import dnn_post
+from headmotion.motion.post import restore as dnn_post
 
 torch = pytest.importorskip("torch")
 pytestmark = pytest.mark.usefixtures("torch_one_thread")

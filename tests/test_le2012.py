@@ -62,8 +62,9 @@ def test_le2012_post_restore_is_the_chain_on_the_plain_output_and_moves_the_band
     shaper (known answer: the same stateful stages on the same frames), the tables are saved,
     and on the training speech the restored synthesis's band variances are nearer the training
     heads' than the plain synthesis's."""
-    from headmotion.systems.dnn_post import band_variance
-    from headmotion.systems.le2012 import POST_BAND_CAP, _PostChain
+    from headmotion.motion.post.restore import band_variance
+    from headmotion.motion.post import PostChain, PostTables
+    from headmotion.systems.le2012 import POST_BAND_CAP
 
     train = corpus.subset([0, 1])
     m = create("le2012", n_components=4, max_train_frames=3000).fit(train)
@@ -73,7 +74,8 @@ def test_le2012_post_restore_is_the_chain_on_the_plain_output_and_moves_the_band
     again = load_model(m.save(tmp_path / "le.hmz"))
     np.testing.assert_array_equal(again.predict(audio, seed=1).rotvec, on)
     off = m.set_params(post_restore=False).predict(audio, seed=1).rotvec
-    np.testing.assert_allclose(on, _PostChain(m.post_bank_, m.speed_map_, m.fps_).push(off), atol=1e-12)
+    chain = PostChain(PostTables(fps=m.fps_, order=("restore", "shape"), band_gains=m.post_bank_, speed_map=m.speed_map_))
+    np.testing.assert_allclose(on, chain.push(off), atol=1e-12)
 
     def band_error(restore):
         m.set_params(post_restore=restore)

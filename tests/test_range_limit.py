@@ -1,11 +1,11 @@
-"""The soft range limit (headmotion.motion.range_limit) and its use in the DNN systems."""
+"""The soft range limit (headmotion.motion.post.range_limit) and its use in the DNN systems."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from headmotion.motion.range_limit import range_from_training, soft_range
+from headmotion.motion.post.range_limit import range_from_training, soft_range
 
 
 def test_inside_the_knee_nothing_changes_and_outside_it_bends_towards_the_limit():
@@ -37,16 +37,15 @@ def test_the_default_model_applies_it_after_the_shaper_and_stays_in_range():
     :func:`soft_range` of the output without it; a network output pushed far out (×4) stays inside
     the asymptotes, the unlimited one does not."""
     from headmotion.systems import load_model
-    from headmotion.systems.dnn_stream import DnnPostStages
     from headmotion.cli.synth_cmds import default_model_path
 
     m = load_model(default_model_path())
     assert m.range_limit and m.range_.shape == (2, 3)
     y = 4.0 * np.random.default_rng(0).standard_normal((3000, 3)).cumsum(axis=0) / 30.0
     m.set_params(range_limit=False)
-    free = DnnPostStages(m, 0).push(y, None)
+    free = m._post(0).push(y, None)
     m.set_params(range_limit=True)
-    held = DnnPostStages(m, 0).push(y, None)
+    held = m._post(0).push(y, None)
     np.testing.assert_allclose(held, soft_range(free, m.motion_norm_.mean_, m.range_), atol=1e-12)
     dev = np.abs(held - m.motion_norm_.mean_)
     assert np.all(dev <= m.range_[1] + 1e-12) and np.any(np.abs(free - m.motion_norm_.mean_) > m.range_[1])

@@ -12,7 +12,7 @@ import pytest
 from headmotion.features.streaming import StreamingF0e, yin_frames, yin_row
 from headmotion.motion.pauses import CausalPauseWeight, PauseSettler
 from headmotion.rotations import pitch_yaw_roll_to_rotvec, pitch_yaw_roll_to_rotvec_one
-from headmotion.systems.tws.speech import SpeechDetector
+from headmotion.features.speech_activity import SpeechDetector
 
 FPS = 100.0
 

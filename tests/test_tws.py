@@ -320,7 +320,7 @@ def test_speed_shaping_moves_the_speeds_onto_the_training_heads(name, request, t
     synthesis's speed histogram is nearer the training heads' (Hellinger) than unshaped, and the
     map survives saving."""
     from headmotion.evaluation.realism import hellinger_values, speed
-    from headmotion.motion.speed_shaping import SPEED_QUANTILES
+    from headmotion.motion.post.speed_shaping import SPEED_QUANTILES
 
     model = request.getfixturevalue(name)
     assert model.speed_map_.shape == (2, len(SPEED_QUANTILES))
@@ -342,8 +342,8 @@ def test_slow_band_restore_raises_the_slow_band_and_streams(name, request, test_
     output is the unrestored output through the causal band split with those gains (known answer:
     a linear stage on the same frames), the change lies in the slow band, and the stream equals
     offline synthesis frame for frame."""
-    from headmotion.systems.dnn_post import BAND_EDGES_HZ, BandSplit, CausalPost
-    from headmotion.systems.tws.base import SLOW_BAND_CAP
+    from headmotion.motion.post.restore import BAND_EDGES_HZ, BandSplit, CausalPost
+    from headmotion.systems.tws.post import SLOW_BAND_CAP
 
     model = request.getfixturevalue(name)
     g = model.slow_band_gains_
@@ -383,7 +383,7 @@ def test_slow_band_bank_moves_the_slow_share_and_keeps_the_variance():
     """Known answer: equal power in four bands (slow share 1/4) against heads with 4:1:1:1 (share
     4/7) gives a slow gain sqrt((4/7) / (1/4)) and faster gains that keep the total (4); a slow
     share already above the heads' is left alone (gains 1), and the cap bounds the slow gain."""
-    from headmotion.systems.tws.base import slow_band_bank
+    from headmotion.systems.tws.post import slow_band_bank
 
     vs = np.ones((4, 3))
     vh = np.array([[4.0] * 3, [1.0] * 3, [1.0] * 3, [1.0] * 3])
@@ -461,7 +461,7 @@ def test_amplitude_gains_known_answer():
     """Known answer: a synthesis twice the heads' size about each recording's own mean (whatever
     the offsets) gets gains 1/2; a synthesis with half the size 2; the cap bounds both ways; an
     axis that does not move keeps gain 1."""
-    from headmotion.systems.tws.base import amplitude_gains
+    from headmotion.systems.tws.post import amplitude_gains
 
     rng = np.random.default_rng(0)
     heads = [rng.normal(size=(500, 3)), 3.0 + rng.normal(size=(800, 3))]

@@ -31,17 +31,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FormatError, LengthMismatchError, ParameterError
+from ..motion.pauses import runs as _runs
 from ..types import Audio
 from .frames import frame_signal, log_energy_db
 
 SILENCE_LABELS = frozenset({"sil", "silence", "pause", "noise", "nonspeech", "non-speech", "0"})
-
-
-def _runs(mask: np.ndarray):
-    """(start, stop) index pairs of the True runs of a bool array."""
-    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
-    d = np.diff(m.astype(np.int8))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
 def speaking_mask(audio: Audio, *, fps: float, n_frames: int | None = None, min_snr_db: float = 10.0,

@@ -1,4 +1,5 @@
-"""Settle the head in pauses: slow synthesised motion down where nobody speaks (issue 14 §3).
+"""Settle the head in pauses: slow synthesised motion down where nobody speaks (a stage of
+the post-processing chain, :mod:`headmotion.motion.post`).
 
 The seeds are silent on pauses: the thesis' systems are driven by speech features that carry no
 information in silence, so they keep their speech rhythm through pauses.  Real heads do not.
@@ -21,7 +22,7 @@ default 1 s) once speech resumes, so the output rejoins the system's motion and 
 optional ``pull`` (1/s, default 0: the recordings show little of it) draws the head towards the
 mean pose in pauses.
 
-Causal mode (streaming systems, issue 16: the streamed output must equal the offline output):
+Causal mode (streaming systems: the streamed output must equal the offline output):
 :class:`CausalPauseWeight` decides from the speech flags up to the current frame only — the weight
 stays 0 for the first ``delay_s`` (0.05 s) of a non-speech run, then rises with a raised cosine
 to 1 at ``full_s`` (0.3 s) of silence (real heads slow at once when speech stops: ZEGGS 0.35 of
@@ -47,18 +48,19 @@ from ..types import Motion
 DEFAULT_IDLE = 0.4
 
 
-def _runs(mask: np.ndarray):
+def runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` index pairs of the True runs of a bool array."""
     m = np.concatenate([[False], np.asarray(mask, bool), [False]])
     d = np.diff(m.astype(np.int8))
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
 def pause_mask(speech_mask, *, fps: float, min_pause_s: float = 0.5) -> np.ndarray:
-    """True in the non-speech runs at least ``min_pause_s`` long (the pauses of issue 14 §3)."""
+    """True in the non-speech runs at least ``min_pause_s`` long (the pauses the realism measure counts)."""
     s = np.asarray(speech_mask, bool)
     out = np.zeros(len(s), bool)
     n = int(round(min_pause_s * float(fps)))
-    for a, b in _runs(~s):
+    for a, b in runs(~s):
         if b - a >= n:
             out[a:b] = True
     return out
@@ -104,7 +106,7 @@ def pause_weight(speech_mask, *, fps: float, min_pause_s: float = 0.5, ramp_s: f
         raise ParameterError(f"speech_mask must be 1-D (one flag per frame); given shape {s.shape}")
     w = np.zeros(len(s))
     shortest = max(1, int(round(min_pause_s * fps)))
-    for a, b in _runs(~s):
+    for a, b in runs(~s):
         n = b - a
         if n < shortest:
             continue
@@ -327,4 +329,4 @@ def settle_in_pauses(motion, speech_mask, *, fps: float | None = None, idle: flo
 
 
 __all__ = ["CausalPauseWeight", "PauseSettler", "pause_weight", "settle_in_pauses", "pause_mask", "pause_speech_speeds",
-           "pooled_pause_ratio", "DEFAULT_IDLE"]
+           "pooled_pause_ratio", "runs", "DEFAULT_IDLE"]

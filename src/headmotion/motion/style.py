@@ -55,9 +55,10 @@ import numpy as np
 from ..errors import FormatError, ParameterError
 from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
 from ..types import Motion
+from .bands import BAND_EDGES_HZ
 
-#: Crossover frequencies (Hz) between the bands.
-BAND_EDGES = (0.5, 1.5, 4.0)
+#: Crossover frequencies (Hz) between the bands (:mod:`headmotion.motion.bands`).
+BAND_EDGES = BAND_EDGES_HZ
 #: Names of the bands, low to high.
 BAND_NAMES = ("0-0.5Hz", "0.5-1.5Hz", "1.5-4Hz", ">=4Hz")
 #: A reference must be at least this long (s) for its slowest band to mean anything.

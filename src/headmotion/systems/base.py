@@ -66,12 +66,12 @@ SYSTEMS: dict[str, str] = {
     "tws-basic": "headmotion.systems.tws.basic:TwsBasic",
     "tws-hier": "headmotion.systems.tws.hier:TwsHier",
     "le2012": "headmotion.systems.le2012:Le2012",
-    "cccae": "headmotion.systems.dnn:CccaeSystem",
-    "ae-dnn": "headmotion.systems.dnn:AeDnnSystem",
-    "mfcc-dnn": "headmotion.systems.dnn:MfccDnnSystem",
-    "fbank-dnn": "headmotion.systems.dnn:FbankDnnSystem",
-    "f0e-dnn": "headmotion.systems.dnn:F0eDnnSystem",
-    "wav-dnn": "headmotion.systems.dnn:WavDnnSystem",
+    "cccae": "headmotion.systems.dnn.registered:CccaeSystem",
+    "ae-dnn": "headmotion.systems.dnn.registered:AeDnnSystem",
+    "mfcc-dnn": "headmotion.systems.dnn.registered:MfccDnnSystem",
+    "fbank-dnn": "headmotion.systems.dnn.registered:FbankDnnSystem",
+    "f0e-dnn": "headmotion.systems.dnn.registered:F0eDnnSystem",
+    "wav-dnn": "headmotion.systems.dnn.registered:WavDnnSystem",
 }
 
 #: capability names
@@ -194,12 +194,18 @@ class Synthesizer(ABC):
         as_triple(gain, "gain"), as_triple(offset, "offset")
         check_seed(seed)
         self._validate_params()
-        motion = self._predict(audio, seed=seed)
+        motion = self._predict(audio, seed=self._synthesis_seed(seed))
         return apply_gain(motion, self.mean_pose_, gain, offset)
+
+    def _synthesis_seed(self, seed: int | None) -> int | None:
+        """The seed a synthesis uses: ``seed``, or when None the model's ``seed`` parameter (None
+        for a system without one).  The one place the default seed is filled: :meth:`predict` and
+        :meth:`stream` hand ``_predict`` and ``_stream`` the filled seed."""
+        return getattr(self, "seed", None) if seed is None else seed
 
     @abstractmethod
     def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
-        """The system's motion before gain and offset."""
+        """The system's motion before gain and offset (``seed`` already filled)."""
 
     def _own_synthesis(self, recs, motions) -> tuple[list[np.ndarray], list[np.ndarray]]:
         """This system's synthesis of the speech of the training recordings ``recs`` (recording k
@@ -218,7 +224,7 @@ class Synthesizer(ABC):
         as_triple(gain, "gain"), as_triple(offset, "offset")
         check_seed(seed)
         self._validate_params()
-        return _GainedStream(self._stream(seed=seed), self.mean_pose_, gain, offset)
+        return _GainedStream(self._stream(seed=self._synthesis_seed(seed)), self.mean_pose_, gain, offset)
 
     def _stream(self, *, seed: int | None) -> MotionStream:  # noqa: ARG002  (the causal systems' hook)
         raise ParameterError(f"system {self.name!r} is not causal and cannot stream")
@@ -239,7 +245,7 @@ class Synthesizer(ABC):
         """The pose range the fitted model can reach, ``(3, 2)`` lower/upper (pitch, yaw, roll,
         radians) — e.g. the clip limits of the template systems — or None when the system declares
         none (the default).  Optional: the evaluation's *saturation* measure (share of frames within
-        1° of this range, issue 14 §1) uses it and reports nan for systems without one."""
+        1° of this range) uses it and reports nan for systems without one."""
         return None
 
     # -- shared behaviour --------------------------------------------------------------------
@@ -329,13 +335,8 @@ def cross_fitted(system: "Synthesizer", recs, overrides: dict, synthesize, *, sa
     systems: ``synthesize(half, recording, k)`` for every recording ``k`` of ``recs``, ``half`` a
     model of ``system``'s class and parameters (with ``overrides``, e.g. its post stages off)
     trained on the *other* half of ``recs`` (:func:`cross_fit_groups`, ``by_speaker`` as there) —
-    speech that model has not seen, as at synthesis; with ``by_speaker`` (the default since the
-    tenth session) also speakers it has not seen, as a new user's are.  Held out on the video
-    corpus (``docs/eval/s10_xspk_video_s0|1`` against ``s10_all_video_s0|1``; the ZEGGS take has
-    one speaker, so nothing changes there): tws-hier pooled spectral L1 0.189 → 0.160 / 0.179 →
-    0.160, pooled speed Hellinger over 4 samples 0.041 → 0.036 / 0.042 → 0.041; le2012 L1 0.144 →
-    0.080 / 0.119 → 0.098, speed H 0.081 → 0.072 / 0.057 → 0.059 (bar 0.061); targets unchanged
-    (7/7 and 7/7; 6/7 and 7/7).  The corpora of the halves take ``sample_rate`` (default: the
+    speech that model has not seen, as at synthesis; with ``by_speaker`` also speakers it has not
+    seen, as a new user's are (``docs/decisions/cross-fitting.md``).  The corpora of the halves take ``sample_rate`` (default: the
     first recording's)."""
     from ..corpus import Corpus
 

@@ -1,8 +1,8 @@
 """The Le et al. (2012) baseline, "le2012" (thesis §2.3 eq 2.19–2.21; §5.5.1 eq 5.15).
 
 Head rotation as Euler angles (pitch, yaw, roll; intrinsic yaw → pitch → roll, see
-:mod:`headmotion.rotations`); speech features pitch and loudness (the ``prosody`` feature set, an
-openSMILE-like estimate).  Five 10-component GMMs, trained by EM (scikit-learn):
+:mod:`headmotion.rotations`); speech features pitch and loudness (the ``prosody-live`` feature
+set).  Five 10-component GMMs, trained by EM (scikit-learn):
 
 * one per angle κ over ``(κ_t, p_t, l_t)``;
 * one over the angular-velocity norm ``v_t = ‖θ_t − θ_{t−1}‖`` (eq 2.19) with ``(p_t, l_t)``;
@@ -11,110 +11,41 @@ openSMILE-like estimate).  Five 10-component GMMs, trained by EM (scikit-learn):
 
 Synthesis is causal: for every frame, ``θ_t`` maximises the product of eq 2.21 given the two
 previously synthesised frames, by gradient ascent (analytic gradients of the GMM log densities;
-started from a constant-velocity prediction).
+started from a constant-velocity prediction).  The "fair" variant (``joint=True``, eq 5.15)
+replaces the five GMMs by one over ``(pitch, yaw, roll, v, a, p, l)``.
 
-Additions that are not in Le et al. (2012) nor the thesis (issue 14, diagnosis §3.5), each a
-parameter whose "off" value gives the literal system (``pull_tau_s=None, start_sd=0, idle=None``):
+Additions that are in neither Le et al. (2012) nor the thesis, each a parameter whose "off" value
+gives the literal system (``pull_tau_s=None, start_sd=0, idle=None, post_restore=False``;
+``docs/decisions/le2012-additions.md``):
 
-* ``pull_tau_s`` (default 2 s): a leaky pull towards the training mean pose inside the causal
-  ascent — every frame starts from ``p1 + (p1 - p2) - (p1 - mean) / (pull_tau_s · fps)`` instead of
-  the constant-velocity prediction.  Without it the ascent has momentum and nothing that brings the
-  head back: on the ZEGGS take it wandered 9.4° (SD of the 5 s running mean; the recording 3.3°)
-  into the limits of the training range.
-* ``start_sd`` (default 0.5): seeded stochasticity.  The paper and the thesis are silent (the
-  synthesis is a deterministic MAP ascent); we add, to every frame's starting point, Gaussian noise
-  of ``start_sd`` × the training motion's mean per-frame speed per angle, drawn from
-  ``numpy.random.default_rng(seed)``, so the ascent ends in different local maxima for different
-  seeds; the same seed gives the same motion.
-* ``idle`` (default ``"auto"`` since the eighth session; 0.6 with ``post_restore`` before, 0.4 before that): pauses — :func:`headmotion.motion.pauses.settle_in_pauses` in its
-  *causal* mode (the synthesis is causal, so a pause is recognised once it has lasted 0.5 s).
-  Speech flags: with the live feature set, the adaptive causal energy detector of
-  :mod:`headmotion.systems.tws.speech` (the one implementation template warping uses) on the
-  loudness column converted back to dB; older model files (``prosody``) keep
-  :func:`headmotion.features.vad.speaking_mask`, whose thresholds use the whole clip.
+* ``pull_tau_s`` (2 s): a leaky pull towards the training mean pose inside the ascent — every frame
+  starts from ``p1 + (p1 - p2) - (p1 - mean) / (pull_tau_s · fps)``; without it the ascent has
+  momentum and nothing that brings the head back;
+* ``start_sd`` (0.5): seeded Gaussian noise of ``start_sd`` × the training motion's mean per-frame
+  speed on every frame's starting point (``numpy.random.default_rng(seed)``), so different seeds
+  end in different local maxima;
+* then the post-processing chain of :mod:`headmotion.motion.post` in
+  :data:`~headmotion.motion.post.chain.LE2012_ORDER`: pause settling at ``idle`` (causal speech
+  flags from :mod:`headmotion.features.speech_activity` on the loudness, or
+  :func:`headmotion.features.vad.speaking_mask` for the whole-clip ``prosody`` set of older model
+  files), the rotation, and with ``post_restore`` per-band variance restoration about the running
+  mean (gains at most :data:`POST_BAND_CAP`) and the speed shaper (map corrected in closed loop);
+* ``idle="auto"``: the idle level measured at training — the grid value (:data:`IDLE_GRID`) whose
+  synthesis of the training speech has the pooled pause/speech speed ratio nearest the training
+  heads' (:data:`IDLE_FALLBACK` when the speech has no pause);
+* ``cross_fit``: the post stages and ``idle="auto"`` fitted on the synthesis of each training
+  recording by a model trained on the other half of the speakers
+  (:func:`headmotion.systems.base.cross_fitted`; ``docs/decisions/cross-fitting.md``).
 
-* ``post_restore`` (default True; seventh session): after the settling, the product's two post
-  stages, both fitted at training on this system's own synthesis of the training speech (recording
-  k with seed k) against the training heads: per-band variance restoration about the running mean
-  (:class:`headmotion.systems.dnn_post.CausalPost`, gains ``sqrt(var_heads / var_synthesis)`` per
-  band and axis, at most :data:`POST_BAND_CAP`; as the DNN's ``restore_bands``), then the speed
-  shaper of :mod:`headmotion.motion.speed_shaping` (as the template systems').  The ascent settles
-  into the GMMs' modes and moves at 0.4–0.6 of the recorded SD on the video corpus with too few
-  fast frames (pooled speed Hellinger 0.25–0.27 held out, bar 0.06; fifth session).  Both stages
-  are causal and stateful, so the stream still equals offline synthesis.  Model files without the
-  tables load with it off.  Held out (``headmotion evaluate``; ``docs/eval/s7_le2012_video_s0``,
-  ``s7_le2012_zeggs_s0``; before: ``s5_all_video_s0``, ``s5_all_zeggs_s0``): video pooled spectral
-  L1 0.338 → 0.130 (bar 0.213), SD ratios 0.57 / 0.38 / 0.41 → 1.20 / 1.02 / 0.92, pooled speed
-  Hellinger 0.247 → 0.080 (bar 0.061), 4 → 6 of 7 targets; ZEGGS L1 0.176 → 0.029, but pitch SD
-  0.83 → 1.55 (bar 1.5) and the pause ratio 0.46 → 0.55 (0.26–0.48), 5 → 4 of 7.  The cost: the
-  weak speech coupling le2012 had on video is gone (pooled FCCA p 0.047 → 0.73; the restored slow
-  band is mostly the seeded start's wander, which the gains amplify with the rest).
-  ``idle`` was 0.6 with it (0.4 before): the shaper maps the slow pause motion slower still (video
-  pause ratio 0.33 at 0.4, 0.43 at 0.6; recorded 0.58).
-
-  Since the tenth session the speed map is corrected in closed loop
-  (:func:`headmotion.motion.speed_shaping.delivered_speed_map`): on a video fold the static map,
-  run through the causal shaper, delivered a 95th-percentile speed of 43 °/s on the very synthesis
-  it was fitted on where the heads have 50; held out (``docs/eval/s10_loop_*``) pooled speed
-  Hellinger 0.072 → 0.060 / 0.059 → 0.057 on the video seeds (bar 0.061), 0.071 → 0.070 on ZEGGS.
-
-* ``idle="auto"`` (the default since the eighth session): the idle level is *measured* at training
-  — the training heads' pooled pause/speech speed ratio (pauses = non-speech runs ≥ 0.5 s of
-  :func:`headmotion.features.vad.speaking_mask`, as ``evaluate`` measures it) is the target, and
-  ``idle_`` is the value of the grid 0, 0.05, …, 1 whose synthesis of the training speech (with the
-  post stages) comes nearest; the post stages are then refitted with it (twice over).  No fixed
-  value fits both corpora here: the held-out pause ratio goes 0.33 / 0.46 / 0.55 / 0.66 / 0.79 on
-  the ZEGGS take (recorded 0.37) and – / 0.33 / 0.43 / 0.55 / 0.68 on video (recorded 0.58) for
-  idle 0.2 / 0.4 / 0.6 / 0.8 / 1 (``docs/eval/s8_le_idle_*``).  A corpus without pauses keeps
-  :data:`IDLE_FALLBACK` with a warning.  A number sets the level by hand.  Held out
-  (``docs/eval/s8_le2012_*``; before: ``s7_le2012_*``, idle 0.6): video pause ratio 0.43 → 0.50
-  (seed 0) and 0.57 (seed 1; recorded 0.58), seed 1 meets 7 of 7 targets; on the ZEGGS folds it
-  chooses 0.6 and stays at 0.56 (recorded 0.37): there, its synthesis of the *training* speech is
-  already as calm in pauses as the heads (0.36 against 0.36 at 0.6), its synthesis of held-out
-  speech is not — the GMMs fitted on 50 s of one take know its training pauses.
-
-* ``cross_fit`` (default True since the ninth session; added in the eighth): the post stages and
-  ``idle="auto"`` fitted on the synthesis of each training recording's speech by a model trained
-  on the *other* half of the recordings, i.e. on speech the GMMs have not seen, as at synthesis
-  (whole speakers per half where there are several, since the tenth session:
-  :func:`headmotion.systems.base.cross_fitted`; video seed 0 pooled speed Hellinger 0.081 →
-  0.072, pooled spectral L1 0.144 → 0.080).
-  Measured against ``cross_fit=False`` (``docs/eval/s8_le2012x_*``, paired seeds): ZEGGS SD
-  ratios 1.55 / 1.04 / 1.19 → 1.11 / 1.13 / 1.08, pooled speed Hellinger 0.119 → 0.088, pause
-  ratio 0.56 → 0.50, pooled spectral L1 0.027 → 0.167; video 6/7 and 7/7 either way (SD ratios
-  0.83–0.94 against 0.65–1.19).  Against the circular shift's bars (L1 0.109, H 0.058) that was 4
-  of 7 either way and it stayed off; against the thesis's desync (another fold of the take: L1
-  0.201, H 0.107; :func:`headmotion.evaluation.report.ruler_anchor`) it is 6 of 7 against 4
-  (``docs/eval/s9_le2012_*``), so it is on.  It costs two more GMM fits at training.  The pause
-  ratio stays noisy on four folds of one take: per fold the held-out ratio was 0.34 / 0.75 / 0.33 /
-  0.35 against the take's 0.49 / 0.27 / 0.47 / 0.26, with the idle chosen 0.55 / 0.45 / 0.6 /
-  0.35; a fixed 0.2 or 0.4 meets all seven there but not the video corpus's 0.58.
-
-Streaming (issue 16): new models use the ``prosody-live`` feature set
-(:class:`headmotion.features.streaming.StreamingProsody`: YIN pitch + cIntensity loudness,
-computed by the same code offline and on a stream, final 24.2 ms after a frame's start at 100 fps).
-The ascent is causal (frame ``t`` needs features up to ``t`` and the two previous frames), the
-seeded start noise is drawn frame by frame from one generator (chunked draws equal one draw), and
-the pause settling is a causal recursion, so :meth:`Le2012.stream` gives offline ``predict``'s
-frames with a latency of the features alone (``latency_ms`` = 24.2 ms).  Model files with the
-whole-clip ``prosody`` set load and predict as before but cannot stream (their ``capabilities``
-lack "causal"; retrain with ``features="prosody-live"``).
-
-Defaults chosen on held-out data before ``post_restore`` (``scripts/p2dnn_measure.py le2012``; ZEGGS 4 folds / video
-corpus 2 speaker-disjoint folds, 2 seeds): the pull alone stops the wandering (ZEGGS saturation
-11 % → 0, SD ratio 1.6–1.8 → 0.5–0.6) but makes pull + momentum a damped oscillator (limit-cycle
-index 0.31, 1.5–4 Hz share 0.14 on video); the seeded start (0.5) breaks it (ZEGGS: spectral L1
-0.12–0.16, SD ratio 0.73–1.27, LC 0.18, diversity 1.3; video: L1 0.34–0.45, SD ratio 0.4–0.6,
-diversity 0.64); idle 0.4 brings the pause/speech speed ratio to 0.42 (ZEGGS, recording 0.37) and
-0.61 (video, 0.57) where 0.7 left 0.55 / 0.69.  Coupling: none of this ties le2012 to speech
-(pooled FCCA p 0.36–0.94); it should not be the default.
-
-The "fair" variant (``joint=True``, eq 5.15) replaces the five GMMs by one 10-component GMM over
-``(pitch, yaw, roll, v, a, p, l)``, so the angles are optimised jointly and their positions
-relative to each other are modelled, as template warping does.
+Streaming: with ``prosody-live`` (YIN pitch + cIntensity loudness, computed by the same code
+offline and on a stream) the ascent, the seeded noise (drawn frame by frame from one generator) and
+the post-processing chain are causal, so :meth:`Le2012.stream` gives offline ``predict``'s frames
+with the features' latency alone (24.2 ms).  Model files with the whole-clip ``prosody`` set
+predict as before but cannot stream.
 
 Library considered: scikit-learn's GaussianMixture (fitting); the per-frame optimiser is
-hand-written because calling scipy.optimize per frame is ~100× slower.
+hand-written (a compiled numba kernel, :mod:`._le2012_kernel`) because calling scipy.optimize per
+frame is ~100× slower.
 """
 
 from __future__ import annotations
@@ -125,11 +56,11 @@ from ..errors import ParameterError
 from ..features import ANALYSIS_RATE
 from ..models.gmm import GMMRegression
 from ..motion.control import mean_pose_of
-from ..rotations import pitch_yaw_roll_to_rotvec, pitch_yaw_roll_to_rotvec_one, rotvec_to_pitch_yaw_roll
+from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
 from .base import CAUSAL, Synthesizer, cross_fitted, pair_shortest
 from .tws.features import make_feature_config
-from .tws.generator import LIVE_FEATURES, LiveFeatures
+from .tws.generator import LIVE_FEATURES
 
 
 _LOG2PI = float(np.log(2.0 * np.pi))
@@ -346,7 +277,7 @@ class Le2012(Synthesizer):
             return IDLE_FALLBACK
         best, err = IDLE_FALLBACK, np.inf
         for idle in IDLE_GRID:
-            got = pooled_pause_ratio(pause_speech_speeds(self._finish(*raw, idle=float(idle), chain=self._post_chain()),
+            got = pooled_pause_ratio(pause_speech_speeds(self._finish(*raw, idle=float(idle)),
                                                          k, fps=self.fps_) for raw, k in zip(raws, masks))
             if np.isfinite(got) and abs(got - target) < err:
                 best, err = float(idle), abs(got - target)
@@ -358,20 +289,26 @@ class Le2012(Synthesizer):
         stages) against the training heads ``motions`` (rotation vectors at ``fps_``): the band
         gains, then the speed map on that synthesis passed through the band stage as synthesis
         will pass it."""
-        from . import dnn_post
-        from ..motion import speed_shaping
+        from ..motion.post import speed_shaping
+        from ..motion.post.restore import CausalPost, band_gains
 
-        pred, targ = pair_shortest((self._finish(*raw, idle=self._idle_value(), chain=None) for raw in raws), motions)
-        self.post_bank_ = dnn_post.band_gains(pred, targ, fps=self.fps_, cap=POST_BAND_CAP)
-        pred = [dnn_post.CausalPost(band_gains=self.post_bank_, fps=self.fps_).push(x) for x in pred]
-        self.speed_map_ = speed_shaping.delivered_speed_map(pred, targ, fps=self.fps_, lag=speed_shaping.shaping_lag(self.fps_),
-                                                  max_gain=speed_shaping.SPEED_MAX_GAIN)
+        pred, targ = pair_shortest((self._finish(*raw, idle=self._idle_value(), post=False) for raw in raws), motions)
+        self.post_bank_ = band_gains(pred, targ, fps=self.fps_, cap=POST_BAND_CAP)
+        pred = [CausalPost(band_gains=self.post_bank_, fps=self.fps_).push(x) for x in pred]
+        self.speed_map_ = speed_shaping.delivered_speed_map(pred, targ, fps=self.fps_,
+                                                            lag=speed_shaping.shaping_lag(self.fps_),
+                                                            max_gain=speed_shaping.SPEED_MAX_GAIN)
 
-    def _post_chain(self):
-        """The post stages with fresh state (:class:`_PostChain`), or None without them."""
-        if not self.post_restore or getattr(self, "post_bank_", None) is None:
-            return None
-        return _PostChain(self.post_bank_, self.speed_map_, self.fps_)
+    def _post_chain(self, idle: float | None, pose, *, post: bool = True):
+        """The post-processing chain with fresh state (:data:`~headmotion.motion.post.chain.
+        LE2012_ORDER`): settling at ``idle`` (None or 1: none) towards ``pose``, the rotation, and
+        with ``post`` (and ``post_restore`` and the tables) the band gains and the speed shaper."""
+        from ..motion.post import LE2012_ORDER, PostChain, PostTables
+
+        tables = post and self.post_restore and getattr(self, "post_bank_", None) is not None
+        return PostChain(PostTables(fps=self.fps_, order=LE2012_ORDER, idle=idle, pause_pose=pose,
+                                    band_gains=self.post_bank_ if tables else None,
+                                    speed_map=self.speed_map_ if tables else None))
 
     # -- synthesis ----------------------------------------------------------------------------
     def _conditionals(self, Fs: np.ndarray):
@@ -482,8 +419,7 @@ class Le2012(Synthesizer):
         pull = 1.0 / (float(tau) * self.fps_) if tau else 0.0
         jitter = np.zeros((T, 3))
         if self.start_sd:
-            s = self.seed if seed is None else seed
-            rng = np.random.default_rng(None if s is None else int(s))
+            rng = np.random.default_rng(None if seed is None else int(seed))
             jitter = float(self.start_sd) * float(self.z_mu_[3]) * rng.standard_normal((T, 3))
         return pull, np.asarray(self.start_, dtype=np.float64), jitter
 
@@ -509,7 +445,7 @@ class Le2012(Synthesizer):
         return np.maximum(10.0 / ex * np.log10(loud) - 60.0, -100.0)
 
     def _speech_tracker(self):
-        from .tws.speech import SpeechDetector
+        from ..features.speech_activity import SpeechDetector
 
         return SpeechDetector(col=0, mu=0.0, sd=1.0, db_per_unit=1.0, fps=float(self.fps_)).start()
 
@@ -580,8 +516,7 @@ class Le2012(Synthesizer):
         T = _n(len(audio.samples), audio.sample_rate, self.fps_)
         if T == 0:
             return Motion(np.zeros((0, 3)), self.fps_)
-        rv = self._finish(*self._raw_synthesis(audio, seed, flags=self._settle()), idle=self._idle_value(),
-                          chain=self._post_chain())
+        rv = self._finish(*self._raw_synthesis(audio, seed, flags=self._settle()), idle=self._idle_value())
         return Motion(rv, self.fps_, meta={"system": self.name})
 
     def _raw_synthesis(self, audio: Audio, seed: int | None, *, flags: bool):
@@ -607,15 +542,10 @@ class Le2012(Synthesizer):
             mask = np.asarray(speaking_mask(audio, fps=self.fps_, n_frames=T), dtype=bool)
         return out, mask, pose
 
-    def _finish(self, out, mask, pose, *, idle: float | None, chain) -> np.ndarray:
-        """Rotation vectors from the ascent's angles: settled in pauses at ``idle`` (None or 1: not),
-        then through ``chain`` (the post stages, or None)."""
-        if idle is not None and idle < 1.0 and len(out) >= 2:
-            from ..motion.pauses import settle_in_pauses
-
-            out = settle_in_pauses(out, mask, fps=self.fps_, idle=float(idle), mean_pose=pose, causal=True)
-        rv = pitch_yaw_roll_to_rotvec(out[:, 0], out[:, 1], out[:, 2])
-        return rv if chain is None else chain.push(rv)
+    def _finish(self, out, mask, pose, *, idle: float | None, post: bool = True) -> np.ndarray:
+        """Rotation vectors from the ascent's angles through the post-processing chain
+        (:meth:`_post_chain`): settled in pauses at ``idle``, with ``post`` the post stages."""
+        return self._post_chain(idle, pose, post=post).push(out, mask)
 
     def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0):
         """:meth:`Synthesizer.stream`, with the reason when this model's features cannot stream."""
@@ -623,11 +553,13 @@ class Le2012(Synthesizer):
             self._stream(seed=seed)  # raises with the reason
         return super().stream(seed=seed, gain=gain, offset=offset)
 
-    def _stream(self, *, seed: int | None) -> "Le2012Stream":
+    def _stream(self, *, seed: int | None):
         cfg = self._config()
         if cfg.name not in LIVE_FEATURES:
             raise ParameterError(f"this le2012 model was trained with the whole-clip {cfg.name!r} features and "
                                  "cannot stream; retrain it with features='prosody-live'")
+        from .le2012_stream import Le2012Stream
+
         return Le2012Stream(self, seed=seed)
 
     # -- persistence --------------------------------------------------------------------------
@@ -675,107 +607,4 @@ class Le2012(Synthesizer):
         self._set_capabilities(self._config())
 
 
-class _PostChain:
-    """``post_restore``'s stages with their state: per-band gains about the running mean, then the
-    speed shaper; ``push`` takes the next rotation vectors ``(n, 3)`` and returns as many (chunking
-    does not change the output)."""
-
-    def __init__(self, bank, table, fps: float):
-        from ..motion.speed_shaping import product_shaper
-        from .dnn_post import CausalPost
-
-        self.post = CausalPost(band_gains=bank, fps=fps)
-        self.shaper = product_shaper(table, fps)
-
-    def push(self, rv: np.ndarray) -> np.ndarray:
-        return self.shaper.push(self.post.push(np.asarray(rv, dtype=np.float64)))
-
-
-class Le2012Stream:
-    """:meth:`Le2012.stream`: push float samples at the model's ``sample_rate``; every frame is
-    final once its ``prosody-live`` features are (``latency_ms``, 24.2 ms at 100 fps), and the
-    frames equal offline ``predict``'s (module docstring).  State: the feature extractor, the last
-    two frames, the noise generator, the speech tracker, the pause settler and the post stages — bounded.
-
-    Cost per 10 ms chunk (one frame; ``benchmarks/run.py --only stream``): ~0.15 ms of CPU (0.23 ms
-    with ``post_restore``'s band split and speed shaper, seventh session) — the
-    features ~0.06, the compiled conditioning and ascent, then the speech flag, pause weight,
-    settling and Euler → rotation vector on scalars (the one-frame paths of
-    :mod:`headmotion.motion.pauses`, :mod:`headmotion.systems.tws.speech` and
-    :func:`headmotion.rotations.pitch_yaw_roll_to_rotvec_one`, equal to the batch code).  The
-    numba kernels are loaded when the stream starts (~0.5 s for the first stream of a process), not
-    on its first frame."""
-
-    def __init__(self, model: Le2012, *, seed: int | None):
-        from ..motion.pauses import CausalPauseWeight, PauseSettler
-
-        self.m = model
-        self.fps = model.fps_
-        self.feats = LiveFeatures(model._config(), model.sample_rate_)
-        self.latency_ms = self.feats.latency_ms
-        s = model.seed if seed is None else seed
-        self.rng = np.random.default_rng(None if s is None else int(s))
-        self.pull, self.pose, _ = model._start_terms(0, seed)
-        self.scale = float(model.start_sd) * float(model.z_mu_[3])
-        self.t = 0                        # frames produced so far
-        self.last = np.zeros((0, 3))      # the last (up to) two frames, before settling
-        self.chain = model._post_chain()
-        self.settle = model._settle()
-        if self.settle:
-            self.tracker = model._speech_tracker()
-            self.weigher = CausalPauseWeight(fps=self.fps)
-            self.settler = PauseSettler(fps=self.fps, idle=float(model._idle_value()), mean_pose=self.pose)
-            self.db_scale = 10.0 / float(dict(model._config().params).get("exponent", 0.3))
-        if model.compiled:  # load (or compile) the kernels now, not on the first frame (~0.6 s)
-            _, stacked = model._cond_rows(np.zeros((1, len(model.z_mu_) - 5)), pad=2)
-            model._ascend(np.zeros((3, 3)), None, stacked, self.pull, self.pose, np.zeros((3, 3)))
-
-    def _frames(self, F_raw: np.ndarray) -> Motion:
-        n = len(F_raw)
-        if n == 0:
-            return Motion(np.zeros((0, 3)), self.fps)
-        m = self.m
-        jitter = self.scale * self.rng.standard_normal((n, 3)) if m.start_sd else np.zeros((n, 3))
-        k = min(n, max(0, 2 - self.t))    # the utterance's first two frames are the start pose
-        x = np.empty((n, 3))
-        x[:k] = m.start_
-        hist = self.last if k == 0 else np.vstack([self.last, x[:k]])[-2:]
-        if n > k:
-            # rows: the two frames before (history), then the new frames
-            cond, stacked = m._cond_rows(F_raw[k:], pad=2)
-            out = np.empty((n - k + 2, 3))
-            out[:2] = hist
-            jit = np.zeros((n - k + 2, 3))
-            jit[2:] = jitter[k:]
-            m._ascend(out, cond, stacked, self.pull, self.pose, jit)
-            x[k:] = out[2:]
-            hist = out[-2:]
-        self.last = np.array(hist, dtype=np.float64)
-        self.t += n
-        if n == 1:  # a 10 ms push: the settling and the rotation on scalars (same values)
-            row = x[0].tolist()
-            if self.settle:
-                row = self.settler.push_one(row, self.weigher.push_one(self._speech_one(float(F_raw[0, 1]))))
-            rv = np.array([pitch_yaw_roll_to_rotvec_one(*row)])
-            return Motion(rv if self.chain is None else self.chain.push(rv), self.fps)
-        if self.settle:
-            w = self.weigher.push(self.tracker.push_db(m._loudness_db(F_raw)))
-            x = self.settler.push(x, w)
-        rv = pitch_yaw_roll_to_rotvec(x[:, 0], x[:, 1], x[:, 2])
-        return Motion(rv if self.chain is None else self.chain.push(rv), self.fps)
-
-    def _speech_one(self, loudness: float) -> bool:
-        """The speech flag of one frame from its raw loudness (:meth:`Le2012._loudness_db` on a scalar)."""
-        if self.tracker.n < self.tracker.update_frames - 1:
-            return bool(self.tracker.push_db(self.m._loudness_db(np.array([[0.0, loudness]])))[0])
-        db = self.db_scale * float(np.log10(loudness if loudness >= 1e-30 else 1e-30)) - 60.0
-        return self.tracker.push_one_db(db if db >= -100.0 else -100.0)
-
-    def push(self, samples) -> Motion:
-        return self._frames(self.feats.push(np.asarray(samples, dtype=np.float32).ravel()))
-
-    def flush(self) -> Motion:
-        return self._frames(self.feats.flush())
-
-
-__all__ = ["Le2012", "Le2012Stream"]
+__all__ = ["Le2012"]

@@ -1,4 +1,4 @@
-"""Synthesis of long recordings in bounded memory (issue 18 item 5).
+"""Synthesis of long recordings in bounded memory.
 
 The seeds are silent on hour-long inputs.  A system's stream gives the same frames as its offline
 ``predict`` (exactly for the causal systems, within 1e-6 rad for the DNN systems that stream with

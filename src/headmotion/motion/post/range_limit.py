@@ -1,5 +1,5 @@
-"""A soft range limit: keep a head inside the range of the heads it was trained on (issue 14, eighth
-session; neither seed has one — the paper's DNN output is small, the thesis's templates have their
+"""A soft range limit: keep a head inside the range of the heads it was trained on (a stage of the
+post-processing chain, :mod:`headmotion.motion.post`; neither seed has one — the paper's DNN output is small, the thesis's templates have their
 own clip in :mod:`headmotion.systems.tws.limits`).
 
 Per axis, the deviation ``d`` of each frame from a centre (the training mean pose) passes

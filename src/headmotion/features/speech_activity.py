@@ -1,6 +1,7 @@
-"""Speech / non-speech per frame from the template-warping systems' own features, decided causally
-(frame ``t`` from frames ``<= t``), so that pauses are the same in the stream and offline (issue 14
-§3, issue 16).  The seeds are silent on pauses.
+"""Speech / non-speech per frame decided causally (frame ``t`` from frames ``<= t``), from a
+system's own feature frames or from frame energies in dBFS, so that pauses are the same in the
+stream and offline; every synthesis system's pause settling reads it.  The seeds are silent on
+pauses.
 
 The detector is the causal counterpart of :func:`headmotion.features.vad.speaking_mask`'s energy
 rule (cheaper: the percentiles are updated every ``update_frames`` (10) frames from every
@@ -11,9 +12,9 @@ feature set's frame energy (column ``energy``; dB for ``f0e``, natural log for
 95th percentiles of the energy over the past ``window_s`` (3 s) of the utterance; where that window
 has less than ``min_snr_db`` of dynamic range it is speech iff the frame is above ``silence_db``
 (-50 dBFS).  Adaptive, because an absolute threshold learned on the training audio does not carry
-over to other recordings (a first try, a linear classifier on the normalised features trained on
-the training audio's VAD labels, reached 0.97 balanced accuracy on ZEGGS but left the head moving
-in the pauses of other speech files).  At training the agreement with ``speaking_mask`` on the
+over to other recordings (a linear classifier on the normalised features trained on the training
+audio's VAD labels reaches 0.97 balanced accuracy on ZEGGS but leaves the head moving in the pauses
+of other speech files).  At training the agreement with ``speaking_mask`` on the
 training audio is recorded (``accuracy``, balanced).  Feature sets without an energy column get no
 detector (no pause settling).
 

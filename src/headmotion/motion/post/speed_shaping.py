@@ -1,15 +1,11 @@
-"""Speed shaping (issue 14, third and fourth sessions): re-timing a head-motion trajectory so that
-its speed distribution becomes the recorded heads'.
+"""Speed shaping: re-timing a head-motion trajectory so that its speed distribution becomes the
+recorded heads' (a stage of the post-processing chain, :mod:`headmotion.motion.post`; neither the
+thesis nor the paper re-times; ``docs/decisions/speed-shaping.md``).
 
-Recorded heads hold still and then move fast (speed quantiles 5/50/95 % of the video corpus: 3.6 /
-16 / 56 °/s); a regressor's output moves evenly (5.2 / 19 / 45 °/s after variance restoration) and
-warped half-cosine templates too (held-out 95th percentile 39–43 °/s).  :func:`speed_map` tabulates
-the quantile map of a system's own speeds onto the training heads' at fit; :class:`SpeedShaper`
-applies it causally, with state, after the DNN post stage
-(:class:`headmotion.systems.dnn_stream.DnnPostStages`) and after the template generator's pause
-settling (:class:`headmotion.systems.tws.generator.Generator`); :func:`product_shaper` is the
-shaper with the product's settings for both.  Neither the thesis nor the paper re-times; both
-systems switch it off with ``speed_shaping=False``.
+Recorded heads hold still and then move fast; a regressor's output and warped half-cosine templates
+move evenly.  :func:`speed_map` tabulates the quantile map of a system's own speeds onto the training
+heads' at fit, :func:`delivered_speed_map` corrects it in closed loop, and :class:`SpeedShaper`
+applies it causally, with state; :func:`product_shaper` is the shaper with the product's settings.
 
 Library considered: none does causal quantile-mapped re-timing; the recursion runs in scipy's
 ``lfilter`` with state.
@@ -27,12 +23,8 @@ SHAPING_FOLLOW_S = 0.25
 SHAPING_ADAPT_S = 5.0
 #: quantiles at which the speed map is tabulated
 SPEED_QUANTILES = np.linspace(0.0, 1.0, 51)
-#: closed-loop corrections of the speed map (:func:`delivered_speed_map`; 0 = the static map).
-#: Used by le2012 and the template systems since the tenth session (held-out speakers of the video
-#: corpus, pooled speed Hellinger over 4 samples, seeds 0 / 1: le2012 0.072 → 0.060 / 0.059 →
-#: 0.057, tws-hier 0.036 → 0.033 / 0.041 → 0.034, tws-basic 0.040 → 0.037 / 0.033 → 0.033; ZEGGS
-#: 0.071 → 0.070, 0.100 → 0.104, 0.095 → 0.081; ``docs/eval/s10_loop_*``); not by the DNN systems,
-#: where it went 0.046 → 0.038 on seed 0 but 0.056 → 0.071 on seed 1
+#: closed-loop corrections of the speed map (:func:`delivered_speed_map`; 0 = the static map), as
+#: le2012 and the template systems fit it (the DNN systems fit the static map)
 SPEED_MAP_ITERATIONS = 2
 
 
@@ -47,15 +39,14 @@ def speeds(rv: np.ndarray, lag: int = 1) -> np.ndarray:
     return np.linalg.norm(rv - prev, axis=1) / lag
 
 
-#: largest speed-up of the speed map: a network's output on new speech has sharper transitions
-#: than on its training frames, and mapping them up as well gives speeds no recorded head reaches
-#: (held-out speakers: speed 99th percentile 175 °/s against 92 °/s recorded; 88 °/s with 1.2).
-#: 1.4 since the fifth session: with the DNN's slow-band correction its top speeds fell short
-#: (95th percentile 50 against 56 °/s); 1.4 gives 57 / 93 °/s at the 95th / 99th percentile
-#: (recorded 56 / 92) and pooled speed Hellinger 0.066 → 0.059 and 0.058 → 0.055 for the two
-#: training seeds of ``dnn_band_sweep.py --variants adapt:5:1.2:zero,adapt:5:1.4:zero,adapt:5:1.4:eval``,
-#: every synthesis seed still coupled
+#: largest speed-up of a speed map (the map's output speed is at most this times its input's): a
+#: network's output on new speech has sharper transitions than on the frames the map is fitted on,
+#: and mapping them up without bound gives speeds no recorded head reaches.  The DNN systems' map
+#: from their validation frames and le2012's use it.
 SPEED_MAX_GAIN = 1.4
+#: the wider bound of maps fitted on synthesis far short of the heads' fast tail: the template
+#: systems' (warped half-cosines move evenly) and the DNN systems' cross-fitted map
+WIDE_SPEED_MAX_GAIN = 2.0
 
 
 def speed_map(predicted, target, *, lag: int = 1, quantiles=SPEED_QUANTILES, starts=None,
@@ -81,8 +72,7 @@ def delivered_speed_map(predicted, target, *, fps: float, lag: int = 1, max_gain
     """:func:`speed_map`, then corrected in closed loop so that :func:`product_shaper` *delivers*
     the target's speed quantiles on ``predicted``: the causal shaper follows the path with a leak
     and adapts to the input's liveliness, so a static quantile map under-delivers the fast tail
-    (le2012 on a video fold: 95th percentile 43 against the heads' 50 °/s on the very synthesis
-    the map was fitted on) and over-delivers the middle.  Each iteration shapes ``predicted``
+    and over-delivers the middle.  Each iteration shapes ``predicted``
     with the current table, measures the delivered quantiles and multiplies the table's output
     row by ``target / delivered`` (kept increasing and within ``max_gain``).  ``iterations``
     None = :data:`SPEED_MAP_ITERATIONS` (read when called); 0 = the static map."""
@@ -175,4 +165,4 @@ def product_shaper(table, fps: float) -> SpeedShaper:
 
 
 __all__ = ["SpeedShaper", "speed_map", "delivered_speed_map", "speeds", "shaping_lag", "product_shaper", "SPEED_QUANTILES",
-           "SPEED_MAX_GAIN", "SHAPING_LAG_S", "SHAPING_FOLLOW_S", "SHAPING_ADAPT_S"]
+           "SPEED_MAX_GAIN", "WIDE_SPEED_MAX_GAIN", "SHAPING_LAG_S", "SHAPING_FOLLOW_S", "SHAPING_ADAPT_S"]

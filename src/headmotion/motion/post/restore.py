@@ -1,51 +1,27 @@
-"""Synthesis-time post-processing of the DNN systems' output (issue 14 §2, diagnosis §3.6):
-global-variance restoration and a seeded slow posture component.
+"""Variance and band restoration and posture drift: the stages of the post-processing chain that
+give a system's output the recorded heads' variance and modulation spectrum (not in the paper,
+which stops at its post-filter, §3.3, nor in the thesis; ``docs/decisions/post-chain.md``).
 
-The paper (§3.3) stops at its denoising post-filter; it is silent on both steps below, which are
-ours and can be switched off (``variance_restore=False, drift_share=0`` reproduces the paper's
-output bit for bit).  Why they are needed, measured on real data (docs/natural_motion_diagnosis.md):
-an MMSE regressor averages over the many head movements that fit the same speech, so its output has
-0.14–0.44 of the recorded heads' SD and lacks their slow posture shifts (share of power below
-0.5 Hz 0.35–0.53 against 0.73–0.76).
+* **Variance restoration** (global-variance scaling, Toda & Tokuda 2007, in its simplest post-hoc
+  form): the ratio per axis of the training motion's SD to the system output's SD on the training
+  recordings, both about each recording's own mean (:func:`gv_ratio`, at most :data:`GV_CAP`),
+  multiplies the output's deviations from its centre.
+* **Band restoration** (the modulation-spectrum post-filter of Takamichi et al. 2016 in a causal,
+  band-wise form): :class:`BandSplit` splits the deviations into the bands of
+  :data:`headmotion.motion.bands.BAND_EDGES_HZ` and :func:`band_gains` gives each band of each axis
+  its own training ratio, so the slow posture band is restored more than the syllable-rate band.
+* **Posture drift**: a seeded Ornstein–Uhlenbeck process (time constant ``tau_s``) carrying a share
+  ``share`` of the training motion's within-recording variance; the restored deviations are scaled
+  by ``sqrt(1 - share)`` so the total variance stays the training motion's.  Uncorrelated with the
+  speech by construction.
 
-* **Variance restoration** (global-variance scaling, as used for the over-smoothing of statistical
-  parametric speech synthesis — Toda & Tokuda 2007 — here in its simplest post-hoc form): at
-  training, after the post-filter, the ratio per axis of the training motion's SD to the network
-  output's SD on the same training recordings, both measured about each recording's own mean
-  (:func:`gv_ratio`, capped at :data:`GV_CAP`); at synthesis, every utterance's deviations from its
-  own mean are multiplied by it (:func:`restore_variance`).  The training-set ratio, not a
-  per-utterance one, so that a quiet utterance stays quieter than a lively one.
-* **Posture drift**: a seeded Ornstein–Uhlenbeck process (time constant ``tau_s``, 2 s — real
-  heads hold a posture for seconds) carrying a share ``share`` of the training motion's
-  within-recording variance; the network's deviations are scaled by ``sqrt(1 - share)`` so that the
-  total variance stays that of the training motion (:func:`add_drift`).  The OU starts from its
-  stationary distribution, so each seed also gives a different posture.  It is uncorrelated with
-  the speech by construction: a larger share makes the motion more realistic and less coupled.
+:class:`CausalPost` applies them about the **running mean** of its input (``c_t = mean(y_0 … y_t)``):
+causal, converging to the utterance mean, and chunking-invariant, so offline synthesis and a stream
+give the same frames.  :func:`restore_variance` and :func:`add_drift` (utterance-mean centre) serve
+analysis and tests.
 
-All arrays here are in the model's normalised motion space (rotation-vector components, which for
-head rotations of a few degrees are pitch, yaw and roll to within a fraction of a percent).
-
-* **Modulation-spectrum restoration** (third session; the idea of the modulation-spectrum
-  post-filter of statistical parametric speech synthesis — Takamichi et al. 2016 — in a causal,
-  band-wise form): :class:`BandSplit` splits the deviations into the realism measure's bands and
-  :func:`band_gains` gives each band of each axis its own training ratio, so the slow posture band
-  is restored more than the syllable-rate band (a global ratio scales both alike, which left the
-  default with too much 1.5–4 Hz and too little < 0.5 Hz motion).
-* **Speed shaping** (third session) lives in :mod:`headmotion.motion.speed_shaping` (the template
-  systems use it too): recorded heads hold still and then move fast (speed quantiles 5/50/95 % of
-  the video corpus: 3.6 / 16 / 56 °/s), a regressor's output moves evenly (5.2 / 19 / 45 °/s after
-  variance restoration).
-
-Causal centre (issue 16): for the DNN systems' product output (and their stream), the centre
-about which both steps scale is the **running mean** of the network output so far,
-``c_t = mean(y_0 … y_t)`` (:class:`CausalPost`), not the utterance mean: it needs no future
-frames, converges to the utterance mean, and fed chunk by chunk it gives exactly what one call over
-the whole utterance gives, so ``predict`` and ``stream`` agree.  :func:`restore_variance` and
-:func:`add_drift` (utterance-mean centre) are kept for analysis and the tests of the earlier
-behaviour.
-
-Library considered: none does per-utterance GV scaling or an OU process in a few lines; scipy's
-``lfilter`` would run the OU recursion, a loop-free numpy version is used instead.
+Library considered: scipy's ``butter`` / ``lfilter`` (the band filters and the OU recursion, with
+state); no library does per-utterance GV scaling or a seeded OU process.
 """
 
 from __future__ import annotations
@@ -53,7 +29,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
-#: largest variance-restoring factor (the diagnosis's prototype cap)
+from ..bands import BAND_EDGES_HZ
+
+#: largest variance-restoring factor
 GV_CAP = 6.0
 
 
@@ -107,8 +85,6 @@ def add_drift(y: np.ndarray, *, share: float, sd, fps: float, tau_s: float, rng:
     return c + np.sqrt(1.0 - share) * (y - c) + np.sqrt(share) * np.asarray(sd, dtype=np.float64) * slow
 
 
-#: band edges (Hz) of the modulation-spectrum restoration: the realism measure's bands
-BAND_EDGES_HZ = (0.5, 1.5, 4.0)
 #: largest per-band gain
 BAND_CAP = 8.0
 
