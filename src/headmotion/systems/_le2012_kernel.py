@@ -5,7 +5,7 @@ quantities; in numpy each step costs ~10 small-array calls, so the Python overhe
 synthesis (17× real time, the slowest row of the benchmarks).  These numba kernels do the same
 arithmetic in compiled loops.  numba is already a dependency of librosa; kernels are cached on disk
 after the first compilation.  :mod:`headmotion.systems.le2012` documents the algorithm; the tests
-check these kernels against the plain-numpy reference implementation there.
+check these kernels against the plain-numpy reference (:mod:`._le2012_reference`).
 
 Every frame's ascent starts from ``2 p1 - p2 - pull (p1 - pose) + jitter[t]`` (``p1``, ``p2`` the
 two previous frames): ``pull = 0`` and ``jitter = 0`` is Le et al.'s constant-velocity start; the

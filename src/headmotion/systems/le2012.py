@@ -367,52 +367,6 @@ class Le2012(Synthesizer):
             cache = self._kernel_prep = (self.gmms_, arrays)
         return cache[1]
 
-    @staticmethod
-    def _mix_grad(z, logw, cm, P):
-        """d/dz log sum_m exp(logw_m) N(z; cm_m, P_m^-1) for z (Dz,)."""
-        d = z[None, :] - cm  # (M, Dz)
-        pd = np.einsum("mij,mj->mi", P, d)
-        lp = logw - 0.5 * np.sum(d * pd, axis=1)
-        r = np.exp(lp - lp.max())
-        return -(r[:, None] * pd).sum(axis=0) / r.sum()
-
-    def _ascent_reference(self, out, cond, mu, sd, lo, hi, pull=0.0, pose=None, jitter=None):
-        """Plain-numpy per-frame gradient ascent (the reference the compiled kernels are tested
-        against; ``compiled=False`` uses it)."""
-        T = len(out)
-        if not self.joint:
-            # stack the five univariate conditional mixtures: (T, 5, M), (5, M)
-            keys = ["angle0", "angle1", "angle2", "vel", "acc"]
-            LW = np.stack([cond[k][0] for k in keys], axis=1)
-            CM = np.stack([cond[k][1][..., 0] for k in keys], axis=1)
-            PR = np.stack([cond[k][2][:, 0, 0] for k in keys], axis=0)
-        for t in range(2, T):
-            p1, p2 = out[t - 1], out[t - 2]
-            theta = p1 + (p1 - p2)
-            if pull:
-                theta = theta - pull * (p1 - pose)
-            if jitter is not None:
-                theta = theta + jitter[t]
-            for _ in range(self.n_steps):
-                du, dd = theta - p1, theta - 2 * p1 + p2
-                v, a = np.sqrt(du @ du), np.sqrt(dd @ dd)
-                gv = du / v if v > 1e-12 else np.zeros(3)
-                ga = dd / a if a > 1e-12 else np.zeros(3)
-                z = np.r_[(theta - mu[:3]) / sd[:3], (v - mu[3]) / sd[3], (a - mu[4]) / sd[4]]
-                if self.joint:
-                    g = self._mix_grad(z, cond["joint"][0][t], cond["joint"][1][t], cond["joint"][2])
-                else:
-                    d = z[:, None] - CM[t]  # (5, M)
-                    lp = LW[t] - 0.5 * d * d * PR
-                    r = np.exp(lp - lp.max(axis=1, keepdims=True))
-                    g = -(r * d * PR).sum(axis=1) / r.sum(axis=1)
-                grad = g[:3] / sd[:3] + g[3] / sd[3] * gv + g[4] / sd[4] * ga
-                # gradient ascent in standardised units, at most `step` SDs per coordinate and step
-                dz = np.clip(self.step * grad * sd[:3], -self.step, self.step)
-                theta = np.minimum(np.maximum(theta + dz * sd[:3], lo), hi)
-            out[t] = theta
-
-
     def _start_terms(self, T: int, seed: int | None):
         """``(pull, pose, jitter)`` of each frame's starting point (see the module docstring)."""
         tau = self.pull_tau_s
@@ -506,7 +460,10 @@ class Le2012(Synthesizer):
             mu, sd = self.z_mu_, self.z_sd_
             span = self.hi_ - self.lo_
             lo, hi = self.lo_ - 0.1 * span, self.hi_ + 0.1 * span
-            self._ascent_reference(out, cond, mu, sd, lo, hi, pull, pose, jitter if self.start_sd else None)
+            from ._le2012_reference import ascent_reference
+
+            ascent_reference(out, cond, mu, sd, lo, hi, joint=self.joint, n_steps=self.n_steps, step=self.step,
+                             pull=pull, pose=pose, jitter=jitter if self.start_sd else None)
 
     def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
         """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``); see the
