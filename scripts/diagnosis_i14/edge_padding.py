@@ -1,7 +1,7 @@
 """The default model at the end of a clip (issue 14, sixth session): real speech cut mid-utterance
 at every 1.37 s, the last 0.25 s of the cut clip's synthesis against the same frames of the uncut
 file's, with the regressor's context padded beyond the end by holding the edge frame (as in
-training) or by mirroring (the synthesis since this session, ``models/nets.SYNTHESIS_PAD``).
+training) or by mirroring (the synthesis since this session, ``models/numpy_nets.SYNTHESIS_PAD``).
 
     PYTHONPATH=src python scripts/diagnosis_i14/edge_padding.py [--model M]
 
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from headmotion.io import load_audio
-from headmotion.models import nets
+from headmotion.models import numpy_nets as nets
 from headmotion.rotations import rotvec_to_pitch_yaw_roll
 from headmotion.systems import load_model
 from headmotion.types import Audio

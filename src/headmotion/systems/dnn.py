@@ -257,6 +257,7 @@ from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, FeatureTrack, Motion
 from ..motion import speed_shaping
 from ..motion.range_limit import range_from_training
+from ..models.numpy_nets import inference_threads as _inference_threads  # no torch at inference
 from . import dnn_post
 from .base import EMBEDDING, STREAMING, Synthesizer, cross_fitted, pair_shortest
 from .dnn_stream import DnnPostStages, DnnStream, frame_energy_db
@@ -744,18 +745,17 @@ class _DnnSystem(Synthesizer):
                 f"{self.input_dim_} dims per frame; {what} has shape {tuple(values.shape)}")
 
     def _embed_values(self, x_norm: np.ndarray) -> np.ndarray:
-        import torch
+        from ..models import numpy_nets  # inference without torch
 
-        with torch.no_grad():
-            return self.autoencoder_.encode(torch.from_numpy(np.ascontiguousarray(x_norm))).numpy()
+        return numpy_nets.encode(self.autoencoder_, x_norm)
 
     def _network_output(self, r: np.ndarray, regressor, postfilter) -> np.ndarray:
         """Regressor (+ post-filter) on normalised regressor inputs ``r``: normalised motion."""
-        from ..models import nets
+        from ..models import numpy_nets  # inference without torch
 
-        y = nets.predict_regressor(regressor, r)
+        y = numpy_nets.predict_regressor(regressor, r)
         if postfilter is not None:
-            y = nets.apply_postfilter(postfilter, y, segment=int(self.segment))
+            y = numpy_nets.apply_postfilter(postfilter, y, segment=int(self.segment))
         return y
 
     def _network_values(self, feats: np.ndarray) -> np.ndarray:
@@ -828,7 +828,7 @@ class _DnnSystem(Synthesizer):
             raise ParameterError(
                 f"this {self.name} model works at {float(self.model_fps):g} frames/s; the feature track is at {fps:g}")
         self._validate_params()
-        with _torch_context(0, getattr(self, "n_threads", None), deterministic=False):
+        with _inference_threads(getattr(self, "n_threads", None)):
             rv = self._predict_values(values, seed=seed)
         return Motion(rv, float(self.model_fps), meta={"system": self.name})
 
@@ -839,7 +839,7 @@ class _DnnSystem(Synthesizer):
         mfps = float(self.model_fps)
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
-        with _torch_context(0, getattr(self, "n_threads", None), deterministic=False):
+        with _inference_threads(getattr(self, "n_threads", None)):
             y = self._network_values(feats)
         stages = DnnPostStages(self, seed)
         energy = None
@@ -880,7 +880,7 @@ class _DnnSystem(Synthesizer):
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
         self._check_features(feats, "the feature track")
-        with _torch_context(0, getattr(self, "n_threads", None), deterministic=False):
+        with _inference_threads(getattr(self, "n_threads", None)):
             z = self._embed_values(np.asarray(self.feature_norm_.transform(feats), dtype=np.float32))
         names = tuple(f"e{i:02d}" for i in range(z.shape[1]))
         track = FeatureTrack(z, mfps, names)
@@ -896,7 +896,7 @@ class _DnnSystem(Synthesizer):
         return rotvec_to_pitch_yaw_roll(np.asarray(self.motion_norm_.mean_, dtype=np.float64)[None])[0]
 
     def _get_state(self):
-        from ..models import nets
+        from ..models.numpy_nets import state_arrays  # numpy or torch networks
 
         params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.get_params().items()}
         config = {
@@ -929,15 +929,15 @@ class _DnnSystem(Synthesizer):
         if self.embedding_norm_ is not None:
             arrays.update(self.embedding_norm_.to_arrays("embedding_norm"))
         if self.autoencoder_ is not None:
-            arrays.update(nets.state_to_arrays(self.autoencoder_, "autoencoder/"))
-        arrays.update(nets.state_to_arrays(self.regressor_, "regressor/"))
+            arrays.update(state_arrays(self.autoencoder_, "autoencoder/"))
+        arrays.update(state_arrays(self.regressor_, "regressor/"))
         if self.postfilter_ is not None:
-            arrays.update(nets.state_to_arrays(self.postfilter_, "postfilter/"))
+            arrays.update(state_arrays(self.postfilter_, "postfilter/"))
         return _clean_json(config), arrays
 
     def _set_state(self, config, arrays):
         from ..features import FeatureConfig, Normalizer
-        from ..models import nets
+        from ..models import numpy_nets
 
         params = dict(config["params"])
         if "seed" in params:  # older files: the training seed was called seed
@@ -970,27 +970,10 @@ class _DnnSystem(Synthesizer):
         self.speed_map_ = np.asarray(arrays["speed_map"], dtype=np.float64) if "speed_map" in arrays else None
         self.range_ = np.asarray(arrays["range"], dtype=np.float64) if "range" in arrays else None
         self.embedding_norm_ = None
-        self.autoencoder_ = None
-        in_dim = self.input_dim_
         if self.uses_embedding:
             self.embedding_norm_ = Normalizer.from_arrays(arrays, "embedding_norm")
-            self.autoencoder_ = nets.StackedAutoencoder(self.input_dim_, hidden=tuple(self.ae_hidden),
-                                                        code_dim=int(self.embedding_dim),
-                                                        activation=str(self.ae_activation))
-            nets.arrays_to_state(self.autoencoder_, arrays, "autoencoder/")
-            self.autoencoder_.eval()
-            in_dim = int(self.embedding_dim)
-        self.regressor_ = nets.ContextRegressor(in_dim, context=int(self.context),
-                                                hidden=tuple(self.regressor_hidden), dropout=float(self.dropout))
-        nets.arrays_to_state(self.regressor_, arrays, "regressor/")
-        self.regressor_.eval()
-        self.postfilter_ = None
-        if self.postfilter:
-            self.postfilter_ = nets.make_postfilter(segment=int(self.segment), dims=3,
-                                                    hidden=tuple(self.postfilter_hidden),
-                                                    code_dim=int(self.postfilter_code))
-            nets.arrays_to_state(self.postfilter_, arrays, "postfilter/")
-            self.postfilter_.eval()
+        # the networks as numpy arrays: synthesis never imports torch (models/numpy_nets.py)
+        self.autoencoder_, self.regressor_, self.postfilter_ = numpy_nets.load_system_nets(self, arrays)
 
 
 class CccaeSystem(_DnnSystem):

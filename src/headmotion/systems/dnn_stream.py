@@ -46,7 +46,6 @@ window bookkeeping is a few lines here.
 
 from __future__ import annotations
 
-import contextlib
 import math
 
 import numpy as np
@@ -95,20 +94,11 @@ def frame_energy_db(samples: np.ndarray, *, sample_rate: int, fps: float, n_fram
     return log_energy_db(frames)
 
 
-@contextlib.contextmanager
 def _threads(n: int | None):
-    """torch's intra-op threads set to the model's ``n_threads`` for the block (inference needs no
-    seeding: the networks are in eval mode; ``_torch_context``'s seeding costs ~ms per call)."""
-    import torch
+    """The model's ``n_threads`` for the block (numpy inference; no seeding: nothing is random)."""
+    from ..models.numpy_nets import inference_threads
 
-    prev = torch.get_num_threads()
-    if n:
-        torch.set_num_threads(int(n))
-    try:
-        yield
-    finally:
-        if n:
-            torch.set_num_threads(prev)
+    return inference_threads(n)
 
 
 #: pull (1/s) towards the training mean pose inside pauses for the product post stage (with the
@@ -225,9 +215,7 @@ class DnnStream:
     def _regress(self, end: int, T: int | None) -> None:
         """Extend the cache of regressor outputs to frames ``< end`` (``T``: the utterance's
         length at flush, for the end's edge padding; None mid-stream)."""
-        import torch
-
-        from ..models import nets
+        from ..models import numpy_nets as nets  # inference without torch
 
         if end <= self.reg_end:
             return
@@ -249,16 +237,13 @@ class DnnStream:
         z = np.asarray(self.sys.feature_norm_.transform(F), dtype=np.float32)
         if self.sys.autoencoder_ is not None:
             z = np.asarray(self.sys.embedding_norm_.transform(self.sys._embed_values(z)), dtype=np.float32)
-        net = self.sys.regressor_
-        with torch.no_grad():
-            y = net(nets.gather_windows(torch.from_numpy(np.ascontiguousarray(z)),
-                                        torch.arange(end - v0), 2 * ctx + 1)).numpy()
+        y = nets.regress_padded(self.sys.regressor_, z, end - v0)
         self.reg = np.concatenate([self.reg, y]) if len(self.reg) else y
         self.reg_end = end
 
     def _run(self, upto: int, T: int | None) -> np.ndarray:
         """Frames ``emitted … upto − 1`` (``T``: the utterance's length at flush)."""
-        from ..models import nets
+        from ..models import numpy_nets as nets  # inference without torch
 
         e = self.emitted
         if self.sys.postfilter_ is not None:
