@@ -107,7 +107,6 @@ class Autoencoder:
         if activation not in ACTIVATIONS:
             raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}; got {activation!r}")
         self.activation = activation
-        self._act = ACTIVATIONS[activation]
         self.encoder = _Layers(arrays, _layer_keys(arrays, "", "encoder"))
         self.decoder = _Layers(arrays, _layer_keys(arrays, "", "decoder"))
         if not self.encoder.params or len(self.encoder.params) != len(self.decoder.params):
@@ -124,14 +123,14 @@ class Autoencoder:
         for i, (w, b) in enumerate(self.encoder.params):
             x = linear(x, w, b)
             if i < self.n_layers - 1:
-                x = self._act(x)
+                x = ACTIVATIONS[self.activation](x)
         return x
 
     def decode(self, z: np.ndarray) -> np.ndarray:
         for j, (w, b) in enumerate(self.decoder.params):
             z = linear(z, w, b)
             if j < self.n_layers - 1:
-                z = self._act(z)
+                z = ACTIVATIONS[self.activation](z)
         return z
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
@@ -163,7 +162,7 @@ class Regressor:
         for i, (w, b) in enumerate(self.layers.params):
             x = linear(x, w, b)
             if i < last:
-                x = _relu(x)
+                x = ACTIVATIONS["relu"](x)
         return x
 
     def state_arrays(self, prefix: str) -> dict[str, np.ndarray]:
