@@ -3,9 +3,15 @@
 Give it speech; it returns how the head should nod, turn and tilt (3-DOF rotation over time).
 The core types are :class:`Audio`, :class:`Motion` and :class:`FeatureTrack`; the axis
 convention is documented in :mod:`headmotion.rotations`.
+
+``import headmotion`` loads only the error classes: the types (numpy, scipy's rotations) and
+everything else are imported on first use (module ``__getattr__``, PEP 562), so that a command
+such as ``headmotion --help`` pays for nothing it does not use.
 """
 
 from __future__ import annotations
+
+import importlib
 
 __version__ = "0.1.0"
 
@@ -20,7 +26,26 @@ from .errors import (  # noqa: E402
     ParameterError,
     SampleRateError,
 )
-from .types import Audio, FeatureTrack, Motion  # noqa: E402
+
+#: names re-exported lazily: name → the module that defines it
+_LAZY = {
+    "Audio": ".types", "Motion": ".types", "FeatureTrack": ".types",
+}
+
+
+def __getattr__(name: str):
+    """The lazily re-exported names (``headmotion.Motion`` imports :mod:`headmotion.types`)."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'headmotion' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "__version__", "Audio", "Motion", "FeatureTrack",
