@@ -52,8 +52,8 @@ def frame_signal(x: np.ndarray, *, sample_rate: float, fps: float, n_frames: int
     left = int(max(0, -starts.min()))
     right = int(max(0, starts.max() + win_length - len(x)))
     xp = np.pad(x, (left, right)) if (left or right) else x
-    idx = (starts + left)[:, None] + np.arange(win_length)[None, :]
-    return xp[idx]
+    # rows of a strided view: no (n_frames, win_length) index matrix (8 bytes per sample of output)
+    return np.lib.stride_tricks.sliding_window_view(xp, win_length)[starts + left]
 
 
 def deltas(x: np.ndarray, *, width: int = 5) -> np.ndarray:

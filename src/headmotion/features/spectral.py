@@ -65,6 +65,11 @@ def a_weighting_db(freqs) -> np.ndarray:
     return np.maximum(w, -80.0)
 
 
+#: frames analysed at a time by :func:`mel_power`: the framed signal and its spectrum for a
+#: chunk, not for the whole recording (10 min at 100 fps would hold ~350 MB of them at once)
+CHUNK_FRAMES = 8192
+
+
 def _frames(audio: Audio, fps: float, n_frames: int, window_s: float, pre_emph: float):
     win = max(2, int(round(window_s * audio.sample_rate)))
     raw = frame_signal(audio.samples, sample_rate=audio.sample_rate, fps=fps, n_frames=n_frames,
@@ -73,6 +78,14 @@ def _frames(audio: Audio, fps: float, n_frames: int, window_s: float, pre_emph: 
     emph = frame_signal(x, sample_rate=audio.sample_rate, fps=fps, n_frames=n_frames,
                         win_length=win) if pre_emph else raw
     return raw, emph, win
+
+
+def _mel_power_of(emph: np.ndarray, win: int, bank: np.ndarray, n_fft: int) -> np.ndarray:
+    from scipy.fft import rfft
+
+    spec = rfft(emph.astype(np.float32) * np.hamming(win).astype(np.float32)[None, :], n=n_fft, axis=1)
+    pspec = (spec.real ** 2 + spec.imag ** 2).astype(np.float64)
+    return pspec @ bank.T
 
 
 def mel_power(audio: Audio, *, fps: float, n_frames: int, n_mels: int = 26, window_s: float = 0.025,
@@ -87,13 +100,45 @@ def mel_power(audio: Audio, *, fps: float, n_frames: int, n_mels: int = 26, wind
     """
     raw, emph, win = _frames(audio, fps, n_frames, window_s, pre_emph)
     n_fft = 1 << int(np.ceil(np.log2(win)))
-    from scipy.fft import rfft
-
-    spec = rfft(emph.astype(np.float32) * np.hamming(win).astype(np.float32)[None, :], n=n_fft, axis=1)
-    pspec = (spec.real ** 2 + spec.imag ** 2).astype(np.float64)
     bank, centres = _mel_bank(int(audio.sample_rate), n_fft, int(n_mels))
-    power = pspec @ bank.T
+    power = _mel_power_of(emph, win, bank, n_fft)
     return (power, centres, raw) if raw_frames else (power, centres)
+
+
+def _mel_and_log_energy(audio: Audio, *, fps: float, n_frames: int, n_mels: int, window_s: float,
+                        pre_emph: float) -> tuple[np.ndarray, np.ndarray]:
+    """Mel power ``(T, n_mels)`` and log energy ``(T,)`` of every frame, :data:`CHUNK_FRAMES`
+    frames at a time (each frame's values are what :func:`mel_power` gives)."""
+    win = max(2, int(round(window_s * audio.sample_rate)))
+    n_fft = 1 << int(np.ceil(np.log2(win)))
+    bank, _ = _mel_bank(int(audio.sample_rate), n_fft, int(n_mels))
+    x = np.asarray(audio.samples)
+    emph_x = pre_emphasis(x, pre_emph) if pre_emph else x
+    power = np.empty((max(n_frames, 0), int(n_mels)))
+    energy = np.empty(max(n_frames, 0))
+    sr, step = audio.sample_rate, float(audio.sample_rate) / float(fps)
+    for a in range(0, n_frames, CHUNK_FRAMES):
+        n = min(CHUNK_FRAMES, n_frames - a)
+        # frames a … a + n − 1: the same windows as framing the whole signal (frame_signal's
+        # centres are (t + 0.5)·sr/fps; a chunk starts a·sr/fps samples in)
+        lo = max(0, int(np.floor(a * step)) - win)
+        hi = min(len(x), int(np.ceil((a + n) * step)) + win)
+        raw = _chunk_frames(x[lo:hi], lo, a, n, sr, fps, win)
+        emph = _chunk_frames(emph_x[lo:hi], lo, a, n, sr, fps, win) if pre_emph else raw
+        power[a:a + n] = _mel_power_of(emph, win, bank, n_fft)
+        energy[a:a + n] = _log_energy(raw)
+    return power, energy
+
+
+def _chunk_frames(sub: np.ndarray, lo: int, a: int, n: int, sr: float, fps: float, win: int) -> np.ndarray:
+    """Frames ``a … a + n − 1`` of the signal of which ``sub`` holds samples ``lo …``."""
+    from .frames import frame_centres
+
+    starts = np.floor(frame_centres(a + n, sr, fps)[a:] - win / 2 + 0.5).astype(np.int64) - lo
+    left = int(max(0, -starts.min()))
+    right = int(max(0, starts.max() + win - len(sub)))
+    sp = np.pad(sub, (left, right)) if (left or right) else sub
+    return np.lib.stride_tricks.sliding_window_view(sp, win)[starts + left]
 
 
 def _log_energy(raw: np.ndarray) -> np.ndarray:
@@ -111,14 +156,14 @@ def mfcc(audio: Audio, *, fps: float, n_frames: int, n_ceps: int = 12, n_mels: i
     """
     from scipy.fft import dct
 
-    power, _, raw = mel_power(audio, fps=fps, n_frames=n_frames, n_mels=n_mels, window_s=window_s,
-                              pre_emph=pre_emph, raw_frames=True)
+    power, energy = _mel_and_log_energy(audio, fps=fps, n_frames=n_frames, n_mels=n_mels, window_s=window_s,
+                                        pre_emph=pre_emph)
     logmel = np.log(np.maximum(power, LOG_FLOOR))
     ceps = dct(logmel, type=2, norm="ortho", axis=1)[:, 1:n_ceps + 1]
     if lifter:
         n = np.arange(1, n_ceps + 1)
         ceps = ceps * (1.0 + (lifter / 2.0) * np.sin(np.pi * n / lifter))[None, :]
-    static = np.hstack([_log_energy(raw)[:, None], ceps])
+    static = np.hstack([energy[:, None], ceps])
     names = ["energy"] + [f"c{i}" for i in range(1, n_ceps + 1)]
     if not deltas:
         return static, names
@@ -134,11 +179,11 @@ def fbank(audio: Audio, *, fps: float, n_frames: int, n_mels: int = 26, window_s
     values : np.ndarray [shape=(T, n_mels + 1)]
     names : ``mel01..mel26, energy`` (bands from low to high frequency)
     """
-    power, _, raw = mel_power(audio, fps=fps, n_frames=n_frames, n_mels=n_mels, window_s=window_s,
-                              pre_emph=pre_emph, raw_frames=True)
+    power, energy = _mel_and_log_energy(audio, fps=fps, n_frames=n_frames, n_mels=n_mels, window_s=window_s,
+                                        pre_emph=pre_emph)
     logmel = np.log(np.maximum(power, LOG_FLOOR))
     names = [f"mel{i:02d}" for i in range(1, n_mels + 1)] + ["energy"]
-    return np.hstack([logmel, _log_energy(raw)[:, None]]), names
+    return np.hstack([logmel, energy[:, None]]), names
 
 
 __all__ = ["mfcc", "fbank", "mel_power", "hz_to_mel", "mel_to_hz", "a_weighting_db"]
