@@ -22,7 +22,7 @@ import functools
 import numpy as np
 
 from ..types import Audio
-from .frames import frame_signal, pre_emphasis, with_deltas
+from .frames import frame_chunks, frame_signal, pre_emphasis, with_deltas
 
 LOG_FLOOR = 1e-10
 
@@ -65,11 +65,6 @@ def a_weighting_db(freqs) -> np.ndarray:
     return np.maximum(w, -80.0)
 
 
-#: frames analysed at a time by :func:`mel_power`: the framed signal and its spectrum for a
-#: chunk, not for the whole recording (10 min at 100 fps would hold ~350 MB of them at once)
-CHUNK_FRAMES = 8192
-
-
 def _frames(audio: Audio, fps: float, n_frames: int, window_s: float, pre_emph: float):
     win = max(2, int(round(window_s * audio.sample_rate)))
     raw = frame_signal(audio.samples, sample_rate=audio.sample_rate, fps=fps, n_frames=n_frames,
@@ -107,8 +102,9 @@ def mel_power(audio: Audio, *, fps: float, n_frames: int, n_mels: int = 26, wind
 
 def _mel_and_log_energy(audio: Audio, *, fps: float, n_frames: int, n_mels: int, window_s: float,
                         pre_emph: float) -> tuple[np.ndarray, np.ndarray]:
-    """Mel power ``(T, n_mels)`` and log energy ``(T,)`` of every frame, :data:`CHUNK_FRAMES`
-    frames at a time (each frame's values are what :func:`mel_power` gives)."""
+    """Mel power ``(T, n_mels)`` and log energy ``(T,)`` of every frame, a chunk of frames at a
+    time (:func:`~headmotion.features.frames.frame_chunks`; each frame's values are what
+    :func:`mel_power` gives)."""
     win = max(2, int(round(window_s * audio.sample_rate)))
     n_fft = 1 << int(np.ceil(np.log2(win)))
     bank, _ = _mel_bank(int(audio.sample_rate), n_fft, int(n_mels))
@@ -116,29 +112,11 @@ def _mel_and_log_energy(audio: Audio, *, fps: float, n_frames: int, n_mels: int,
     emph_x = pre_emphasis(x, pre_emph) if pre_emph else x
     power = np.empty((max(n_frames, 0), int(n_mels)))
     energy = np.empty(max(n_frames, 0))
-    sr, step = audio.sample_rate, float(audio.sample_rate) / float(fps)
-    for a in range(0, n_frames, CHUNK_FRAMES):
-        n = min(CHUNK_FRAMES, n_frames - a)
-        # frames a … a + n − 1: the same windows as framing the whole signal (frame_signal's
-        # centres are (t + 0.5)·sr/fps; a chunk starts a·sr/fps samples in)
-        lo = max(0, int(np.floor(a * step)) - win)
-        hi = min(len(x), int(np.ceil((a + n) * step)) + win)
-        raw = _chunk_frames(x[lo:hi], lo, a, n, sr, fps, win)
-        emph = _chunk_frames(emph_x[lo:hi], lo, a, n, sr, fps, win) if pre_emph else raw
-        power[a:a + n] = _mel_power_of(emph, win, bank, n_fft)
-        energy[a:a + n] = _log_energy(raw)
+    opts = dict(sample_rate=audio.sample_rate, fps=fps, n_frames=n_frames, win_length=win)
+    for (a, raw), (_, emph) in zip(frame_chunks(x, **opts), frame_chunks(emph_x, **opts)):
+        power[a:a + len(raw)] = _mel_power_of(emph, win, bank, n_fft)
+        energy[a:a + len(raw)] = _log_energy(raw)
     return power, energy
-
-
-def _chunk_frames(sub: np.ndarray, lo: int, a: int, n: int, sr: float, fps: float, win: int) -> np.ndarray:
-    """Frames ``a … a + n − 1`` of the signal of which ``sub`` holds samples ``lo …``."""
-    from .frames import frame_centres
-
-    starts = np.floor(frame_centres(a + n, sr, fps)[a:] - win / 2 + 0.5).astype(np.int64) - lo
-    left = int(max(0, -starts.min()))
-    right = int(max(0, starts.max() + win - len(sub)))
-    sp = np.pad(sub, (left, right)) if (left or right) else sub
-    return np.lib.stride_tricks.sliding_window_view(sp, win)[starts + left]
 
 
 def _log_energy(raw: np.ndarray) -> np.ndarray:
