@@ -104,7 +104,8 @@ def _mel_and_log_energy(audio: Audio, *, fps: float, n_frames: int, n_mels: int,
                         pre_emph: float) -> tuple[np.ndarray, np.ndarray]:
     """Mel power ``(T, n_mels)`` and log energy ``(T,)`` of every frame, a chunk of frames at a
     time (:func:`~headmotion.features.frames.frame_chunks`; each frame's values are what
-    :func:`mel_power` gives)."""
+    :func:`mel_power` gives, to the rounding of the mel matrix product, which may depend on the
+    number of rows: ~1e-14 relative)."""
     win = max(2, int(round(window_s * audio.sample_rate)))
     n_fft = 1 << int(np.ceil(np.log2(win)))
     bank, _ = _mel_bank(int(audio.sample_rate), n_fft, int(n_mels))
