@@ -230,8 +230,10 @@ epochs, each stopped after ``patience`` (4) epochs without a better validation l
 
 Determinism — ``fit`` seeds torch with ``random_state`` inside ``torch.random.fork_rng`` (the caller's global generator
 is left untouched), enables ``torch.use_deterministic_algorithms`` for the duration of ``fit``, and
-uses ``n_threads`` intra-op threads in ``fit`` and ``predict`` (``None``: torch's setting); the same
-seed and thread count give the same model bit for bit on CPU.  The default is **one** thread: the
+uses ``n_threads`` intra-op threads in ``fit`` (``None``: torch's setting); the same seed and thread
+count give the same model bit for bit on CPU.  ``predict``, ``stream`` and ``embed`` run the
+networks with numpy from the arrays the model file stores (:mod:`headmotion.models.numpy_nets`:
+loading and synthesising never import torch), with ``n_threads`` BLAS threads.  The default is **one** thread: the
 networks are small (mini-batches of 256–1000 frames × a few hundred units), so a second thread
 gains little on an idle machine and loses badly on a shared one — on this 2-core machine with other
 jobs running, fitting ``cccae`` on 5 minutes of speech took 59 s with one thread and 134 s with two.
