@@ -56,4 +56,7 @@ def test_model_block_by_block_equals_its_stream(examples_dir, path):
     parts = [st.push(x[i:i + 1234]).rotvec for i in range(0, len(x), 1234)] + [st.flush().rotvec]
     b = np.vstack([p for p in parts if len(p)])
     assert len(a) == len(b) > 100 and a.fps == m.frame_rate
-    np.testing.assert_allclose(a.rotvec, b, atol=1e-9)
+    # a causal system gives the same frames for any chunking; a DNN stream's network sees other
+    # batch sizes for other chunkings, and float32 matrix products round differently per batch
+    # size: the DNN stream contract's 1e-6 rad (systems/dnn_stream.py)
+    np.testing.assert_allclose(a.rotvec, b, atol=1e-9 if m.name.startswith("tws") else 1e-6)

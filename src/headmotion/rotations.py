@@ -20,7 +20,9 @@ Euler angles are never implicit: every function that takes or returns them needs
 string in scipy's notation — upper case for intrinsic rotations (``"YXZ"``: yaw, then pitch about
 the new x, then roll), lower case for extrinsic.  The conversions themselves are scipy's
 (:class:`scipy.spatial.transform.Rotation`), which implements eq 2.15–2.18; only the naming and the
-convention live here.
+convention live here.  The Euler and quaternion conversions every synthesis needs run the same
+steps in numpy (:mod:`headmotion.quaternions`, equal to scipy's to ~1e-15 rad), so that writing
+motion does not import scipy.spatial; the rest imports scipy's ``Rotation`` on first use.
 """
 
 from __future__ import annotations
@@ -28,9 +30,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from . import quaternions
 from .errors import ParameterError
+
+
+def _rotation():
+    """scipy's ``Rotation``, imported on first use: the conversions that every synthesis needs
+    (Euler angles, quaternions) run in :mod:`headmotion.quaternions` without scipy.spatial."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation
 
 #: Names of the rotation-vector components, in column order.
 AXIS_NAMES = ("pitch", "yaw", "roll")
@@ -65,7 +75,7 @@ def _as_rotvec_array(rotvec) -> np.ndarray:
 
 def rotvec_to_matrix(rotvec) -> np.ndarray:
     """Rotation vectors ``(T, 3)`` → rotation matrices ``(T, 3, 3)`` (eq 2.15–2.18)."""
-    return Rotation.from_rotvec(_as_rotvec_array(rotvec)).as_matrix()
+    return _rotation().from_rotvec(_as_rotvec_array(rotvec)).as_matrix()
 
 
 def matrix_to_rotvec(matrix) -> np.ndarray:
@@ -76,12 +86,13 @@ def matrix_to_rotvec(matrix) -> np.ndarray:
         m = m[None]
     if m.ndim != 3 or m.shape[1:] != (3, 3):
         raise ParameterError(f"rotation matrices must have shape (T, 3, 3); got {m.shape}")
-    return Rotation.from_matrix(m).as_rotvec()
+    return _rotation().from_matrix(m).as_rotvec()
 
 
 def rotvec_to_quat(rotvec, *, scalar_first: bool = True) -> np.ndarray:
     """Rotation vectors ``(T, 3)`` → unit quaternions ``(T, 4)``, ``(w, x, y, z)`` by default."""
-    return Rotation.from_rotvec(_as_rotvec_array(rotvec)).as_quat(scalar_first=scalar_first)
+    q = quaternions.rotvec_to_quat(_as_rotvec_array(rotvec))            # (x, y, z, w)
+    return np.column_stack([q[:, 3], q[:, :3]]) if scalar_first else q
 
 
 def quat_to_rotvec(quat, *, scalar_first: bool = True) -> np.ndarray:
@@ -94,14 +105,15 @@ def quat_to_rotvec(quat, *, scalar_first: bool = True) -> np.ndarray:
     norms = np.linalg.norm(q, axis=1)
     if np.any(norms < 1e-12) or not np.all(np.isfinite(q)):
         raise ParameterError("quaternions must be finite and non-zero")
-    return Rotation.from_quat(q, scalar_first=scalar_first).as_rotvec()
+    return _rotation().from_quat(q, scalar_first=scalar_first).as_rotvec()
 
 
 def rotvec_to_euler(rotvec, order: str, *, degrees: bool = False) -> np.ndarray:
     """Rotation vectors ``(T, 3)`` → Euler angles ``(T, 3)`` in the named ``order``.
 
     Column ``i`` is the angle about axis ``order[i]``."""
-    return Rotation.from_rotvec(_as_rotvec_array(rotvec)).as_euler(_check_order(order), degrees=degrees)
+    e = quaternions.rotvec_to_euler(_as_rotvec_array(rotvec), _check_order(order))
+    return np.rad2deg(e) if degrees else e
 
 
 def euler_to_rotvec(angles, order: str, *, degrees: bool = False) -> np.ndarray:
@@ -111,7 +123,7 @@ def euler_to_rotvec(angles, order: str, *, degrees: bool = False) -> np.ndarray:
         a = a[None]
     if a.ndim != 2 or a.shape[1] != 3:
         raise ParameterError(f"Euler angles must have shape (T, 3); got {a.shape}")
-    return Rotation.from_euler(_check_order(order), a, degrees=degrees).as_rotvec()
+    return quaternions.euler_to_rotvec(np.deg2rad(a) if degrees else a, _check_order(order))
 
 
 def pitch_yaw_roll_to_rotvec(pitch, yaw, roll, *, degrees: bool = False) -> np.ndarray:
@@ -155,8 +167,8 @@ def rotvec_to_pitch_yaw_roll(rotvec, *, degrees: bool = False) -> np.ndarray:
 
 def relative_rotvec(parent_rotvec, child_rotvec) -> np.ndarray:
     """Rotation of ``child`` expressed in ``parent``'s frame: ``R_parent^T R_child`` as rotvecs."""
-    p = Rotation.from_rotvec(_as_rotvec_array(parent_rotvec))
-    c = Rotation.from_rotvec(_as_rotvec_array(child_rotvec))
+    p = _rotation().from_rotvec(_as_rotvec_array(parent_rotvec))
+    c = _rotation().from_rotvec(_as_rotvec_array(child_rotvec))
     return (p.inv() * c).as_rotvec()
 
 

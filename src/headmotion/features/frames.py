@@ -52,8 +52,39 @@ def frame_signal(x: np.ndarray, *, sample_rate: float, fps: float, n_frames: int
     left = int(max(0, -starts.min()))
     right = int(max(0, starts.max() + win_length - len(x)))
     xp = np.pad(x, (left, right)) if (left or right) else x
-    idx = (starts + left)[:, None] + np.arange(win_length)[None, :]
-    return xp[idx]
+    # rows of a strided view: no (n_frames, win_length) index matrix (8 bytes per sample of output)
+    return np.lib.stride_tricks.sliding_window_view(xp, win_length)[starts + left]
+
+
+#: frames gathered at a time by :func:`frame_chunks` (a chunk of 25 ms windows at 16 kHz: 6.5 MB)
+CHUNK_FRAMES = 4096
+
+
+def frame_chunks(x: np.ndarray, *, sample_rate: float, fps: float, n_frames: int, win_length: int,
+                 chunk: int = CHUNK_FRAMES):
+    """The rows of :func:`frame_signal` ``chunk`` frames at a time: yields ``(first, frames)``
+    with ``frames`` the windows of frames ``first … first + len(frames) − 1`` (the same values),
+    so that an analysis of a long recording never holds all its windows at once."""
+    if win_length < 1:
+        raise ParameterError(f"win_length must be at least 1 sample; got {win_length}")
+    x = np.asarray(x)
+    starts = np.floor(frame_centres(max(n_frames, 0), sample_rate, fps) - win_length / 2 + 0.5).astype(np.int64)
+    for a in range(0, max(n_frames, 0), int(chunk)):
+        s = starts[a:a + int(chunk)]
+        lo, hi = max(0, int(s[0])), min(len(x), int(s[-1]) + win_length)
+        left, right = int(max(0, -s[0])), int(max(0, s[-1] + win_length - len(x)))
+        sub = x[lo:max(lo, hi)]
+        sp = np.pad(sub, (left, right)) if (left or right) else sub
+        yield a, np.lib.stride_tricks.sliding_window_view(sp, win_length)[s - lo + left]
+
+
+def frame_log_energy_db(x: np.ndarray, *, sample_rate: float, fps: float, n_frames: int, win_length: int,
+                        floor_db: float = -100.0) -> np.ndarray:
+    """``log_energy_db(frame_signal(x, ...))`` without holding every window at once."""
+    out = np.empty(max(n_frames, 0))
+    for a, frames in frame_chunks(x, sample_rate=sample_rate, fps=fps, n_frames=n_frames, win_length=win_length):
+        out[a:a + len(frames)] = log_energy_db(frames, floor_db=floor_db)
+    return out
 
 
 def deltas(x: np.ndarray, *, width: int = 5) -> np.ndarray:
@@ -142,5 +173,5 @@ def log_energy_db(frames: np.ndarray, window: np.ndarray | None = None, floor_db
     return np.maximum(10.0 * np.log10(np.maximum(p, 1e-30)), floor_db)
 
 
-__all__ = ["frame_centres", "frame_signal", "deltas", "with_deltas", "moving_average", "fit_length",
+__all__ = ["frame_centres", "frame_signal", "frame_chunks", "frame_log_energy_db", "deltas", "with_deltas", "moving_average", "fit_length",
            "pre_emphasis", "log_energy_db"]

@@ -22,7 +22,7 @@ import functools
 import numpy as np
 
 from ..types import Audio
-from .frames import frame_signal, pre_emphasis, with_deltas
+from .frames import frame_chunks, frame_signal, pre_emphasis, with_deltas
 
 LOG_FLOOR = 1e-10
 
@@ -75,6 +75,14 @@ def _frames(audio: Audio, fps: float, n_frames: int, window_s: float, pre_emph: 
     return raw, emph, win
 
 
+def _mel_power_of(emph: np.ndarray, win: int, bank: np.ndarray, n_fft: int) -> np.ndarray:
+    from scipy.fft import rfft
+
+    spec = rfft(emph.astype(np.float32) * np.hamming(win).astype(np.float32)[None, :], n=n_fft, axis=1)
+    pspec = (spec.real ** 2 + spec.imag ** 2).astype(np.float64)
+    return pspec @ bank.T
+
+
 def mel_power(audio: Audio, *, fps: float, n_frames: int, n_mels: int = 26, window_s: float = 0.025,
               pre_emph: float = 0.97, raw_frames: bool = False):
     """Mel-filterbank power per frame.
@@ -87,13 +95,29 @@ def mel_power(audio: Audio, *, fps: float, n_frames: int, n_mels: int = 26, wind
     """
     raw, emph, win = _frames(audio, fps, n_frames, window_s, pre_emph)
     n_fft = 1 << int(np.ceil(np.log2(win)))
-    from scipy.fft import rfft
-
-    spec = rfft(emph.astype(np.float32) * np.hamming(win).astype(np.float32)[None, :], n=n_fft, axis=1)
-    pspec = (spec.real ** 2 + spec.imag ** 2).astype(np.float64)
     bank, centres = _mel_bank(int(audio.sample_rate), n_fft, int(n_mels))
-    power = pspec @ bank.T
+    power = _mel_power_of(emph, win, bank, n_fft)
     return (power, centres, raw) if raw_frames else (power, centres)
+
+
+def _mel_and_log_energy(audio: Audio, *, fps: float, n_frames: int, n_mels: int, window_s: float,
+                        pre_emph: float) -> tuple[np.ndarray, np.ndarray]:
+    """Mel power ``(T, n_mels)`` and log energy ``(T,)`` of every frame, a chunk of frames at a
+    time (:func:`~headmotion.features.frames.frame_chunks`; each frame's values are what
+    :func:`mel_power` gives, to the rounding of the mel matrix product, which may depend on the
+    number of rows: ~1e-14 relative)."""
+    win = max(2, int(round(window_s * audio.sample_rate)))
+    n_fft = 1 << int(np.ceil(np.log2(win)))
+    bank, _ = _mel_bank(int(audio.sample_rate), n_fft, int(n_mels))
+    x = np.asarray(audio.samples)
+    emph_x = pre_emphasis(x, pre_emph) if pre_emph else x
+    power = np.empty((max(n_frames, 0), int(n_mels)))
+    energy = np.empty(max(n_frames, 0))
+    opts = dict(sample_rate=audio.sample_rate, fps=fps, n_frames=n_frames, win_length=win)
+    for (a, raw), (_, emph) in zip(frame_chunks(x, **opts), frame_chunks(emph_x, **opts)):
+        power[a:a + len(raw)] = _mel_power_of(emph, win, bank, n_fft)
+        energy[a:a + len(raw)] = _log_energy(raw)
+    return power, energy
 
 
 def _log_energy(raw: np.ndarray) -> np.ndarray:
@@ -111,14 +135,14 @@ def mfcc(audio: Audio, *, fps: float, n_frames: int, n_ceps: int = 12, n_mels: i
     """
     from scipy.fft import dct
 
-    power, _, raw = mel_power(audio, fps=fps, n_frames=n_frames, n_mels=n_mels, window_s=window_s,
-                              pre_emph=pre_emph, raw_frames=True)
+    power, energy = _mel_and_log_energy(audio, fps=fps, n_frames=n_frames, n_mels=n_mels, window_s=window_s,
+                                        pre_emph=pre_emph)
     logmel = np.log(np.maximum(power, LOG_FLOOR))
     ceps = dct(logmel, type=2, norm="ortho", axis=1)[:, 1:n_ceps + 1]
     if lifter:
         n = np.arange(1, n_ceps + 1)
         ceps = ceps * (1.0 + (lifter / 2.0) * np.sin(np.pi * n / lifter))[None, :]
-    static = np.hstack([_log_energy(raw)[:, None], ceps])
+    static = np.hstack([energy[:, None], ceps])
     names = ["energy"] + [f"c{i}" for i in range(1, n_ceps + 1)]
     if not deltas:
         return static, names
@@ -134,11 +158,11 @@ def fbank(audio: Audio, *, fps: float, n_frames: int, n_mels: int = 26, window_s
     values : np.ndarray [shape=(T, n_mels + 1)]
     names : ``mel01..mel26, energy`` (bands from low to high frequency)
     """
-    power, _, raw = mel_power(audio, fps=fps, n_frames=n_frames, n_mels=n_mels, window_s=window_s,
-                              pre_emph=pre_emph, raw_frames=True)
+    power, energy = _mel_and_log_energy(audio, fps=fps, n_frames=n_frames, n_mels=n_mels, window_s=window_s,
+                                        pre_emph=pre_emph)
     logmel = np.log(np.maximum(power, LOG_FLOOR))
     names = [f"mel{i:02d}" for i in range(1, n_mels + 1)] + ["energy"]
-    return np.hstack([logmel, _log_energy(raw)[:, None]]), names
+    return np.hstack([logmel, energy[:, None]]), names
 
 
 __all__ = ["mfcc", "fbank", "mel_power", "hz_to_mel", "mel_to_hz", "a_weighting_db"]

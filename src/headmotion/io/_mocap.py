@@ -20,7 +20,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..errors import ParameterError
 from ..rotations import kabsch
@@ -156,6 +155,8 @@ def rigid_body_track(points: np.ndarray, *, min_markers: int = 3):
     ok = np.all(np.isfinite(rot.reshape(T, 9)), axis=1)
     if not ok.any():
         return None, None, None, 0
+    from scipy.spatial.transform import Rotation  # here: writing motion does not need scipy.spatial
+
     mean = Rotation.from_matrix(rot[ok]).mean().as_matrix()
     rot[ok] = rot[ok] @ mean.T
     ref = ref @ mean.T

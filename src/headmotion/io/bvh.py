@@ -47,13 +47,18 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-from scipy.spatial.transform import Rotation
+from typing import TYPE_CHECKING
 
+import numpy as np
+
+from .. import quaternions
 from ..errors import FormatError, NoHeadError, ParameterError
 from ..types import Motion
 from ._limits import FPS_RANGE, parse_count, read_text
 from ._mocap import axis_matrix
+
+if TYPE_CHECKING:  # scipy.spatial is imported where BVH files are read, not to write one
+    from scipy.spatial.transform import Rotation
 from .atomic import atomic_open
 
 _TORSO_WORDS = ("spine", "chest", "torso", "thorax", "back")
@@ -104,6 +109,8 @@ class BVHFile:
         return self.names.index(name)
 
     def local_rotations(self, j: int) -> Rotation:
+        from scipy.spatial.transform import Rotation
+
         joint = self.joints[j]
         cols = joint.rotation_columns()
         if not cols:
@@ -378,6 +385,8 @@ def load_bvh(path, *, head: str | None = None, relative_to: str | None = None,
         chain = _path_from_root(bvh, h)
     else:
         chain = bvh.chain(ref, h)
+    from scipy.spatial.transform import Rotation
+
     rot = Rotation.identity(len(bvh.frames))
     for j in chain:
         rot = rot * bvh.local_rotations(j)
@@ -441,11 +450,12 @@ def save_bvh(motion: Motion, path, *, channel_order: str = "ZXY", neck_share: fl
         raise ParameterError(f"save_bvh needs a Motion; got {type(motion).__name__}")
     if len(motion) == 0:
         raise ParameterError("cannot write a BVH file with zero frames")
-    r = Rotation.from_rotvec(np.array(motion.rotvec))
-    neck = Rotation.from_rotvec(np.array(motion.rotvec) * s)
-    head = neck.inv() * r
-    neck_e = neck.as_euler(order, degrees=True)
-    head_e = head.as_euler(order, degrees=True)
+    # neck = R(s·r), head = neck⁻¹ ⊗ R(r), as Euler angles (scipy Rotation's steps, in numpy)
+    r = quaternions.rotvec_to_quat(np.array(motion.rotvec))
+    neck = quaternions.rotvec_to_quat(np.array(motion.rotvec) * s)
+    head = quaternions.compose(neck * [-1.0, -1.0, -1.0, 1.0], r)
+    neck_e = np.rad2deg(quaternions.quat_to_euler(neck, order))
+    head_e = np.rad2deg(quaternions.quat_to_euler(head, order))
     chans = " ".join(f"{a}rotation" for a in order)
     T = len(motion)
     lines = ["HIERARCHY"]

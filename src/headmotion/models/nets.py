@@ -304,22 +304,9 @@ class ContextRegressor(nn.Module):
         return self.net(x)
 
 
-#: how sequences are padded beyond their ends: the edge frame repeated, or mirrored about it
-PAD_MODES = ("edge", "reflect")
-
-
-def pad_indices(idx, n: int, mode: str = "edge") -> np.ndarray:
-    """Frame numbers ``idx`` (any integers) of a sequence of ``n`` frames mapped into ``[0, n)``:
-    ``"edge"`` clips to the end frames; ``"reflect"`` mirrors about them (``-1 → 1``,
-    ``n → n − 2``, as ``numpy.pad(mode="reflect")``; periodic for indices beyond one length)."""
-    idx = np.asarray(idx, dtype=np.int64)
-    if n <= 1 or mode == "edge":
-        return np.clip(idx, 0, max(n - 1, 0))
-    if mode != "reflect":
-        raise ValueError(f"padding mode must be one of {PAD_MODES}; got {mode!r}")
-    period = 2 * (n - 1)
-    i = np.mod(idx, period)
-    return np.where(i > n - 1, period - i, i)
+# how sequences are padded beyond their ends (PAD_MODES, pad_indices) and how synthesis pads them
+# (SYNTHESIS_PAD) live with the inference code, which does not import torch
+from .numpy_nets import PAD_MODES, SYNTHESIS_PAD, pad_indices  # noqa: E402,F401
 
 
 class PaddedSequences:
@@ -352,27 +339,15 @@ def gather_windows(data: torch.Tensor, starts: torch.Tensor, width: int) -> torc
     return data[idx].reshape(len(starts), -1)
 
 
-#: how :func:`predict_regressor` pads a sequence's ends (module docstring)
-SYNTHESIS_PAD = "reflect"
-
-
 def predict_regressor(net: ContextRegressor, features: np.ndarray, *, chunk: int = 4096,
                       pad: str | None = None) -> np.ndarray:
     """Apply the regressor to every frame of one sequence: ``(T, D) -> (T, out_dim)``; the
     context beyond the ends padded as ``pad`` says (:func:`pad_indices`; None:
-    :data:`SYNTHESIS_PAD`, read when called)."""
-    feats = np.asarray(features, dtype=np.float32)
-    if len(feats) == 0:
-        return np.zeros((0, net.out_dim), dtype=np.float32)
-    seq = PaddedSequences([feats], net.context, mode=SYNTHESIS_PAD if pad is None else pad)
-    width = 2 * net.context + 1
-    net.eval()
-    out = []
-    with torch.no_grad():
-        for s in range(0, len(feats), chunk):
-            starts = torch.arange(s, min(s + chunk, len(feats)))
-            out.append(net(gather_windows(seq.data, starts, width)))
-    return torch.cat(out, 0).numpy()
+    :data:`headmotion.models.numpy_nets.SYNTHESIS_PAD`).  Runs the inference code of
+    :mod:`headmotion.models.numpy_nets` on the module's weights, as synthesis does."""
+    from . import numpy_nets
+
+    return numpy_nets.predict_regressor(net, features, chunk=chunk, pad=pad)
 
 
 def train_regressor(net: ContextRegressor, train: PaddedSequences, train_starts: np.ndarray,
@@ -481,43 +456,12 @@ def train_postfilter(dae: StackedAutoencoder, train_segments: np.ndarray, valid_
 
 def apply_postfilter(dae: StackedAutoencoder, motion: np.ndarray, *, segment: int = DEFAULT_SEGMENT,
                      hop: int | None = None) -> np.ndarray:
-    """Filter a ``(T, dims)`` trajectory in ``segment``-frame blocks joined by overlap-add.
+    """Filter a ``(T, dims)`` trajectory in ``segment``-frame blocks joined by Hann overlap-add
+    (:func:`headmotion.models.numpy_nets.apply_postfilter`, the inference code synthesis runs,
+    on the module's weights)."""
+    from . import numpy_nets
 
-    The trajectory is edge-padded by ``hop`` frames in front (and enough at the end), cut into
-    blocks every ``hop`` frames (default ``segment // 2``), each block's mean is removed, the
-    block goes through the autoencoder, the mean is added back, and the blocks are summed with a
-    Hann window (sampled at half-frame offsets, so never zero) normalised by the summed window
-    (which is exactly 1 for 50 % overlap).
-
-    Returns
-    -------
-    np.ndarray [shape=(T, dims), dtype=float32]
-    """
-    y = np.asarray(motion, dtype=np.float32)
-    T, dims = y.shape
-    if T == 0:
-        return y.copy()
-    hop = segment // 2 if hop is None else int(hop)
-    if not 1 <= hop <= segment:
-        raise ValueError(f"hop must be in [1, {segment}]; got {hop}")
-    back = hop + (-(T + hop - segment) % hop) if T + hop >= segment else segment - T
-    yp = np.pad(y, ((hop, back), (0, 0)), mode="edge")
-    starts = np.arange(0, len(yp) - segment + 1, hop)
-    blocks = np.stack([yp[s:s + segment] for s in starts])            # (n, seg, dims)
-    means = blocks.mean(axis=1, keepdims=True)
-    with torch.no_grad():
-        out = dae(torch.from_numpy((blocks - means).reshape(len(blocks), -1))).numpy()
-    out = out.reshape(blocks.shape) + means
-    # Hann window sampled half a frame off its zeros: positive everywhere, and two copies half a
-    # segment apart sum to exactly 1 (sin² + cos²)
-    w = (np.sin(np.pi * (np.arange(segment) + 0.5) / segment) ** 2).astype(np.float32)
-    acc = np.zeros_like(yp)
-    wsum = np.zeros(len(yp), dtype=np.float32)
-    for s, b in zip(starts, out):
-        acc[s:s + segment] += w[:, None] * b
-        wsum[s:s + segment] += w
-    res = acc[hop:hop + T] / np.maximum(wsum[hop:hop + T], 1e-6)[:, None]
-    return res.astype(np.float32)
+    return numpy_nets.apply_postfilter(dae, motion, segment=segment, hop=hop)
 
 
 # -- state dicts as numpy (model files never pickle) ---------------------------------------------

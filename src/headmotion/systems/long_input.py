@@ -16,8 +16,13 @@ import numpy as np
 from ..errors import ParameterError
 from ..types import Motion
 
-#: Inputs longer than this (seconds) are synthesised block by block by ``headmotion synth``.
-LONG_INPUT_SECONDS = 600.0
+#: Inputs longer than this (seconds) are synthesised block by block by ``headmotion synth`` (when
+#: the model streams).  Two minutes: a whole-file synthesis of the default holds ~20 MB per minute
+#: of speech (the samples, their pre-emphasised copy, the features), so the peak RSS of any input
+#: stays within ~40 MB of a 10-second one, and the block path's time per minute is the whole
+#: file's; shorter inputs keep the offline computation exactly (the stream agrees with it to
+#: 1e-6 rad, not bit for bit: the network sees other batch sizes).
+LONG_INPUT_SECONDS = 120.0
 
 
 def predict_file_in_blocks(model, path, *, seed=None, gain=1.0, offset=0.0, block_seconds: float = 30.0,

@@ -27,7 +27,7 @@ state); no library does per-utterance GV scaling or a seeded OU process.
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import lfilter
+from ..iir import butter_lowpass, lfilter  # scipy.signal's, bit for bit, without importing it
 
 from ..bands import BAND_EDGES_HZ
 
@@ -71,7 +71,7 @@ def ou_process(n: int, dims: int, *, fps: float, tau_s: float, rng: np.random.Ge
     e = rng.standard_normal((n, dims))
     e[1:] *= np.sqrt(1.0 - a * a)
     # x_t = a x_{t-1} + e_t with x_0 = e_0: a first-order IIR filter over time
-    return lfilter([1.0], [1.0, -a], e, axis=0)
+    return lfilter([1.0], [1.0, -a], e)
 
 
 def add_drift(y: np.ndarray, *, share: float, sd, fps: float, tau_s: float, rng: np.random.Generator) -> np.ndarray:
@@ -100,10 +100,8 @@ class BandSplit:
     only blurs the edges of what each gain controls."""
 
     def __init__(self, *, fps: float, dims: int, edges=BAND_EDGES_HZ):
-        from scipy.signal import butter
-
         nyq = 0.5 * float(fps)
-        self.filters = [butter(2, min(float(e), 0.95 * nyq), fs=float(fps)) for e in edges]
+        self.filters = [butter_lowpass(2, min(float(e), 0.95 * nyq), float(fps)) for e in edges]
         self.state = [np.zeros((2, int(dims))) for _ in edges]
 
     @property
@@ -115,7 +113,7 @@ class BandSplit:
         out = np.empty((len(x), self.n_bands, x.shape[1]))
         rest = x
         for k, (b, a) in enumerate(self.filters):
-            lo, self.state[k] = lfilter(b, a, rest, axis=0, zi=self.state[k])
+            lo, self.state[k] = lfilter(b, a, rest, zi=self.state[k])
             out[:, k] = lo
             rest = rest - lo
         out[:, -1] = rest
@@ -214,7 +212,7 @@ class CausalPost:
             else:
                 e *= np.sqrt(1.0 - self.a * self.a)
                 zi = (self.a * self.x)[None]
-            slow, _ = lfilter([1.0], [1.0, -self.a], e, axis=0, zi=zi)
+            slow, _ = lfilter([1.0], [1.0, -self.a], e, zi=zi)
             self.x = slow[-1].copy()
             out = out + np.sqrt(self.share) * self.sd * slow
         return out

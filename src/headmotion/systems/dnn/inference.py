@@ -1,68 +1,46 @@
 """Every inference-time forward pass of the DNN systems' networks (paper §3.1–3.3): the
 autoencoder's encoder, the ±context regressor and the denoising post-filter, offline and on a
-stream.  The one place a different backend for the trained weights plugs in; everything else in
+stream.  The one place the trained weights are run; everything else in
 :mod:`headmotion.systems.dnn` calls these functions.
 
-The networks are PyTorch modules of :mod:`headmotion.models.nets` in eval mode; inference needs no
-seeding (no dropout in eval mode), only the model's intra-op thread count (:func:`threads`).
+The networks run in numpy from the arrays a model file stores
+(:mod:`headmotion.models.numpy_nets`), so loading a model and synthesising never import PyTorch;
+PyTorch is what training uses.  Inference needs no seeding (no dropout at inference), only the
+model's thread count (:func:`threads`).
 """
 
 from __future__ import annotations
 
-import contextlib
-
 import numpy as np
 
+from ...models import numpy_nets
 
-@contextlib.contextmanager
+
 def threads(n: int | None):
-    """torch's intra-op threads set to ``n`` for the block (None: torch's setting)."""
-    import torch
-
-    prev = torch.get_num_threads()
-    if n:
-        torch.set_num_threads(int(n))
-    try:
-        yield
-    finally:
-        if n:
-            torch.set_num_threads(prev)
+    """A context manager: ``n`` BLAS threads for the block (None: the library's setting)."""
+    return numpy_nets.inference_threads(n)
 
 
 def encode(autoencoder, x: np.ndarray) -> np.ndarray:
     """The autoencoder's code of normalised feature frames ``x`` ``(T, D)`` (float32)."""
-    import torch
-
-    with torch.no_grad():
-        return autoencoder.encode(torch.from_numpy(np.ascontiguousarray(x))).numpy()
+    return numpy_nets.encode(autoencoder, x)
 
 
 def regress(regressor, r: np.ndarray) -> np.ndarray:
     """The regressor on every frame of one sequence ``r`` ``(T, D)``, the context beyond its ends
-    padded as :data:`headmotion.models.nets.SYNTHESIS_PAD` says: ``(T, 3)`` float32."""
-    from ...models import nets
-
-    return nets.predict_regressor(regressor, r)
+    padded as :data:`headmotion.models.numpy_nets.SYNTHESIS_PAD` says: ``(T, 3)`` float32."""
+    return numpy_nets.predict_regressor(regressor, r)
 
 
 def regress_windows(regressor, z: np.ndarray, n: int) -> np.ndarray:
     """The regressor on the ``n`` frames whose windows ``z[v : v + 2·context + 1]`` (``v < n``)
     are already padded (a stream's block): ``(n, 3)`` float32."""
-    import torch
-
-    from ...models import nets
-
-    with torch.no_grad():
-        return regressor(nets.gather_windows(torch.from_numpy(np.ascontiguousarray(z)), torch.arange(n),
-                                             2 * int(regressor.context) + 1)).numpy()
+    return numpy_nets.regress_padded(regressor, z, n)
 
 
 def postfilter(filt, y: np.ndarray, *, segment: int) -> np.ndarray:
-    """The post-filter over ``segment``-frame blocks joined by overlap-add
-    (:func:`headmotion.models.nets.apply_postfilter`): ``(T, 3)`` float32."""
-    from ...models import nets
-
-    return nets.apply_postfilter(filt, y, segment=int(segment))
+    """The post-filter over ``segment``-frame blocks joined by overlap-add: ``(T, 3)`` float32."""
+    return numpy_nets.apply_postfilter(filt, y, segment=int(segment))
 
 
 def network_output(regressor, filt, r: np.ndarray, *, segment: int) -> np.ndarray:

@@ -14,7 +14,7 @@ from .training import clean_json
 
 def get_state(system) -> tuple[dict, dict[str, np.ndarray]]:
     """``(config, arrays)`` of a fitted system."""
-    from ...models import nets
+    from ...models import numpy_nets
 
     params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in system.get_params().items()}
     config = {
@@ -44,10 +44,10 @@ def get_state(system) -> tuple[dict, dict[str, np.ndarray]]:
     if system.embedding_norm_ is not None:
         arrays.update(system.embedding_norm_.to_arrays("embedding_norm"))
     if system.autoencoder_ is not None:
-        arrays.update(nets.state_to_arrays(system.autoencoder_, "autoencoder/"))
-    arrays.update(nets.state_to_arrays(system.regressor_, "regressor/"))
+        arrays.update(numpy_nets.state_arrays(system.autoencoder_, "autoencoder/"))
+    arrays.update(numpy_nets.state_arrays(system.regressor_, "regressor/"))
     if system.postfilter_ is not None:
-        arrays.update(nets.state_to_arrays(system.postfilter_, "postfilter/"))
+        arrays.update(numpy_nets.state_arrays(system.postfilter_, "postfilter/"))
     return clean_json(config), arrays
 
 
@@ -67,29 +67,11 @@ def _params(system, config) -> dict:
 
 
 def _networks(system, arrays) -> None:
-    """The autoencoder, regressor and post-filter with their stored weights, in eval mode."""
-    from ...models import nets
+    """The autoencoder, regressor and post-filter as numpy networks with their stored weights
+    (synthesis never imports torch; shapes are checked against the settings)."""
+    from ...models import numpy_nets
 
-    system.autoencoder_ = None
-    in_dim = system.input_dim_
-    if system.uses_embedding:
-        system.autoencoder_ = nets.StackedAutoencoder(system.input_dim_, hidden=tuple(system.ae_hidden),
-                                                      code_dim=int(system.embedding_dim),
-                                                      activation=str(system.ae_activation))
-        nets.arrays_to_state(system.autoencoder_, arrays, "autoencoder/")
-        system.autoencoder_.eval()
-        in_dim = int(system.embedding_dim)
-    system.regressor_ = nets.ContextRegressor(in_dim, context=int(system.context),
-                                              hidden=tuple(system.regressor_hidden), dropout=float(system.dropout))
-    nets.arrays_to_state(system.regressor_, arrays, "regressor/")
-    system.regressor_.eval()
-    system.postfilter_ = None
-    if system.postfilter:
-        system.postfilter_ = nets.make_postfilter(segment=int(system.segment), dims=3,
-                                                  hidden=tuple(system.postfilter_hidden),
-                                                  code_dim=int(system.postfilter_code))
-        nets.arrays_to_state(system.postfilter_, arrays, "postfilter/")
-        system.postfilter_.eval()
+    system.autoencoder_, system.regressor_, system.postfilter_ = numpy_nets.load_system_nets(system, arrays)
 
 
 def set_state(system, config, arrays) -> None:

@@ -27,12 +27,11 @@ PAUSE_PULL = 0.3
 def frame_energy_db(samples: np.ndarray, *, sample_rate: int, fps: float, n_frames: int) -> np.ndarray:
     """Mean power (dBFS) of the 25 ms window centred on each of the first ``n_frames`` frames
     (zeros outside the signal): the pause detector's input."""
-    from ...features.frames import frame_signal, log_energy_db
+    from ...features.frames import frame_log_energy_db  # a chunk of windows at a time
 
     win = max(2, int(round(ENERGY_WINDOW_S * sample_rate)))
-    frames = frame_signal(np.asarray(samples, dtype=np.float32), sample_rate=sample_rate, fps=fps,
-                          n_frames=n_frames, win_length=win)
-    return log_energy_db(frames)
+    return frame_log_energy_db(np.asarray(samples, dtype=np.float32), sample_rate=sample_rate, fps=fps,
+                               n_frames=n_frames, win_length=win)
 
 
 def post_tables(system) -> PostTables:

@@ -248,7 +248,7 @@ class DnnSystem(Synthesizer):
             raise ParameterError(
                 f"this {self.name} model works at {float(self.model_fps):g} frames/s; the feature track is at {fps:g}")
         self._validate_params()
-        with training.torch_context(0, self.n_threads, deterministic=False):
+        with inference.threads(self.n_threads):
             rv = self._predict_values(values, seed=self._synthesis_seed(seed))
         return Motion(rv, float(self.model_fps), meta={"system": self.name})
 
@@ -258,7 +258,7 @@ class DnnSystem(Synthesizer):
         mfps = float(self.model_fps)
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
-        with training.torch_context(0, self.n_threads, deterministic=False):
+        with inference.threads(self.n_threads):
             y = self._network_values(feats)
         post = self._post(seed)
         energy = None
@@ -301,7 +301,7 @@ class DnnSystem(Synthesizer):
         T = _n_frames(len(audio.samples), audio.sample_rate, mfps)
         feats = self._extract(audio, T)
         self._check_features(feats, "the feature track")
-        with training.torch_context(0, self.n_threads, deterministic=False):
+        with inference.threads(self.n_threads):
             z = inference.encode(self.autoencoder_, np.asarray(self.feature_norm_.transform(feats), dtype=np.float32))
         names = tuple(f"e{i:02d}" for i in range(z.shape[1]))
         track = FeatureTrack(z, mfps, names)
