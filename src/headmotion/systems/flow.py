@@ -163,6 +163,7 @@ class MotionFlow(Synthesizer):
     window, prefix : int, frames (25 fps) of a window and of the known prefix it continues
     hidden, n_blocks : int, width and depth of the network
     cond_dropout : float, share of training windows without speech (the motion prior)
+    smooth_weight : float, weight of the frame-to-frame step loss (:func:`~headmotion.models.flow_net.flow_loss`)
     guidance : float, classifier-free guidance at synthesis (1 = plain conditional flow)
     sampling_steps : int, Euler steps per window
     train_steps, batch_size, learning_rate : training schedule (Adam, cosine decay)
@@ -177,13 +178,14 @@ class MotionFlow(Synthesizer):
     name: ClassVar[str] = "motion-flow"
     capabilities: ClassVar[frozenset[str]] = frozenset()
 
-    def __init__(self, *, window: int = 100, prefix: int = 20, hidden: int = 64, n_blocks: int = 8,
-                 cond_dropout: float = 0.25, guidance: float = 1.5, sampling_steps: int = 8,
-                 train_steps: int = 3000, batch_size: int = 32, learning_rate: float = 2e-3,
-                 valid_share: float = 0.15, eval_every: int = 250, augment: bool = True, device: str = "auto",
+    def __init__(self, *, window: int = 100, prefix: int = 20, hidden: int = 48, n_blocks: int = 6,
+                 cond_dropout: float = 0.5, smooth_weight: float = 0.0, guidance: float = 2.5, sampling_steps: int = 8,
+                 train_steps: int = 600, batch_size: int = 32, learning_rate: float = 2e-3,
+                 valid_share: float = 0.15, eval_every: int = 50, augment: bool = True, device: str = "auto",
                  random_state: int = 0, seed: int = 0, n_threads: int | None = None):
         self.window, self.prefix, self.hidden, self.n_blocks = window, prefix, hidden, n_blocks
-        self.cond_dropout, self.guidance, self.sampling_steps = cond_dropout, guidance, sampling_steps
+        self.cond_dropout, self.smooth_weight = cond_dropout, smooth_weight
+        self.guidance, self.sampling_steps = guidance, sampling_steps
         self.train_steps, self.batch_size, self.learning_rate = train_steps, batch_size, learning_rate
         self.valid_share, self.eval_every, self.augment, self.device = valid_share, eval_every, augment, device
         self.random_state, self.seed, self.n_threads = random_state, seed, n_threads
@@ -205,7 +207,7 @@ class MotionFlow(Synthesizer):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not lo <= v < hi:
                 raise ParameterError(f"{self.name}: {name} must be in [{lo}, {hi}); got {v!r}")
-        for name in ("guidance", "learning_rate"):
+        for name in ("guidance", "learning_rate", "smooth_weight"):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0 or (name == "learning_rate" and v == 0):
                 raise ParameterError(f"{self.name}: {name} must be a number >= 0 (learning_rate > 0); got {v!r}")
@@ -285,7 +287,8 @@ class MotionFlow(Synthesizer):
             mot, cond, val = sampler.batch(rng, int(self.batch_size))
             keep, pm = WindowSampler.masks(rng, val, float(self.cond_dropout))
             args = [torch.from_numpy(a).to(device) for a in (mot, cond, keep, pm, val)]
-            loss = flow_loss(net, args[0], args[1], args[2], args[3], args[4], generator=gen)
+            loss = flow_loss(net, args[0], args[1], args[2], args[3], args[4], generator=gen,
+                             smooth_weight=float(self.smooth_weight))
             opt.zero_grad()
             loss.backward()
             torch.nn.utils.clip_grad_norm_(net.parameters(), 1.0)
