@@ -91,7 +91,7 @@ def test_window_sampler_pads_short_recordings_and_mirrors_jointly():
 
 
 @pytest.mark.parametrize("bad", [dict(prefix=12), dict(window=4), dict(guidance=-1.0), dict(device="tpu"),
-                                 dict(cond_dropout=1.0), dict(sampling_steps=0)])
+                                 dict(cond_dropout=1.0), dict(sampling_steps=0), dict(target="noise")])
 def test_bad_parameters_are_refused(bad, corpus):
     with pytest.raises(ParameterError):
         create("motion-flow", **{**TINY, **bad}).fit(corpus)

@@ -92,22 +92,26 @@ class FlowNet(nn.Module):
 
 
 def flow_loss(net: FlowNet, x1, cond, keep, prefix_mask, valid, generator: torch.Generator | None = None,
-              smooth_weight: float = 0.0):
+              smooth_weight: float = 0.0, predict: str = "velocity"):
     """Conditional flow-matching loss of one batch.
 
     ``x1`` ``(B, 3, W)`` motion windows; ``valid`` ``(B, 1, W)`` 1 on real frames (0 on padding);
     the loss counts frames that are valid and not in the prefix.  ``smooth_weight`` adds the squared
     error of the frame-to-frame steps of the implied clean window ``x_t + (1 − t)·v`` (a velocity
     loss as in motion diffusion, MDM): it weighs the fast errors that a plain flow loss on a few
-    minutes of data leaves as jitter."""
+    minutes of data leaves as jitter.  ``predict="motion"``: the network's output is the clean window
+    itself (its velocity ``(out − x_t)/(1 − t)``) and the loss is its squared error."""
     B = x1.shape[0]
     x0 = torch.randn(x1.shape, generator=generator, device=x1.device)
     t = torch.rand((B,), generator=generator, device=x1.device)
     tt = t[:, None, None]
     x_t = (1 - tt) * x0 + tt * x1
     x_t = torch.where(prefix_mask > 0, x1, x_t)
-    v = net(x_t, t, cond, keep, x1, prefix_mask)
+    out = net(x_t, t, cond, keep, x1, prefix_mask)
     w = valid * (1 - prefix_mask)
+    if predict == "motion":
+        return ((out - x1) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1.0)
+    v = out
     loss = ((v - (x1 - x0)) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1.0)
     if smooth_weight > 0:
         err = (1 - tt) * (v - (x1 - x0))
@@ -117,7 +121,8 @@ def flow_loss(net: FlowNet, x1, cond, keep, prefix_mask, valid, generator: torch
 
 
 @torch.no_grad()
-def sample_window(net: FlowNet, noise, cond, prefix, prefix_mask, *, n_steps: int, guidance: float):
+def sample_window(net: FlowNet, noise, cond, prefix, prefix_mask, *, n_steps: int, guidance: float,
+                  predict: str = "velocity"):
     """One batch of windows ``(B, 3, W)`` by Euler integration of the guided flow from ``noise``.
 
     ``guidance`` 1 is the plain conditional flow, 0 the unconditional prior, > 1 classifier-free
@@ -135,6 +140,8 @@ def sample_window(net: FlowNet, noise, cond, prefix, prefix_mask, *, n_steps: in
             v = vu + guidance * (vc - vu)
         else:
             v = net(x, t, cond, ones, prefix, prefix_mask)
+        if predict == "motion":
+            v = (v - x) / (1.0 - i / n_steps)
         x = x + v / n_steps
         x = torch.where(prefix_mask > 0, prefix, x)
     return x

@@ -46,6 +46,8 @@ FPS = 25.0
 #: the speech features: (feature set, extractor parameters, columns kept)
 FEATURES = (("mfcc", {}, list(range(14))), ("f0e", {"voicing": True}, [0, 1, 2, 3, 6]))
 DEVICES = ("auto", "cpu", "cuda")
+#: what the network outputs: the flow's velocity, or the clean motion window
+TARGETS = ("velocity", "motion")
 
 
 def speech_features(audio: Audio, n: int) -> np.ndarray:
@@ -170,6 +172,7 @@ class MotionFlow(Synthesizer):
     valid_share : float, share of the training frames (whole speakers) kept for early stopping
     eval_every : int, steps between validations
     augment : bool, mirror / stretch / amplitude / feature-noise augmentation
+    target : "velocity" (the network predicts the flow's velocity) or "motion" (the clean window)
     device : "auto", "cpu" or "cuda" (training and synthesis; torch decides what "auto" sees)
     random_state : int, training randomness; seed : int, default synthesis seed
     n_threads : int or None, torch threads during fit and predict
@@ -182,12 +185,13 @@ class MotionFlow(Synthesizer):
                  cond_dropout: float = 0.5, smooth_weight: float = 0.0, guidance: float = 2.5, sampling_steps: int = 8,
                  train_steps: int = 600, batch_size: int = 32, learning_rate: float = 2e-3,
                  valid_share: float = 0.15, eval_every: int = 50, augment: bool = True, device: str = "auto",
-                 random_state: int = 0, seed: int = 0, n_threads: int | None = None):
+                 target: str = "velocity", random_state: int = 0, seed: int = 0, n_threads: int | None = None):
         self.window, self.prefix, self.hidden, self.n_blocks = window, prefix, hidden, n_blocks
         self.cond_dropout, self.smooth_weight = cond_dropout, smooth_weight
         self.guidance, self.sampling_steps = guidance, sampling_steps
         self.train_steps, self.batch_size, self.learning_rate = train_steps, batch_size, learning_rate
         self.valid_share, self.eval_every, self.augment, self.device = valid_share, eval_every, augment, device
+        self.target = target
         self.random_state, self.seed, self.n_threads = random_state, seed, n_threads
 
     # -- parameters ------------------------------------------------------------------------------
@@ -211,6 +215,8 @@ class MotionFlow(Synthesizer):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0 or (name == "learning_rate" and v == 0):
                 raise ParameterError(f"{self.name}: {name} must be a number >= 0 (learning_rate > 0); got {v!r}")
+        if self.target not in TARGETS:
+            raise ParameterError(f"{self.name}: target must be one of {list(TARGETS)}; got {self.target!r}")
         if self.device not in DEVICES:
             raise ParameterError(f"{self.name}: device must be one of {list(DEVICES)}; got {self.device!r}")
         if self.n_threads is not None:
@@ -288,7 +294,7 @@ class MotionFlow(Synthesizer):
             keep, pm = WindowSampler.masks(rng, val, float(self.cond_dropout))
             args = [torch.from_numpy(a).to(device) for a in (mot, cond, keep, pm, val)]
             loss = flow_loss(net, args[0], args[1], args[2], args[3], args[4], generator=gen,
-                             smooth_weight=float(self.smooth_weight))
+                             smooth_weight=float(self.smooth_weight), predict=self.target)
             opt.zero_grad()
             loss.backward()
             torch.nn.utils.clip_grad_norm_(net.parameters(), 1.0)
@@ -298,7 +304,8 @@ class MotionFlow(Synthesizer):
                 net.eval()
                 vgen = torch.Generator(device=device).manual_seed(777)
                 with torch.no_grad():
-                    v = float(np.mean([flow_loss(net, *b, generator=vgen).item() for b in vbatches]))
+                    v = float(np.mean([flow_loss(net, *b, generator=vgen, predict=self.target).item()
+                                       for b in vbatches]))
                 history.append((step, float(loss.item()), v))
                 if v < best:
                     best, best_state = v, copy.deepcopy(net.state_dict())
@@ -337,7 +344,7 @@ class MotionFlow(Synthesizer):
                 args = [torch.from_numpy(a).to(device) for a in
                         (noise, cond_all[start:start + W].T[None].copy(), out[start:start + W].T[None].copy(), pm)]
                 x = sample_window(net, args[0], args[1], args[2], args[3], n_steps=int(self.sampling_steps),
-                                  guidance=float(self.guidance))
+                                  guidance=float(self.guidance), predict=self.target)
                 out[start:start + W] = x[0].cpu().numpy().T
                 done = start + W
                 if done >= T:
