@@ -99,6 +99,7 @@ def bench_synth(res: Results, quick: bool, cache: dict):
     t = time_median(lambda: default.predict(audio, seed=0), repeats=2 if quick else 3)
     res.add(Row("2 synth", f"shipped default model ({default.name}): features + synthesis, 60 s", audio.duration / t,
                 "x RT", ">= 400x", audio.duration / t >= 400, f"{t * 1000:.0f} ms; model load excluded"))
+    _bench_generative(res, audio, corpus, quick)
     for name in systems:
         t0 = time.perf_counter()
         s = make_system(name, quick).fit(corpus)
@@ -120,6 +121,27 @@ def bench_synth(res: Results, quick: bool, cache: dict):
             own = max(t - tf, 1e-6)
             res.add(Row("3 synth only", f"{name}: synthesis given features", audio.duration / own, "x RT", "-", None,
                         f"{own * 1000:.0f} ms = predict {t * 1000:.0f} - features {tf * 1000:.0f}"))
+
+
+def _bench_generative(res: Results, audio, corpus, quick: bool):
+    """motion-flow: the shipped generative model when present, else one trained briefly on the planted
+    corpus (synthesis cost does not depend on training); wall and process CPU time, one torch thread."""
+    from headmotion.systems import create, load_model
+
+    path = ROOT / "src/headmotion/data/generative_model.hmz"
+    if path.is_file():
+        flow, what = load_model(path).set_params(n_threads=1), "shipped generative model"
+    else:
+        flow = create("motion-flow", train_steps=20 if quick else 100, n_threads=1).fit(corpus)
+        what = "trained on the planted corpus"
+    flow.predict(audio, seed=0)   # first call: torch warm-up
+    t = time_median(lambda: flow.predict(audio, seed=0), repeats=2 if quick else 3)
+    c0 = time.process_time()
+    flow.predict(audio, seed=1)
+    cpu = time.process_time() - c0
+    rt = audio.duration / t
+    res.add(Row("2 synth", f"motion-flow ({what}): features + synthesis, 60 s", rt, "x RT", ">= 100x", rt >= 100,
+                f"{t * 1000:.0f} ms wall, {cpu * 1000:.0f} ms CPU; {flow.sampling_steps} Euler steps per window"))
 
 
 def _paced_latency(stream, audio, secs: float, fps: float) -> dict:

@@ -254,9 +254,13 @@ def main(argv=None) -> int:
         f"{SOURCES[source_of(r.id)][1]} |\n" for r, d in zip(recs, secs))
     settings = {k: v for k, v in model.get_params().items()}
     streaming = "stream" in a.output.name
-    md = [f"# Model card: the {'streaming ' if streaming else ''}default model (`{a.output.name}`)\n",
+    generative = "generative" in a.output.name
+    md = [f"# Model card: the {'streaming ' if streaming else ''}"
+          f"{'generative' if generative else 'default'} model (`{a.output.name}`)\n",
           ("`headmotion stream` and `headmotion view --live` without `-m` use this model; "
            "`headmotion info --model stream` prints this card.\n") if streaming else
+          (f"`headmotion synth speech.wav -m src/headmotion/data/{a.output.name} -o head.bvh` uses this model "
+           "(`--samples K` gives K takes).\n") if generative else
           ("`headmotion synth speech.wav -o head.bvh` without `-m` uses this model; "
            "`headmotion info --model default` prints this card.\n"),
           f"* **System**: `{a.system}`; settings: `{json.dumps(settings, default=str)}`.",

@@ -27,12 +27,15 @@ TINY = {
     "tws-hier": dict(n_clusters=2, hmm_iter=2, n_init=2),
     "le2012": dict(n_components=2, max_train_frames=2000, n_steps=4),
     **{name: dict(_DNN_TINY) for name in ("cccae", "ae-dnn", "mfcc-dnn", "fbank-dnn", "f0e-dnn", "wav-dnn")},
+    "motion-flow": dict(window=24, prefix=6, hidden=16, n_blocks=2, train_steps=20, batch_size=8, eval_every=10,
+                        sampling_steps=2, n_threads=1),
 }
 BAD = {
     "tws-basic": {"method": "best"},
     "tws-hier": {"stochastic": "sometimes"},
     "le2012": {"n_steps": 0},
     **{name: {"embedding_dim": 0} for name in ("cccae", "ae-dnn", "mfcc-dnn", "fbank-dnn", "f0e-dnn", "wav-dnn")},
+    "motion-flow": {"sampling_steps": 0},
 }
 
 

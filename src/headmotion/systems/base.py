@@ -72,6 +72,7 @@ SYSTEMS: dict[str, str] = {
     "fbank-dnn": "headmotion.systems.dnn.registered:FbankDnnSystem",
     "f0e-dnn": "headmotion.systems.dnn.registered:F0eDnnSystem",
     "wav-dnn": "headmotion.systems.dnn.registered:WavDnnSystem",
+    "motion-flow": "headmotion.systems.flow:MotionFlow",
 }
 
 #: capability names
