@@ -219,3 +219,11 @@ def test_the_order_of_the_controls_from_the_parts(examples_dir, models):
         np.testing.assert_array_equal(got.rotvec, want.rotvec)
     plain = synthesize(wav, m, seed=4, gain=g, offset=o)[0]
     np.testing.assert_array_equal(plain.rotvec, m.predict(load_audio(wav), seed=4, gain=g, offset=o).rotvec)
+
+
+def test_a_system_name_given_as_a_model_says_how_to_train_one():
+    from headmotion.errors import ModelFileError
+    from headmotion.shipped import resolve_model_path
+
+    with pytest.raises(ModelFileError, match=r"'tws-hier' is a system, not a model: train one"):
+        resolve_model_path("tws-hier")

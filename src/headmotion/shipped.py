@@ -60,8 +60,12 @@ def resolve_model_path(model) -> Path:
         return shipped_path(text)
     path = Path(model)
     if not path.exists():
+        from .systems.base import SYSTEMS  # a plain table: importing it loads no system
+
+        hint = (f"; {text!r} is a system, not a model: train one with `headmotion train CORPUS --system {text} "
+                f"-o mine.hmz`" if text in SYSTEMS else "")
         raise ModelFileError(f"model {text!r} is neither a shipped model ({', '.join(SHIPPED_FILES)}) nor an "
-                             "existing model file; `headmotion models` lists the shipped ones")
+                             f"existing model file; `headmotion models` lists the shipped ones{hint}")
     return path
 
 
