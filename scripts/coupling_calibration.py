@@ -59,7 +59,7 @@ def run(corpus: Corpus, seeds, *, n_shifts: int, speaker_folds: int, window_s: f
     out = []
     for seed in seeds:
         per = {(a, v[0]): [] for a in ANCHOR_NAMES for v in VARIANTS}
-        for fold, train, test, others in make_folds(corpus, "speakers", seed=seed, speaker_folds=speaker_folds):
+        for _fold, train, test, others in make_folds(corpus, "speakers", seed=seed, speaker_folds=speaker_folds):
             for name in ANCHOR_NAMES:
                 anchor = create_anchor(name)
                 anchor.fit(others if anchor.needs_other_speakers else train)

@@ -125,3 +125,13 @@ def test_bad_input():
         D.prepare(np.zeros((100, 3)))
     with pytest.raises(ParameterError, match="2 groups"):
         D.detectability({"a": np.zeros((500, 3))}, {"a": np.ones((500, 3))}, fps=FPS, classifiers=("stats",))
+
+
+def test_copied_motion_shares_the_group_of_its_source():
+    rng = np.random.default_rng(6)
+    real = {f"r{i}": _process(rng, 10) for i in range(4)}
+    gen = {"r0": real["r1"][::-1].copy(), "r2": np.vstack([real["r3"], real["r3"][::-1]])[:250], "r3": _process(rng, 10)}
+    g = D.copy_groups(real, gen)
+    assert g["r0"] == g["r1"] and g["r2"] == g["r3"] and g["r0"] != g["r2"]
+    s = D.make_samples(real, gen, fps=FPS, chunk_s=4)
+    assert len(np.unique(s.groups)) == 2  # merged recordings are not cut into chunks

@@ -182,13 +182,50 @@ class Samples:
     groups: np.ndarray
 
 
-def _windows_of(motions: Mapping, fps, chunk_s: float | None) -> tuple[list[np.ndarray], list[str]]:
+def _rows_of(m) -> np.ndarray:
+    return np.ascontiguousarray(np.asarray(m.rotvec if isinstance(m, Motion) else m, dtype=np.float32))
+
+
+def copy_groups(real: Mapping, generated: Mapping, *, share: float = 0.2) -> dict[str, str]:
+    """Recording → group, merging a recording with every other recording whose frames its generated
+    motion copies (at least ``share`` of its frames found verbatim among the other's frames — the
+    ``desync`` and ``other-speaker`` anchors are recorded motion of another recording, cut or looped):
+    a classifier would otherwise meet the same motion as "recorded" in training and as "generated"
+    in testing."""
+    parent = {r: r for r in set(real) | set(generated)}
+
+    def root(r):
+        while parent[r] != r:
+            parent[r] = parent[parent[r]]
+            r = parent[r]
+        return r
+
+    frames = {q: {row.tobytes() for row in _rows_of(m)} for q, m in real.items()}
+    for r, g in generated.items():
+        for one in (g if isinstance(g, (list, tuple)) else [g]):
+            rows = [row.tobytes() for row in _rows_of(one)]
+            if not rows:
+                continue
+            for q, fq in frames.items():
+                if q != r and sum(b in fq for b in rows) >= share * len(rows):
+                    parent[root(r)] = root(q)
+    return {r: root(r) for r in parent}
+
+
+def _windows_of(motions: Mapping, fps, chunk_s: float | None,
+                groups: Mapping[str, str] | None = None) -> tuple[list[np.ndarray], list[str]]:
     Ws, gs = [], []
+    merged = set()
+    if groups:
+        roots = list(groups.values())
+        merged = {r for r, g in groups.items() if roots.count(g) > 1}
     for rid, m in motions.items():
         ms = m if isinstance(m, (list, tuple)) else [m]
+        grp = groups.get(rid, rid) if groups else rid
         for one in ms:
             x = prepare(one, None if isinstance(one, Motion) else (fps[rid] if isinstance(fps, Mapping) else fps))
-            step = len(x) if not chunk_s else max(int(round(chunk_s * FPS)), int(round(WINDOW_S * FPS)))
+            chunked = chunk_s and rid not in merged  # a merged recording stays whole
+            step = len(x) if not chunked else max(int(round(chunk_s * FPS)), int(round(WINDOW_S * FPS)))
             starts = list(range(0, max(len(x), 1), max(step, 1)))
             if len(starts) > 1 and len(x) - starts[-1] < step:  # a short tail joins the chunk before it
                 starts = starts[:-1]
@@ -197,17 +234,19 @@ def _windows_of(motions: Mapping, fps, chunk_s: float | None) -> tuple[list[np.n
                 W = cut_windows(x[s:e])
                 if len(W):
                     Ws.append(W)
-                    gs += [f"{rid}#{c}"] * len(W)
+                    gs += [f"{grp}#{c}"] * len(W)
     return Ws, gs
 
 
 def make_samples(real: Mapping, generated: Mapping, *, fps=None, chunk_s: float | None = None) -> Samples:
     """Windows of the recorded motions (``{recording: Motion or array}``) and the generated ones
-    (``{recording: Motion, array or list of them}``); a generated motion's group is its recording,
-    so it never sits on the other side of a split from the recording it was made for.
-    ``chunk_s`` cuts every recording into groups of that many seconds (a single long take)."""
-    Wr, gr = _windows_of(real, fps, chunk_s)
-    Wg, gg = _windows_of(generated, fps, chunk_s)
+    (``{recording: Motion, array or list of them}``); a generated motion's group is its recording
+    (merged with the recordings it copies, :func:`copy_groups`), so it never sits on the other side
+    of a split from the recording it was made for.  ``chunk_s`` cuts every recording into groups of
+    that many seconds (a single long take)."""
+    groups = copy_groups(real, generated)
+    Wr, gr = _windows_of(real, fps, chunk_s, groups)
+    Wg, gg = _windows_of(generated, fps, chunk_s, groups)
     if not Wr or not Wg:
         raise ParameterError(f"detectability needs motions of at least {WINDOW_S:g} s on both sides; "
                              f"got {sum(len(w) for w in Wr)} recorded and {sum(len(w) for w in Wg)} generated windows")
@@ -426,5 +465,5 @@ def detectability_rows(real_by_rec: Mapping, generated_by_condition: Mapping[str
 
 
 __all__ = ["FPS", "CUTOFF_HZ", "WINDOW_S", "prepare", "cut_windows", "statistic_names", "window_statistics",
-           "make_samples", "Samples", "ClassifierScore", "DetectabilityResult", "detectability", "statistic_aucs",
+           "copy_groups", "make_samples", "Samples", "ClassifierScore", "DetectabilityResult", "detectability", "statistic_aucs",
            "phase_randomised", "ruler_motions", "result_rows", "detectability_rows"]

@@ -110,6 +110,8 @@ DEFAULT_WINDOW_S = 3.0
 #: window sizes (s) of thesis Fig 4.8 (2 s to 100 s)
 FIG48_WINDOWS_S = (2, 3, 5, 10, 15, 20, 30, 50, 75, 100)
 AXES = ("rx", "ry", "rz")
+#: the detectability test's groups: recordings, a long one cut into parts of this many seconds
+DETECT_CHUNK_S = 12.0
 
 
 # -- configuration ---------------------------------------------------------------------------
@@ -673,7 +675,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
              scheduler=None, seed: int = 0, window_s: float = DEFAULT_WINDOW_S, n_shifts: int = C.DEFAULT_SHIFTS,
              feature_sets: Sequence[str] | None = None, trajectory_recording: str | None = None,
              fig48: bool = True, strict: bool = False, progress: Callable | None = None, samples: int = 4,
-             realism: bool = True, speaker_folds: int = 0) -> EvaluationResult:
+             realism: bool = True, speaker_folds: int = 0, detectability: bool = True) -> EvaluationResult:
     """Cross-validate ``systems`` on ``corpus`` (see the module docstring).
 
     Parameters
@@ -707,6 +709,8 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         declared deterministic; < 2 = no diversity).
     realism : bool — compute the realism measures (issue 14 §1) and keep the motions for their
         figures.
+    detectability : bool — with ``realism``, the classifier two-sample test of every condition
+        against the recorded motion (:func:`.detectability.detectability_rows`, recording ``ALL``).
     """
     t_start = time.perf_counter()
     specs = [_system_spec(s) for s in systems]
@@ -785,6 +789,14 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     if motions:
         rows += pooled_histogram_rows(motions, {rid: Motion(g[0], g[3]) for rid, g in gt.items()},
                                       samples=k_samples)
+    if motions and detectability and GROUND_TRUTH in motions:  # classifier two-sample test per condition
+        from .detectability import detectability_rows
+
+        t0 = time.perf_counter()
+        rows += detectability_rows(motions[GROUND_TRUTH], {c: d for c, d in motions.items() if c != GROUND_TRUTH},
+                                   {rid: g[3] for rid, g in gt.items()}, seed=int(seed), ruler=GROUND_TRUTH,
+                                   chunk_s=DETECT_CHUNK_S)
+        timings["detectability"] = time.perf_counter() - t0
     fps = gt[trajectory_recording][3] if trajectory_recording in gt else 100.0
     timings["total_wall"] = time.perf_counter() - t_start
     fs_names = [feature_set_name(f) for f in feature_sets]

@@ -233,7 +233,7 @@ def realism_summary(result: EvaluationResult) -> dict[str, dict[str, float]]:
             d[k] = float(np.median(v)) if len(v) else float("nan")
         d["n"] = float(len(_vals(result, s, "spectral_l1", recs)))
         for k in ("fcca_excess_pooled", "fcca_p_pooled", "fcca_local_excess_pooled", "fcca_local_p_pooled",
-                  "fcca_n_pooled") + pooled:
+                  "fcca_n_pooled", "detect", "detect_ba_stats", "detect_ba_cnn") + pooled:
             v = _vals(result, s, k, ["ALL"])
             d[k] = float(v[0]) if len(v) else float("nan")
         if not np.isfinite(d["spectral_l1_pooled"]):  # metrics.csv written before it: the same mean shares
@@ -480,6 +480,9 @@ def render_report(result: EvaluationResult, *, title: str = "headmotion evaluati
 
     # issue 14: realism
     md.append(_realism_md(result))
+    from .detectability_figures import detectability_section  # classifier two-sample test
+
+    md.append(detectability_section(result.rows, systems))
 
     # paper Table 1
     md.append(_feature_table_md(result))
@@ -562,6 +565,9 @@ def write_report(result: EvaluationResult, out_dir, *, figures: bool = True, tit
 
         figs = evaluation_figures(result, out / "figures")
         figs += realism_figures_for(result, out / "figures")
+        from .detectability_figures import figures_for as detectability_figures
+
+        figs += detectability_figures(result, out / "figures")
     rel = [f"figures/{p.name}" for p in figs]
     atomic_write_text(out / "report.md", render_report(result, title=title, figures=rel))
     cfg = dict(result.config)
