@@ -135,3 +135,22 @@ def test_copied_motion_shares_the_group_of_its_source():
     assert g["r0"] == g["r1"] and g["r2"] == g["r3"] and g["r0"] != g["r2"]
     s = D.make_samples(real, gen, fps=FPS, chunk_s=4)
     assert len(np.unique(s.groups)) == 2  # merged recordings are not cut into chunks
+
+
+def test_detect_command(tmp_path, capsys):
+    from headmotion.cli import main
+    from headmotion.io.native import save_npz
+
+    rng = np.random.default_rng(7)
+    (tmp_path / "real").mkdir()
+    (tmp_path / "gen").mkdir()
+    for i in range(6):
+        save_npz(Motion(_sines(rng, 10), FPS), tmp_path / "real" / f"r{i}.npz")
+        save_npz(Motion(np.radians(3.0) * rng.normal(size=(250, 3)), FPS), tmp_path / "gen" / f"r{i}.npz")
+    fig = tmp_path / "top.png"
+    rc = main(["detect", str(tmp_path / "real"), str(tmp_path / "gen"), "--no-cnn", "--figure", str(fig)])
+    out = capsys.readouterr().out
+    assert rc in (0, None)
+    assert "detectability 1.000" in out and fig.stat().st_size > 1000
+    assert main(["detect", str(tmp_path / "real"), str(tmp_path / "nothing.npz")]) == 1
+    assert "nothing.npz" in capsys.readouterr().err
