@@ -72,7 +72,7 @@ def main() -> None:
                     ("shipped-stream", lambda: Shipped(DATA / "default_stream_model.hmz", "shipped-stream"))]
     res = evaluate(corpus, systems, protocol=protocol, speaker_folds=folds, seed=a.seed, n_shifts=a.shifts,
                    feature_sets=[], fig48=False, samples=1)
-    out = write_report(res, a.output, title=f"detectability on {a.corpus}")
+    out = write_report(res, a.output, title=f"detectability on {a.corpus}", save_motions=True)
     print(out["report"])
     print(f"detectability: {res.timings.get('detectability', float('nan')):.0f} s; total {res.timings['total_wall']:.0f} s")
 

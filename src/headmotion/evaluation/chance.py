@@ -7,21 +7,21 @@ score with the motion circularly shifted by ``n_shifts`` (≥ 200) random offset
 circular shift keeps the motion's own spectrum, amplitude and distribution and only breaks its
 synchrony with the other stream, which is exactly the hypothesis being tested.
 
-A circular shift of a motion whose last frame is not its first puts a jump at the wrap point that
-the unshifted motion does not have; for smooth, drifting head motion the shifted copies then score
-systematically lower than an uncoupled motion does unshifted, and uncoupled motion came out "tied
-to speech" too often.  The default null (``null="bridge"``) therefore shifts the motion's *bridge*:
-the motion minus the straight line from its first to its last frame, so that it closes on itself and
-every shift is as continuous as the original; and it draws its offsets from every offset 1 … T − 1
-(the whole cyclic group), not only from the middle half of the circle: when the motion's
-correlation time is not small against the recording (a slow head on a 4 s clip), an unshifted
-score compared only with far-away shifts is more extreme than they are, and the p-values spread to
-both ends (too many below 0.05).  The test statistic is the score of that bridge (the
-reported ``score`` stays the plain score of the motion); for a random walk the bridge's increments
-are exchangeable, so every cyclic shift of it has the same distribution (Vervaat 1979) and the
-p-value is exact; ``docs/decisions/coupling-test.md`` shows the uncoupled anchors' p uniform on the
-talking-video corpus with it and too small with ``null="circular"`` (the plain shift, kept for
-comparison).
+The default null (``null="bridge"``, docs/decisions/coupling-test.md) differs from a plain
+circular shift in two ways, each of which made uncoupled motion come out "tied to speech" too
+often (per recording p < 0.05 in 11–12 % of uncoupled anchors on the talking-video corpus):
+
+* it shifts the motion's *bridge* (:func:`bridge`: the motion minus the straight line from its
+  first to its last frame), which closes on itself, so a shift puts no jump at the wrap point that
+  the unshifted motion does not have; for a random walk the bridge's increments are exchangeable
+  and all its cyclic shifts have one distribution (Vervaat 1979);
+* it draws offsets from every offset 1 … T − 1 (the whole cyclic group), not from the middle of the
+  circle only: a head's correlation time is not small against a 4 s clip, and an unshifted score
+  compared only with far-away shifts is more extreme than they are.
+
+The test statistic is then the bridge's score (``statistic``); the reported ``score`` stays the
+plain score.  ``null="circular"`` is the former test (plain shifts, offsets from
+``[min_shift, T − min_shift]``).
 
 * :func:`shift_null` — generic: any ``score_fn(shifted_x) -> float``.
 * :func:`global_cca_null`, :func:`local_cca_null`, :func:`fcca_null` — fast paths for the three
