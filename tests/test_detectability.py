@@ -133,8 +133,12 @@ def test_copied_motion_shares_the_group_of_its_source():
     gen = {"r0": real["r1"][::-1].copy(), "r2": np.vstack([real["r3"], real["r3"][::-1]])[:250], "r3": _process(rng, 10)}
     g = D.copy_groups(real, gen)
     assert g["r0"] == g["r1"] and g["r2"] == g["r3"] and g["r0"] != g["r2"]
+    assert D.copied_recordings(real, gen) == {"r0": {"r1"}, "r2": {"r3"}}
     s = D.make_samples(real, gen, fps=FPS, chunk_s=4)
-    assert len(np.unique(s.groups)) == 2  # merged recordings are not cut into chunks
+    # the copied recordings r1 and r3 leave the recorded sample (two recordings remain)
+    assert not any(g.startswith(("r1#", "r3#")) for g in s.groups[s.y == 0])
+    s = D.make_samples({k: real[k] for k in ("r0", "r1", "r3")}, gen, fps=FPS, chunk_s=4)
+    assert len(np.unique(s.groups)) == 2  # else merged groups, not cut into chunks
 
 
 def test_detect_command(tmp_path, capsys):

@@ -186,12 +186,24 @@ def _rows_of(m) -> np.ndarray:
     return np.ascontiguousarray(np.asarray(m.rotvec if isinstance(m, Motion) else m, dtype=np.float32))
 
 
+def copied_recordings(real: Mapping, generated: Mapping, *, share: float = 0.2) -> dict[str, set[str]]:
+    """Generated recording → the *other* recorded recordings whose frames its motion copies (at least
+    ``share`` of its frames found verbatim among theirs: the ``desync`` and ``other-speaker`` anchors
+    are recorded motion of another recording, cut or looped)."""
+    frames = {q: {row.tobytes() for row in _rows_of(m)} for q, m in real.items()}
+    out: dict[str, set[str]] = {}
+    for r, g in generated.items():
+        for one in (g if isinstance(g, (list, tuple)) else [g]):
+            rows = [row.tobytes() for row in _rows_of(one)]
+            for q, fq in frames.items():
+                if rows and q != r and sum(b in fq for b in rows) >= share * len(rows):
+                    out.setdefault(r, set()).add(q)
+    return out
+
+
 def copy_groups(real: Mapping, generated: Mapping, *, share: float = 0.2) -> dict[str, str]:
-    """Recording → group, merging a recording with every other recording whose frames its generated
-    motion copies (at least ``share`` of its frames found verbatim among the other's frames — the
-    ``desync`` and ``other-speaker`` anchors are recorded motion of another recording, cut or looped):
-    a classifier would otherwise meet the same motion as "recorded" in training and as "generated"
-    in testing."""
+    """Recording → group, a recording merged with every recording its generated motion copies
+    (:func:`copied_recordings`)."""
     parent = {r: r for r in set(real) | set(generated)}
 
     def root(r):
@@ -200,15 +212,9 @@ def copy_groups(real: Mapping, generated: Mapping, *, share: float = 0.2) -> dic
             r = parent[r]
         return r
 
-    frames = {q: {row.tobytes() for row in _rows_of(m)} for q, m in real.items()}
-    for r, g in generated.items():
-        for one in (g if isinstance(g, (list, tuple)) else [g]):
-            rows = [row.tobytes() for row in _rows_of(one)]
-            if not rows:
-                continue
-            for q, fq in frames.items():
-                if q != r and sum(b in fq for b in rows) >= share * len(rows):
-                    parent[root(r)] = root(q)
+    for r, qs in copied_recordings(real, generated, share=share).items():
+        for q in qs:
+            parent[root(r)] = root(q)
     return {r: root(r) for r in parent}
 
 
@@ -240,11 +246,19 @@ def _windows_of(motions: Mapping, fps, chunk_s: float | None,
 
 def make_samples(real: Mapping, generated: Mapping, *, fps=None, chunk_s: float | None = None) -> Samples:
     """Windows of the recorded motions (``{recording: Motion or array}``) and the generated ones
-    (``{recording: Motion, array or list of them}``); a generated motion's group is its recording
-    (merged with the recordings it copies, :func:`copy_groups`), so it never sits on the other side
-    of a split from the recording it was made for.  ``chunk_s`` cuts every recording into groups of
-    that many seconds (a single long take)."""
-    groups = copy_groups(real, generated)
+    (``{recording: Motion, array or list of them}``); a generated motion's group is its recording,
+    so it never sits on the other side of a split from the recording it was made for.  A generated
+    motion that copies other recordings' frames (:func:`copied_recordings`) would meet the same
+    motion as "recorded" in training and as "generated" in testing: the copied recordings leave the
+    recorded sample, or — when fewer than two recordings would remain — share one group with their
+    copies (:func:`copy_groups`).  ``chunk_s`` cuts every recording into groups of that many seconds
+    (a single long take)."""
+    copied = set().union(*copied_recordings(real, generated).values()) if generated else set()
+    groups = None
+    if copied and len(set(real) - copied) >= 2:
+        real = {q: m for q, m in real.items() if q not in copied}
+    elif copied:
+        groups = copy_groups(real, generated)
     Wr, gr = _windows_of(real, fps, chunk_s, groups)
     Wg, gg = _windows_of(generated, fps, chunk_s, groups)
     if not Wr or not Wg:
