@@ -139,6 +139,13 @@ def test_copied_motion_shares_the_group_of_its_source():
     assert not any(g.startswith(("r1#", "r3#")) for g in s.groups[s.y == 0])
     s = D.make_samples({k: real[k] for k in ("r0", "r1", "r3")}, gen, fps=FPS, chunk_s=4)
     assert len(np.unique(s.groups)) == 2  # else merged groups, not cut into chunks
+    # a recording against its own reversal: chunk k's reversal is another chunk's content, so the
+    # recording stays one group
+    take = {"take": _process(rng, 60)}
+    s = D.make_samples(take | {"b": _process(rng, 60)}, {"take": take["take"][::-1].copy(), "b": _process(rng, 60)},
+                       fps=FPS, chunk_s=12)
+    assert {g for g in s.groups if g.startswith("take")} == {"take#0"}
+    assert len({g for g in s.groups if g.startswith("b")}) == 5
 
 
 def test_detect_command(tmp_path, capsys):

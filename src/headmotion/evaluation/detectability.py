@@ -218,13 +218,28 @@ def copy_groups(real: Mapping, generated: Mapping, *, share: float = 0.2) -> dic
     return {r: root(r) for r in parent}
 
 
-def _windows_of(motions: Mapping, fps, chunk_s: float | None,
-                groups: Mapping[str, str] | None = None) -> tuple[list[np.ndarray], list[str]]:
+def _self_copies(real: Mapping, generated: Mapping, *, share: float = 0.2) -> set[str]:
+    """Recordings whose generated motion copies their own frames (rearranged: time reversal, a
+    circular shift) — cut into chunks, a chunk's copy would sit in another chunk's group."""
+    out = set()
+    for r, g in generated.items():
+        if r not in real:
+            continue
+        own = {row.tobytes() for row in _rows_of(real[r])}
+        for one in (g if isinstance(g, (list, tuple)) else [g]):
+            rows = [row.tobytes() for row in _rows_of(one)]
+            if rows and sum(b in own for b in rows) >= share * len(rows):
+                out.add(r)
+    return out
+
+
+def _windows_of(motions: Mapping, fps, chunk_s: float | None, groups: Mapping[str, str] | None = None,
+                whole: set[str] = frozenset()) -> tuple[list[np.ndarray], list[str]]:
     Ws, gs = [], []
-    merged = set()
+    merged = set(whole)
     if groups:
         roots = list(groups.values())
-        merged = {r for r, g in groups.items() if roots.count(g) > 1}
+        merged |= {r for r, g in groups.items() if roots.count(g) > 1}
     for rid, m in motions.items():
         ms = m if isinstance(m, (list, tuple)) else [m]
         grp = groups.get(rid, rid) if groups else rid
@@ -252,15 +267,17 @@ def make_samples(real: Mapping, generated: Mapping, *, fps=None, chunk_s: float 
     motion as "recorded" in training and as "generated" in testing: the copied recordings leave the
     recorded sample, or — when fewer than two recordings would remain — share one group with their
     copies (:func:`copy_groups`).  ``chunk_s`` cuts every recording into groups of that many seconds
-    (a single long take)."""
+    (a single long take), except a recording whose generated motion rearranges its own frames (time
+    reversal, a circular shift), which stays one group."""
     copied = set().union(*copied_recordings(real, generated).values()) if generated else set()
     groups = None
     if copied and len(set(real) - copied) >= 2:
         real = {q: m for q, m in real.items() if q not in copied}
     elif copied:
         groups = copy_groups(real, generated)
-    Wr, gr = _windows_of(real, fps, chunk_s, groups)
-    Wg, gg = _windows_of(generated, fps, chunk_s, groups)
+    whole = _self_copies(real, generated) if chunk_s else set()
+    Wr, gr = _windows_of(real, fps, chunk_s, groups, whole)
+    Wg, gg = _windows_of(generated, fps, chunk_s, groups, whole)
     if not Wr or not Wg:
         raise ParameterError(f"detectability needs motions of at least {WINDOW_S:g} s on both sides; "
                              f"got {sum(len(w) for w in Wr)} recorded and {sum(len(w) for w in Wg)} generated windows")
