@@ -46,6 +46,9 @@ STILL_DEG_S = 2.0
 BANDS_HZ = ((0.0, 0.5), (0.5, 1.0), (1.0, 2.0), (2.0, 4.0), (4.0, 6.0))
 AXES = ("pitch", "yaw", "roll")
 CLASSIFIERS = ("stats", "cnn")
+#: the CNN is trained only with at least this many windows on each side (fewer: it underfits, and
+#: the statistics classifier decides)
+MIN_CNN_WINDOWS = 40
 
 
 # -- preprocessing -------------------------------------------------------------------------------
@@ -338,11 +341,24 @@ def _fit_stats(Ftr, ytr, Fte, seed: int) -> np.ndarray:
     return clf.predict_proba(Fte)[:, 1]
 
 
-def _score(y: np.ndarray, proba: np.ndarray, groups: np.ndarray, *, n_boot: int, seed: int) -> ClassifierScore:
-    from sklearn.metrics import balanced_accuracy_score, roc_auc_score
+def _ba(y: np.ndarray, proba: np.ndarray) -> float:
+    """Balanced accuracy at threshold 0.5 (mean of the two classes' recalls)."""
+    hit = (proba >= 0.5) == (y == 1)
+    return float(0.5 * (hit[y == 1].mean() + hit[y == 0].mean()))
 
-    ba = float(balanced_accuracy_score(y, proba >= 0.5))
-    auc = float(roc_auc_score(y, proba))
+
+def _auc(y: np.ndarray, score: np.ndarray) -> float:
+    """ROC AUC by the Mann–Whitney rank sum (ties count half), as sklearn's roc_auc_score."""
+    from scipy.stats import rankdata
+
+    r = rankdata(score)
+    n1 = int(np.sum(y == 1))
+    n0 = len(y) - n1
+    return float((r[y == 1].sum() - n1 * (n1 + 1) / 2) / (n1 * n0))
+
+
+def _score(y: np.ndarray, proba: np.ndarray, groups: np.ndarray, *, n_boot: int, seed: int) -> ClassifierScore:
+    ba, auc = _ba(y, proba), _auc(y, proba)
     rng = np.random.default_rng(seed)
     ug = np.unique(groups)
     idx_of = {g: np.flatnonzero(groups == g) for g in ug}
@@ -351,8 +367,8 @@ def _score(y: np.ndarray, proba: np.ndarray, groups: np.ndarray, *, n_boot: int,
         idx = np.concatenate([idx_of[g] for g in rng.choice(ug, size=len(ug), replace=True)])
         if len(np.unique(y[idx])) < 2:
             continue
-        bas.append(balanced_accuracy_score(y[idx], proba[idx] >= 0.5))
-        aucs.append(roc_auc_score(y[idx], proba[idx]))
+        bas.append(_ba(y[idx], proba[idx]))
+        aucs.append(_auc(y[idx], proba[idx]))
 
     def ci(v):
         return (float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5))) if v else (np.nan, np.nan)
@@ -362,9 +378,7 @@ def _score(y: np.ndarray, proba: np.ndarray, groups: np.ndarray, *, n_boot: int,
 
 def statistic_aucs(F: np.ndarray, y: np.ndarray) -> dict[str, float]:
     """AUC of each window statistic alone (generated = positive; 0.5 = no separation)."""
-    from sklearn.metrics import roc_auc_score
-
-    return {n: float(roc_auc_score(y, F[:, j])) for j, n in enumerate(statistic_names())}
+    return {n: _auc(y, F[:, j]) for j, n in enumerate(statistic_names())}
 
 
 def detectability(real: Mapping, generated: Mapping, *, fps=None, seed: int = 0, n_splits: int = 5,
@@ -395,7 +409,10 @@ def detectability(real: Mapping, generated: Mapping, *, fps=None, seed: int = 0,
     F = window_statistics(s.X)
     folds = _folds(s.y, s.groups, n_splits, seed)
     scores = {}
+    few = min(np.sum(s.y == 0), np.sum(s.y == 1)) < MIN_CNN_WINDOWS
     for name in classifiers:
+        if name == "cnn" and few and len(classifiers) > 1:
+            continue  # too few windows to train a network: the statistics classifier decides
         proba = np.zeros(len(s.y))
         for k, (tr, te) in enumerate(folds):
             if name == "stats":
