@@ -61,6 +61,14 @@ def _pause_cell(d: dict, ok) -> str:
     return f"{one:.2f} / {mark(k, ok)}"
 
 
+def _detect_cell(d: dict) -> str:
+    """Detectability (the larger of the two classifiers' balanced accuracies; statistics / CNN)."""
+    v = d.get("detect", np.nan)
+    if not np.isfinite(v):
+        return "–"
+    return f"{v:.2f} ({d.get('detect_ba_stats', np.nan):.2f} / {d.get('detect_ba_cnn', np.nan):.2f})"
+
+
 def rows_for(label: str, summ: dict, targets: dict) -> list[str]:
     gt = summ.get("ground-truth", {})
     out = []
@@ -79,12 +87,12 @@ def rows_for(label: str, summ: dict, targets: dict) -> list[str]:
             f"{mark(100 * d.get('saturation', np.nan), t['sat'], 1)} | "
             f"{_pause_cell(d, t['pause'])} ({gt.get('pause_ratio', np.nan):.2f}) | "
             f"{mark(d.get('diversity', np.nan), None)} | {d.get('fcca_excess_pooled', np.nan):+.3f} | "
-            f"{fmt_p(d.get('fcca_p_pooled', np.nan))} | {met}/{n} |")
+            f"{fmt_p(d.get('fcca_p_pooled', np.nan))} | {_detect_cell(d)} | {met}/{n} |")
     return out
 
 
 HEADER = ("| set | condition | 1.5–4 Hz (gt) | L1 per recording / pooled | SD ratio p/y/r | H speed per rec. / pooled / pooled K samples | LC (gt) | sat % | pause first / K samples (gt) | "
-          "diversity | FCCA excess | p | targets |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "diversity | FCCA excess | p | detectability (stats / CNN) | targets |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 
 
 def main(argv=None) -> int:

@@ -51,7 +51,8 @@ def test_synchronised_streams_beat_chance(streams):
     r = C.local_cca_null(x, f, window=300, n_shifts=200, seed=0)
     assert r.n_shifts == 200
     assert r.p_value == pytest.approx(1 / 201)
-    assert r.excess == pytest.approx(r.score - r.null_mean)
+    assert r.excess == pytest.approx(r.statistic - r.null_mean)
+    assert r.statistic == pytest.approx(M.local_cca(C.bridge(x), f, window=300))
     assert r.score > r.null_p95 > r.null_mean
     # short windows of smooth unrelated motion: a high chance level (why chance levels are measured)
     assert r.null_mean > 0.3
@@ -91,3 +92,49 @@ def test_paper_chance_score():
     assert C.paper_chance_score(gt, [gt], n_draws=5, seed=0) <= 1.0
     with pytest.raises(ParameterError, match="other speaker"):
         C.paper_chance_score(gt, [])
+
+
+def test_bridge_closes_the_motion():
+    a = np.cumsum(np.random.default_rng(0).normal(size=(50, 3)), axis=0)
+    b = C.bridge(a)
+    np.testing.assert_allclose(b[0], a[0])
+    np.testing.assert_allclose(b[-1], a[0])
+    np.testing.assert_allclose(np.diff(b, axis=0), np.diff(a, axis=0) - (a[-1] - a[0]) / 49)
+    with pytest.raises(ParameterError, match="null"):
+        C.fcca_null(a, a, a, null="mirror")
+
+
+def _pooled_share(null: str, min_shift, n_draws: int = 300, T: int = 100) -> float:
+    """Share of p < 0.05 of Forced CCA between a random walk (the "synthesised" motion, uncoupled)
+    and features with an unrelated recorded motion, over ``n_draws`` independent draws."""
+    rng = np.random.default_rng(7)
+    ps = []
+    for i in range(n_draws):
+        feats = _smooth(rng, T, 2, width=9)
+        orig = feats @ rng.normal(size=(2, 3)) + 0.5 * _smooth(rng, T, 3, width=9)
+        walk = np.cumsum(rng.normal(size=(T, 3)), axis=0)  # a slowly drifting head, unrelated to the speech
+        ps.append(C.fcca_null(orig, feats, walk, n_shifts=60, seed=i, null=null, min_shift=min_shift).p_value)
+    return float(np.mean(np.array(ps) < 0.05))
+
+
+def test_uncoupled_drift_is_uniform_under_the_bridge_null():
+    from scipy.stats import binom
+
+    n = 300
+    hi = binom.ppf(0.999, n, 0.05) / n  # one-sided 99.9 % bound of the share under a calibrated test
+    lo = binom.ppf(0.001, n, 0.05) / n
+    share = _pooled_share("bridge", None, n)
+    assert lo <= share <= hi
+    # the plain circular shift over the middle half of the circle calls such drift coupled far too often
+    assert _pooled_share("circular", 25, n) > hi
+
+
+def test_motion_made_from_the_speech_is_coupled():
+    rng = np.random.default_rng(3)
+    T = 200
+    feats = _smooth(rng, T, 3, width=9)
+    orig = feats @ rng.normal(size=(3, 3)) + 0.3 * _smooth(rng, T, 3, width=9)
+    synth = feats @ rng.normal(size=(3, 3)) + 0.3 * _smooth(rng, T, 3, width=9)  # another motion from the same speech
+    r = C.fcca_null(orig, feats, synth, n_shifts=100, seed=0)
+    assert r.p_value < 0.02
+    assert r.excess > 0.3

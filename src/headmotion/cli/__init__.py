@@ -37,6 +37,7 @@ from . import synth_cmds  # noqa: E402,F401  train, synth
 from . import stream_cmds  # noqa: E402,F401  stream
 from . import templates_cmds  # noqa: E402,F401  templates encode-error / analyse / confusion
 from . import eval_cmds  # noqa: E402,F401  evaluate, stats
+from . import detect_cmds  # noqa: E402,F401  detect
 from . import render_cmds  # noqa: E402,F401  render, view, plot
 from . import listen_cmds  # noqa: E402,F401  listen serve / analyze
 from . import serve_cmds  # noqa: E402,F401  serve, serve hash-key

@@ -55,6 +55,9 @@ def evaluate_cmd(
     save_motions: bool = typer.Option(False, "--save-motions",
                                       help="also write every condition's held-out motion as motions/CONDITION/RECORDING.npz"),
     strict: bool = typer.Option(False, "--strict", help="stop when a system fails on a fold (default: warn, go on)"),
+    no_detectability: bool = typer.Option(False, "--no-detectability",
+                                          help="skip the classifier two-sample test of every condition against the "
+                                               "recorded motion"),
 ):
     """Cross-validate systems on a corpus and write metrics.csv, report.md and figures.
 
@@ -96,7 +99,7 @@ def evaluate_cmd(
     with progress_bar("evaluating") as update:
         result = evaluate(corpus, names, protocol=protocol, features=features, n_jobs=jobs, scheduler=scheduler,
                           seed=seed, n_shifts=shifts, window_s=window, feature_sets=fsets, strict=strict,
-                          samples=samples, speaker_folds=speaker_folds,
+                          samples=samples, speaker_folds=speaker_folds, detectability=not no_detectability,
                           progress=lambda done, total, desc: update(done, total=total, description=desc))
     result.warnings[:0] = pause_warns
     if folds_at_pauses:

@@ -126,7 +126,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
              scheduler=None, seed: int = 0, window_s: float = DEFAULT_WINDOW_S, n_shifts: int = C.DEFAULT_SHIFTS,
              feature_sets: Sequence[str] | None = None, trajectory_recording: str | None = None,
              fig48: bool = True, strict: bool = False, progress: Callable | None = None, samples: int = 4,
-             realism: bool = True, speaker_folds: int = 0) -> EvaluationResult:
+             realism: bool = True, speaker_folds: int = 0, detectability: bool = True) -> EvaluationResult:
     """Cross-validate ``systems`` on ``corpus`` (see the module docstring).
 
     Parameters
@@ -160,6 +160,8 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     samples : int — motions per held-out recording for the diversity measure (sampled conditions;
         < 2 = no diversity).
     realism : bool — compute the realism measures and keep the motions for their figures.
+    detectability : bool — with ``realism``, the classifier two-sample test of every condition
+        against the recorded motion (:func:`.detectability.detectability_rows`, recording ``ALL``).
 
     Returns
     -------
@@ -198,7 +200,8 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
               "fold_tests": {t.fold: list(t.test.ids) for t in tasks}}
     result = assemble(results, corpus=corpus, conditions=conditions, table=table, table_warnings=table_warns,
                       fig48=fig48, n_shifts=n_shifts, trajectory_recording=trajectory_recording, config=config,
-                      timings=timings, splits=splits, seed=int(seed))
+                      timings=timings, splits=splits, seed=int(seed),
+                      options={"detectability": bool(detectability)})
     result.timings["total_wall"] = time.perf_counter() - t_start
     return result
 

@@ -31,7 +31,7 @@ RULER = (GROUND_TRUTH, "shifted", "desync", "shaped-noise", "other-speaker", "st
 #: :func:`realism_summary` carries; a pooled measure whose value the summary should show goes here
 POOLED_SUMMARY_KEYS = ("fcca_excess_pooled", "fcca_p_pooled", "fcca_local_excess_pooled", "fcca_local_p_pooled",
                        "fcca_n_pooled", "speed_hellinger_pooled", "speed_hellinger_pooled_k", "accel_hellinger_pooled",
-                       "spectral_l1_pooled")
+                       "spectral_l1_pooled", "detect", "detect_ba_stats", "detect_ba_cnn")
 
 
 def realism_summary(result: EvaluationResult) -> dict[str, dict[str, float]]:

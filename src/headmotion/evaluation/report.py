@@ -184,8 +184,10 @@ def _intro_md(result: EvaluationResult) -> str:
             f"local CCA window {cfg.get('window_s')} s, chance levels from {cfg.get('n_shifts')} circular shifts, "
             f"seed {cfg.get('seed')}. {len(result.recordings)} held-out recordings of {len(_speakers(result))} speaker(s). "
             f"Values are mean ± SD over held-out recordings. *chance* = mean of the score with the motion "
-            f"circularly shifted; *excess* = score − chance; *p<.05* = share of recordings whose score beats "
-            f"the shifted motion at p < 0.05.\n")
+            f"shifted in time; *excess* and *p* compare the score with its shifted copies after the motion's "
+            f"straight line from first to last frame is removed (so a shift adds no jump at the wrap point, "
+            f"docs/decisions/coupling-test.md); *p<.05* = share of recordings whose score beats the shifted "
+            f"motion at p < 0.05.\n")
 
 
 def _table2_md(result: EvaluationResult) -> str:
@@ -275,8 +277,14 @@ def _fig48_md(result: EvaluationResult) -> str:
 
 #: the sections of report.md in order, each ``section(result) -> Markdown`` ("" = left out); a
 #: section for a new per-condition measure goes in here
-REPORT_SECTIONS = (_intro_md, _table2_md, _fcca_md, realism_md, _feature_table_md, _amplitude_md, _chance_md,
-                   _fig48_md)
+def _detectability_md(result: EvaluationResult) -> str:
+    from .detectability_figures import detectability_section  # classifier two-sample test
+
+    return detectability_section(result.rows, result.systems)
+
+
+REPORT_SECTIONS = (_intro_md, _table2_md, _fcca_md, realism_md, _detectability_md, _feature_table_md, _amplitude_md,
+                   _chance_md, _fig48_md)
 
 
 def _evaluation_figures(result: EvaluationResult, folder) -> list[Path]:
@@ -287,7 +295,13 @@ def _evaluation_figures(result: EvaluationResult, folder) -> list[Path]:
 
 #: the figure makers of the report, each ``make(result, folder) -> [paths]``; a figure for a new
 #: per-condition measure goes in here
-REPORT_FIGURES = (_evaluation_figures, realism_figures_for)
+def _detectability_figures(result: EvaluationResult, folder) -> list[Path]:
+    from .detectability_figures import figures_for
+
+    return figures_for(result, folder)
+
+
+REPORT_FIGURES = (_evaluation_figures, realism_figures_for, _detectability_figures)
 
 
 def render_report(result: EvaluationResult, *, title: str = "headmotion evaluation", figures: list[str] = ()) -> str:

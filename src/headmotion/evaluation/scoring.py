@@ -16,7 +16,8 @@ Per recording, a condition's motion passes through :data:`RECORDING_MEASURES` in
 
 Pooled over a condition's held-out recordings (recording ``ALL``), :data:`POOLED_MEASURES`, each
 ``measure.fn(p: PooledScoring) -> rows``: :func:`pooled_rows` (mean FCCA excess, Stouffer p) and
-:func:`pooled_histogram_rows` (speed / acceleration Hellinger and spectral L1 over the test set).
+:func:`pooled_histogram_rows` (speed / acceleration Hellinger and spectral L1 over the test set) and the detectability test
+(:mod:`.detectability`: can a classifier tell the condition's motion from the recorded one?).
 
 A new measure plugs in by appending to one of the two tuples: a per-recording one returns its
 metrics for one (condition, recording); a pooled one returns ``{system, recording: "ALL", metric,
@@ -372,8 +373,24 @@ class PooledMeasure:
 
 
 #: measures pooled over each condition's held-out recordings, in the order their rows are written
+#: the detectability test's groups: recordings, a long one cut into parts of this many seconds
+DETECT_CHUNK_S = 12.0
+
+
+def _pooled_detectability(p: PooledScoring) -> list[dict]:
+    """The classifier two-sample test of every condition against the recorded motion
+    (:mod:`.detectability`), with the ruler's anchors under the ground truth's name."""
+    if not p.options.get("detectability", True) or not p.motions or GROUND_TRUTH not in p.motions:
+        return []
+    from .detectability import detectability_rows
+
+    return detectability_rows(p.motions[GROUND_TRUTH], {c: d for c, d in p.motions.items() if c != GROUND_TRUTH},
+                              p.fps, seed=int(p.seed), ruler=GROUND_TRUTH, chunk_s=DETECT_CHUNK_S)
+
+
 POOLED_MEASURES: tuple[PooledMeasure, ...] = (PooledMeasure("pooled coupling", _pooled_coupling),
-                                              PooledMeasure("pooled histograms", _pooled_histograms))
+                                              PooledMeasure("pooled histograms", _pooled_histograms),
+                                              PooledMeasure("detectability", _pooled_detectability))
 
 
 __all__ = ["score_recording", "conform", "rows_of", "RecordingScoring", "Measure", "RECORDING_MEASURES",
