@@ -8,8 +8,9 @@ an OpenFace CSV of an image sequence or a file with a wrong rate).
 Paths are relative to the directory.  Audio and motion may be in any supported format.
 
 A :class:`Recording` pairs one take's audio (resampled to the corpus sample rate, 16 kHz by
-default as in thesis §3.4) with its head motion, trimmed to a common length within the tolerance
-of :func:`headmotion.align.align_tracks`.
+default as in thesis §3.4) with its head motion, trimmed to the shorter track within the rule of
+:func:`headmotion.align.recording_tolerance_s` (at most 1 s and 2 %; the seconds cut from each
+track are in ``Recording.meta["trimmed"]``).
 
 Splits are always by recording, never by frame: :func:`leave_one_out` (thesis §5.9) and
 :func:`paper_split` (paper §4.1: per subject 6 recordings train, 2 validation, 2 test; with fewer
@@ -26,7 +27,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from .align import align_tracks
+from .align import align_tracks, recording_tolerance_s
 from .errors import FormatError, HeadMotionError, ParameterError
 from .types import Audio, Motion
 
@@ -259,13 +260,17 @@ class Corpus(Sequence[Recording]):
             if motion.fps != e.fps:
                 motion = motion.replace(fps=e.fps)
             motion = motion.replace(meta={**motion.meta, "fps_from": "corpus.csv"})
-        audio, motion = align_tracks(audio, motion, names=(str(e.audio), str(e.motion)))
+        before = (audio.duration, motion.duration)
+        audio, motion = align_tracks(audio, motion, names=(str(e.audio), str(e.motion)),
+                                     tolerance_s=recording_tolerance_s(before))
+        trimmed = {"audio_s": round(before[0] - audio.duration, 3), "motion_s": round(before[1] - motion.duration, 3)}
         speaking = None
         if e.speaking is not None:
             from .features.vad import load_speaking_annotation
 
             speaking = load_speaking_annotation(base / e.speaking, fps=motion.fps, n_frames=len(motion))
-        return Recording(e.recording, e.speaker, e.task, audio, motion, speaking=speaking, split=e.split)
+        return Recording(e.recording, e.speaker, e.task, audio, motion, speaking=speaking, split=e.split,
+                         meta={"trimmed": trimmed})
 
     def subset(self, indices_or_ids) -> "Corpus":
         idx = [self.ids.index(i) if isinstance(i, str) else int(i) for i in indices_or_ids]
@@ -348,24 +353,45 @@ def paper_split(corpus: Corpus, *, seed: int = 0) -> dict[str, str]:
 
 def check_corpus(corpus: Corpus) -> tuple[list[dict], list[str]]:
     """Load every recording; return per-recording rows and a list of problems (never raises for
-    a bad file: the problem is reported and the check goes on)."""
+    a bad file: the problem is reported and the check goes on).
+
+    Each row has ``recording, speaker, task, minutes, fps, speaking, trimmed_s, ok``.  A recording
+    that cannot be loaded is still described from whichever of its files can be read (its motion's
+    length and rate, else its speech's length); a value that no file gives is ``None``, never NaN.
+    ``trimmed_s`` is the longer of the two cuts made to align speech and motion."""
     rows: list[dict] = []
     problems: list[str] = []
     for i, e in enumerate(corpus.entries):
+        base = {"recording": e.recording, "speaker": e.speaker, "task": e.task}
         try:
             r = corpus[i]
         except HeadMotionError as exc:
             problems.append(f"{e.recording}: {exc}")
-            rows.append({"recording": e.recording, "speaker": e.speaker, "task": e.task,
-                         "minutes": float("nan"), "fps": float("nan"), "speaking": float("nan"), "ok": False})
+            rows.append({**base, **_describe_files(corpus, e), "speaking": None, "trimmed_s": None, "ok": False})
             continue
         mask = r.speaking_mask()
-        rows.append({"recording": r.id, "speaker": r.speaker, "task": r.task,
-                     "minutes": r.duration / 60.0, "fps": r.motion.fps,
-                     "speaking": float(np.mean(mask)) if len(mask) else 0.0, "ok": True})
+        trimmed = r.meta.get("trimmed") or {}
+        rows.append({**base, "minutes": r.duration / 60.0, "fps": r.motion.fps,
+                     "speaking": float(np.mean(mask)) if len(mask) else 0.0,
+                     "trimmed_s": max(trimmed.values(), default=0.0), "ok": True})
         if not mask.any():
             problems.append(f"{r.id}: no speaking frames detected")
     return rows, problems
+
+
+def _describe_files(corpus: Corpus, e: CorpusEntry) -> dict:
+    """Minutes and frame rate of an entry that did not load, from the files that can be read."""
+    from .io import load_motion
+    from .io.audio_blocks import audio_duration
+
+    base = corpus.root if corpus.root is not None else Path()
+    try:
+        m = load_motion(base / e.motion) if e.fps is None else load_motion(base / e.motion).replace(fps=e.fps)
+        return {"minutes": m.duration / 60.0, "fps": float(m.fps)}
+    except HeadMotionError:
+        pass
+    seconds = audio_duration(base / e.audio) if (base / e.audio).is_file() else float("nan")
+    return {"minutes": seconds / 60.0 if np.isfinite(seconds) else None, "fps": None}
 
 
 __all__ = ["Recording", "Corpus", "CorpusEntry", "leave_one_out", "paper_split", "check_corpus", "MANIFEST"]
