@@ -138,3 +138,24 @@ def test_check_describes_a_recording_that_does_not_load(tmp_path):
     assert problems and "differ" in problems[0]
     res = runner.invoke(app, ["corpus", "check", str(out)])
     assert res.exit_code == 1 and "nan" not in res.output
+
+
+def test_feature_cache_resumes_and_recomputes_stale(tmp_path):
+    """The corpus feature cache: every recording once; a second run computes nothing; the files
+    equal the features computed directly; a changed speech file is recomputed."""
+    from headmotion.features import FeatureConfig
+    from headmotion.features.cache import build_feature_cache, cache_path, load_cached
+
+    root = _beat2(tmp_path / "beat2", [("2_scott_0_1_1", 3.0, 3.0, "train"), ("4_ann_0_1_1", 2.5, 2.5, "test")])
+    import_dataset("beat2", root, tmp_path / "c")
+    corpus = Corpus.load(tmp_path / "c")
+    config = FeatureConfig("f0e", fps=100.0)
+    assert build_feature_cache(corpus, config) == {"computed": 2, "cached": 0}
+    assert build_feature_cache(corpus, config) == {"computed": 0, "cached": 2}
+    direct = config.extract(corpus["4_ann_0_1_1"].audio)
+    got = load_cached(corpus, "4_ann_0_1_1", config)
+    np.testing.assert_array_equal(got.values, direct.values)
+    assert cache_path(corpus.root, "4_ann_0_1_1", config).parent.name.startswith("f0e-")
+    _speech(root / "wave16k" / "4_ann_0_1_1.wav", 2.5, seed=9)  # edited: the cached file is stale
+    assert load_cached(Corpus.load(tmp_path / "c"), "4_ann_0_1_1", config) is None
+    assert build_feature_cache(Corpus.load(tmp_path / "c"), config) == {"computed": 1, "cached": 1}

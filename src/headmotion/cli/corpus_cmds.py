@@ -105,6 +105,34 @@ def import_dataset_cmd(
         raise typer.Exit(1)
 
 
+@corpus_app.command("features")
+def features_cmd(
+    corpus_dir: Path = typer.Argument(..., help="corpus directory (with corpus.csv)"),
+    sets: List[str] = typer.Option(["mfcc"], "--set", help="feature set (repeat for several): mfcc, f0e, fbank, ..."),
+    fps: float = typer.Option(100.0, "--fps", help="feature frames per second"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="recordings computed at once (processes)"),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address instead of --jobs"),
+):
+    """Compute a corpus's speech features once, in parallel, into CORPUS/.features (resumable).
+
+    Each recording is one task; finished files are kept when the build is interrupted and skipped
+    when it is run again; a recording whose speech file changed is recomputed."""
+    from ..corpus import Corpus
+    from ..features import FeatureConfig, available
+    from ..features.cache import build_feature_cache
+
+    unknown = [s for s in sets if s not in available()]
+    if unknown:
+        raise ParameterError(f"unknown feature set(s) {unknown}; available: {', '.join(available())}")
+    corpus = Corpus.load(corpus_dir)
+    configs = [FeatureConfig(s, fps=fps) for s in sets]
+    with progress_bar("features") as update:
+        counts = build_feature_cache(corpus, configs, n_jobs=jobs, scheduler=scheduler,
+                                     progress=lambda done, total, desc: update(done, total=total, description=desc))
+    console.print(f"{corpus_dir}/.features: {counts['computed']} computed, {counts['cached']} already cached "
+                  f"({len(corpus)} recordings × {len(configs)} set(s))")
+
+
 @corpus_app.command("import")
 def import_files(
     files: List[Path] = typer.Argument(..., help="audio and motion files, paired by file stem"),
