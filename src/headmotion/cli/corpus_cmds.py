@@ -64,7 +64,7 @@ def _print_import_summary(summary) -> None:
     for item, check in summary.trimmed:
         console.print(f"  {item.recording}: speech {check.audio_s:.3f} s, motion {check.motion_s:.3f} s → "
                       f"{check.longer} trimmed by {check.trimmed_s:.3f} s", highlight=False)
-    for item, reason in summary.refused:
+    for _item, reason in summary.refused:
         err_console.print(f"  refused {reason}", highlight=False)
     for p in summary.problems:
         err_console.print(f"  {p}", highlight=False)
