@@ -21,7 +21,9 @@ from __future__ import annotations
 
 import csv
 import io as _io
+from collections import OrderedDict
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Iterator, Sequence
 
@@ -35,6 +37,7 @@ MANIFEST = "corpus.csv"
 REQUIRED_COLUMNS = ("recording", "speaker", "task", "audio", "motion")
 OPTIONAL_COLUMNS = ("split", "speaking", "fps")
 DEFAULT_SAMPLE_RATE = 16000
+RECORDINGS_KEPT = 64  # recordings a corpus on disk keeps loaded (their speech is decoded when read)
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,7 +110,10 @@ class CorpusEntry:
 class Corpus(Sequence[Recording]):
     """An ordered collection of recordings, from a directory or built in memory.
 
-    Recordings from disk are loaded lazily on first access and cached.
+    Recordings from disk are loaded on first access; the corpus keeps the :data:`RECORDINGS_KEPT`
+    most recently used, and their speech is a :class:`~headmotion.stored_audio.StoredAudio`
+    (decoded when read, a bounded cache of recent ones), so that iterating a corpus of tens of
+    hours, or holding a list of all its recordings, does not hold its speech in memory.
     """
 
     def __init__(self, recordings: Sequence[Recording] = (), *, root: Path | None = None,
@@ -117,12 +123,12 @@ class Corpus(Sequence[Recording]):
         if recordings and entries:
             raise ParameterError("give either recordings or manifest entries, not both")
         self._entries: tuple[CorpusEntry, ...] = tuple(entries)
-        self._cache: dict[int, Recording] = {}
+        self._cache: OrderedDict[int, Recording] = OrderedDict()
         if recordings:
             self._entries = tuple(
                 CorpusEntry(r.id, r.speaker, r.task, Path(), Path(), r.split) for r in recordings
             )
-            self._cache = dict(enumerate(recordings))
+            self._cache = OrderedDict(enumerate(recordings))
         ids = [e.recording for e in self._entries]
         dup = sorted({i for i in ids if ids.count(i) > 1})
         if dup:
@@ -235,15 +241,35 @@ class Corpus(Sequence[Recording]):
             index = self.ids.index(index)
         if index < 0:
             index += len(self)
-        if index not in self._cache:
-            self._cache[index] = self._load_entry(self._entries[index])
-        return self._cache[index]
+        rec = self._cache.get(index)
+        if rec is None:
+            rec = self._cache[index] = self._load_entry(self._entries[index])
+        if self.root is not None:  # a corpus on disk keeps only its recently used recordings
+            self._cache.move_to_end(index)
+            while len(self._cache) > RECORDINGS_KEPT:
+                self._cache.popitem(last=False)
+        return rec
 
     def __iter__(self) -> Iterator[Recording]:
         for i in range(len(self)):
             yield self[i]
 
     def _load_entry(self, e: CorpusEntry) -> Recording:
+        """The recording, its speech a :class:`~headmotion.stored_audio.StoredAudio` (decoded
+        again when read after leaving the decoded cache; the samples are those read here)."""
+        from .stored_audio import StoredAudio, _samples
+
+        rec = self._read_entry(e)
+        key = (str(self.root), e.recording, str(e.audio), self.sample_rate)
+        _samples(key, lambda: rec.audio.samples)  # decoded once now: the first read needs no decode
+        audio = StoredAudio(partial(_read_samples, self.root, e, self.sample_rate), len(rec.audio),
+                            rec.audio.sample_rate, key)
+        meta = {**rec.meta, "source": {"corpus": str(self.root), "audio": str(self.root / e.audio)}}
+        return Recording(rec.id, rec.speaker, rec.task, audio, rec.motion, speaking=rec.speaking,
+                         split=rec.split, meta=meta)
+
+    def _read_entry(self, e: CorpusEntry) -> Recording:
+        """Decode and align one entry's files (speech held in memory)."""
         from .io import load_audio, load_motion
 
         base = self.root if self.root is not None else Path()
@@ -274,7 +300,7 @@ class Corpus(Sequence[Recording]):
 
     def subset(self, indices_or_ids) -> "Corpus":
         idx = [self.ids.index(i) if isinstance(i, str) else int(i) for i in indices_or_ids]
-        if self.root is not None and not all(i in self._cache for i in idx):
+        if self.root is not None:  # stays on disk: recordings loaded when used, the feature cache found
             c = Corpus(root=self.root, entries=[self._entries[i] for i in idx], sample_rate=self.sample_rate)
             for new, old in enumerate(idx):
                 if old in self._cache:
@@ -306,6 +332,11 @@ class Corpus(Sequence[Recording]):
     def __repr__(self) -> str:
         where = f" at {self.root}" if self.root else ""
         return f"Corpus({len(self)} recordings, speakers={self.speakers}{where})"
+
+
+def _read_samples(root: Path, e: CorpusEntry, sample_rate: int) -> np.ndarray:
+    """The aligned speech samples of entry ``e`` of the corpus at ``root`` (a StoredAudio's load)."""
+    return Corpus(root=root, entries=[e], sample_rate=sample_rate)._read_entry(e).audio.samples
 
 
 # -- splits ---------------------------------------------------------------------------------------

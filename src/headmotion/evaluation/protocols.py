@@ -609,6 +609,10 @@ def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0,
             folds.append((spk, _with_split(corpus, tr, split), _with_split(corpus, te, split), others_of(spk)))
         if not folds:
             raise ParameterError("the split protocol found no speaker with both train and test recordings")
+    elif protocol == "dataset":
+        from .dataset_split import dataset_split_folds
+
+        folds = dataset_split_folds(corpus)
     elif protocol == "speakers":
         groups = speaker_groups(corpus.speakers, speaker_folds, seed=seed)
         if len(groups) < 2:
@@ -619,7 +623,7 @@ def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0,
             name = g[0] if len(g) == 1 else f"{g[0]}+{len(g) - 1}"
             folds.append((name, corpus.subset(tr), corpus.subset(te), corpus.subset(tr)))
     else:
-        raise ParameterError(f"protocol must be 'loo', 'split' or 'speakers'; got {protocol!r}")
+        raise ParameterError(f"protocol must be 'loo', 'split', 'dataset' or 'speakers'; got {protocol!r}")
     return folds
 
 
@@ -682,7 +686,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     systems : sequence of registry names (``"tws-hier"``, ``"shaped-noise"``, …) or
         ``(name, factory)`` pairs where ``factory(**maybe_seed)`` returns a Synthesizer.
         ``"ground-truth"`` is always included.
-    protocol : ``"loo"`` | ``"split"`` | ``"speakers"`` (``speaker_folds`` groups of held-out
+    protocol : ``"loo"`` | ``"split"`` | ``"dataset"`` | ``"speakers"`` (``speaker_folds`` groups of held-out
         speakers; 0 = one per speaker)
     features : str | callable — the feature set used by FCCA (``f0e`` as in the thesis' choice of
         F0 + energy) or ``callable(audio, fps=, n_frames=) -> FeatureTrack``.

@@ -57,16 +57,46 @@ def _audio_path(corpus, recording: str) -> Path:
 
 def load_cached(corpus, recording: str, config: FeatureConfig) -> FeatureTrack | None:
     """The cached features of ``recording``, or ``None`` when missing or stale."""
-    path = cache_path(corpus.root, recording, config)
+    return _read_track(cache_path(corpus.root, recording, config), _audio_path(corpus, recording))
+
+
+def _read_track(path: Path, audio_path: Path) -> FeatureTrack | None:
     if not path.is_file():
         return None
     try:
         with np.load(path, allow_pickle=False) as z:
-            if str(z["stamp"]) != _stamp(_audio_path(corpus, recording)):
+            if str(z["stamp"]) != _stamp(audio_path):
                 return None
             return FeatureTrack(z["values"], float(z["fps"]), tuple(str(n) for n in z["names"]))
     except (OSError, KeyError, ValueError):
         return None  # a damaged file is recomputed
+
+
+def features_for(recording, config: FeatureConfig, n_frames: int | None = None) -> FeatureTrack:
+    """``config.extract(recording.audio, n_frames=n_frames)``, read from the corpus's feature cache
+    when it holds a valid track for this recording (the same values: the cache is that extraction
+    at the speech's own frame count, so it is used only when ``n_frames`` is that count).
+
+    Parameters
+    ----------
+    recording : Recording (one from a corpus on disk carries where its corpus is, in ``meta``)
+    config : FeatureConfig
+    n_frames : int, optional — the length of the result, as for :func:`headmotion.features.extract`
+
+    Returns
+    -------
+    FeatureTrack
+    """
+    from ..align import n_frames as count_frames
+
+    source = (getattr(recording, "meta", None) or {}).get("source")
+    audio = recording.audio
+    natural = count_frames(len(audio), audio.sample_rate, float(config.fps))
+    if source and (n_frames is None or int(n_frames) == natural):
+        track = _read_track(cache_path(source["corpus"], recording.id, config), Path(source["audio"]))
+        if track is not None and len(track.values) == natural:
+            return track
+    return config.extract(audio, n_frames=n_frames)
 
 
 def _compute(task: CacheTask) -> str:
@@ -118,4 +148,4 @@ def build_feature_cache(corpus, configs, *, n_jobs: int = 1, scheduler=None,
     return {"computed": len(todo), "cached": cached}
 
 
-__all__ = ["build_feature_cache", "load_cached", "cache_path", "config_key", "CACHE_DIR"]
+__all__ = ["build_feature_cache", "features_for", "load_cached", "cache_path", "config_key", "CACHE_DIR"]

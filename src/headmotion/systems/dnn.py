@@ -252,6 +252,7 @@ import numpy as np
 from ..align import fit_length as _fit_length
 from ..align import n_frames as _n_frames
 from ..errors import ParameterError
+from ..features.cache import features_for
 from ..motion.control import mean_pose_of
 from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, FeatureTrack, Motion
@@ -519,7 +520,7 @@ class _DnnSystem(Synthesizer):
     def _prepare(self, rec, config) -> _Prepared:
         fps = float(self.model_fps)
         T = _n_frames(len(rec.audio.samples), rec.audio.sample_rate, fps)
-        feats = self._extract(rec.audio, T, config)
+        feats = np.asarray(features_for(rec, config, T).values, dtype=np.float32)
         mot = rec.motion if abs(rec.motion.fps - fps) < 1e-9 else rec.motion.resample(fps)
         motion = _fit_length(np.asarray(mot.rotvec, dtype=np.float64), T)
         if rec.speaking is not None:
