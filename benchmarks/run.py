@@ -13,7 +13,8 @@ which speech was used.  Video → pose needs a real talking-face video (../share
 skipped with a reason when it is absent.
 
 Groups: features, synth, stream, train, memory, render, video, evaluate, server (the listening-test
-server under simulated participants; skipped by a bare ``--quick``).
+server under simulated participants; skipped by a bare ``--quick``), scale (corpora of 1, 4, 16 hours
+in BEAT2's layout, import to training; only with ``--only scale``; ``HEADMOTION_SCALE_HOURS=1,4``).
 ``--quick`` runs a reduced set (short corpora, fewer repeats) in under 3 minutes.
 """
 
@@ -505,7 +506,13 @@ def bench_server(res: Results, quick: bool):
                     f"{med('client_cpu_ms_per_answer'):.2f} ms per answer"))
 
 
-GROUPS = ("features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server")
+def bench_scale(res: Results, quick: bool):
+    from scale_bench import bench_scale as scale  # a dataset of hours: see benchmarks/scale_bench.py
+
+    scale(res, quick, speech_dir=speech_dir())
+
+
+GROUPS = ("features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server", "scale")
 
 
 def main(argv=None) -> int:
@@ -530,6 +537,8 @@ def main(argv=None) -> int:
         if args.quick and g == "video":
             continue
         if args.quick and g == "server" and not args.only:  # about two minutes: only when asked
+            continue
+        if g == "scale" and not args.only:  # hours of corpus: only when asked
             continue
         fn = globals()[f"bench_{g}"]
         kwargs = {"cache": cache} if g in ("synth", "stream") else {}
