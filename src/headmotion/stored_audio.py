@@ -19,7 +19,7 @@ import numpy as np
 
 from .types import Audio
 
-CACHE_BYTES = 256 * 2**20
+CACHE_BYTES = 64 * 2**20  # 17 minutes of 16 kHz speech
 _decoded: "OrderedDict[Hashable, np.ndarray]" = OrderedDict()
 _lock = threading.Lock()
 

@@ -44,6 +44,7 @@ class CacheTask:
     recording: str
     config: dict
     sample_rate: int
+    entry: object = None  # the manifest row (CorpusEntry): the worker does not read the manifest
 
 
 def cache_path(corpus_root, recording: str, config: FeatureConfig) -> Path:
@@ -103,7 +104,8 @@ def _compute(task: CacheTask) -> str:
     from ..corpus import Corpus
     from ..io.atomic import atomic_path
 
-    corpus = Corpus.load(task.corpus_root, sample_rate=task.sample_rate)
+    corpus = (Corpus(root=Path(task.corpus_root), entries=[task.entry], sample_rate=task.sample_rate)
+              if task.entry is not None else Corpus.load(task.corpus_root, sample_rate=task.sample_rate))
     config = FeatureConfig.from_dict(task.config)
     rec = corpus[task.recording]
     track = config.extract(rec.audio)
@@ -138,9 +140,9 @@ def build_feature_cache(corpus, configs, *, n_jobs: int = 1, scheduler=None,
     configs = [configs] if isinstance(configs, FeatureConfig) else list(configs)
     todo, cached = [], 0
     for config in configs:
-        for rid in corpus.ids:
-            if load_cached(corpus, rid, config) is None:
-                todo.append(CacheTask(str(corpus.root), rid, config.to_dict(), corpus.sample_rate))
+        for e in corpus.entries:
+            if _read_track(cache_path(corpus.root, e.recording, config), Path(corpus.root) / e.audio) is None:
+                todo.append(CacheTask(str(corpus.root), e.recording, config.to_dict(), corpus.sample_rate, e))
             else:
                 cached += 1
     run_map(_compute, todo, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
