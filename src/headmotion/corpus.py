@@ -129,6 +129,7 @@ class Corpus(Sequence[Recording]):
                 CorpusEntry(r.id, r.speaker, r.task, Path(), Path(), r.split) for r in recordings
             )
             self._cache = OrderedDict(enumerate(recordings))
+        self._given = bool(recordings)  # recordings built in memory are all kept
         ids = [e.recording for e in self._entries]
         dup = sorted({i for i in ids if ids.count(i) > 1})
         if dup:
@@ -244,7 +245,7 @@ class Corpus(Sequence[Recording]):
         rec = self._cache.get(index)
         if rec is None:
             rec = self._cache[index] = self._load_entry(self._entries[index])
-        if self.root is not None:  # a corpus on disk keeps only its recently used recordings
+        if self.root is not None and not self._given:  # a corpus on disk keeps its recently used ones
             self._cache.move_to_end(index)
             while len(self._cache) > RECORDINGS_KEPT:
                 self._cache.popitem(last=False)
