@@ -14,7 +14,9 @@ skipped with a reason when it is absent.
 
 Groups: startup (whole commands in fresh processes: ``--help``, ``synth``, ``stream``; startup.py),
 features, synth, stream, train, memory, render, video, evaluate, server (the listening-test
-server under simulated participants; skipped by a bare ``--quick``).
+server under simulated participants; skipped by a bare ``--quick``), serve (``headmotion serve``
+under load; serve_bench.py), scale (corpora of 1, 4, 16 hours in BEAT2's layout, import to
+training; only with ``--only scale``; ``HEADMOTION_SCALE_HOURS=1,4``).
 ``--quick`` runs a reduced set (short corpora, fewer repeats) in under 3 minutes.
 """
 
@@ -545,7 +547,14 @@ def bench_serve(res: Results, quick: bool):
     run_serve(res, quick)
 
 
-GROUPS = ("startup", "features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server", "serve")
+def bench_scale(res: Results, quick: bool):
+    from scale_bench import bench_scale as scale  # a dataset of hours: see benchmarks/scale_bench.py
+
+    scale(res, quick, speech_dir=speech_dir())
+
+
+GROUPS = ("startup", "features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server",
+          "serve", "scale")
 
 
 def main(argv=None) -> int:
@@ -570,6 +579,8 @@ def main(argv=None) -> int:
         if args.quick and g == "video":
             continue
         if args.quick and g in ("server", "serve") and not args.only:  # minutes: only when asked
+            continue
+        if g == "scale" and not args.only:  # hours of corpus: only when asked
             continue
         fn = globals()[f"bench_{g}"]
         kwargs = {"cache": cache} if g in ("synth", "stream") else {}

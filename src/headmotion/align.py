@@ -6,6 +6,13 @@ shortest common duration when the lengths agree within a tolerance (default: one
 coarsest track plus 50 ms) and raises :class:`~headmotion.errors.LengthMismatchError`, naming both
 lengths, beyond it.
 
+The two tracks of one recording on disk (a corpus entry) may disagree by more: public corpora
+ship speech a fraction of a second longer than the motion (BEAT2: 64.10 s of speech beside 63.53 s
+of motion), and their own loaders cut both to the shorter.  :func:`recording_tolerance_s` states
+the rule every corpus command uses, at import and at load alike: trimmed when the difference is at
+most ``TRIM_MAX_S`` (1 s) **and** at most ``TRIM_MAX_SHARE`` (2 %) of the shorter track, refused
+beyond.
+
 Frame times, one convention for every resampler (:meth:`headmotion.types.Motion.resample`,
 :func:`resample_track`): frame ``t`` of a track at ``fps`` stands for time ``t / fps`` (its start),
 and frame ``t`` covers ``[t / fps, (t + 1) / fps)`` (:func:`n_frames`).  Lengths are made equal by
@@ -25,6 +32,22 @@ from .types import Audio, FeatureTrack, Motion
 Track = TypeVar("Track", Audio, Motion, FeatureTrack)
 
 DEFAULT_TOLERANCE_S = 0.05
+#: A recording's speech and motion are cut to the shorter when they differ by at most this many
+#: seconds and at most this share of the shorter track (:func:`recording_tolerance_s`).
+TRIM_MAX_S = 1.0
+TRIM_MAX_SHARE = 0.02
+
+
+def recording_tolerance_s(durations) -> float:
+    """Seconds by which the tracks of one recording may differ and still be trimmed to the shorter.
+
+    The larger of :data:`DEFAULT_TOLERANCE_S` and ``min(TRIM_MAX_S, TRIM_MAX_SHARE * shortest)``:
+    a 64 s take may lose up to 1 s, a 10 s clip up to 0.2 s, a 2 s clip only the default 50 ms
+    (plus the one-frame allowance of :func:`align_tracks`)."""
+    shortest = min(float(d) for d in durations)
+    if not math.isfinite(shortest) or shortest < 0:
+        raise ParameterError(f"track durations must be finite and non-negative; got {list(durations)}")
+    return max(DEFAULT_TOLERANCE_S, min(TRIM_MAX_S, TRIM_MAX_SHARE * shortest))
 
 
 def n_frames(n_samples: int, sample_rate: float, fps: float) -> int:
@@ -136,4 +159,5 @@ def resample_track(track: FeatureTrack, fps: float, n: int | None = None) -> Fea
     return FeatureTrack(vals, fps, track.names)
 
 
-__all__ = ["n_frames", "align_tracks", "resample_track", "fit_length", "DEFAULT_TOLERANCE_S"]
+__all__ = ["n_frames", "align_tracks", "resample_track", "fit_length", "DEFAULT_TOLERANCE_S", "TRIM_MAX_S",
+           "TRIM_MAX_SHARE", "recording_tolerance_s"]

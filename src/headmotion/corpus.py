@@ -8,8 +8,9 @@ an OpenFace CSV of an image sequence or a file with a wrong rate).
 Paths are relative to the directory.  Audio and motion may be in any supported format.
 
 A :class:`Recording` pairs one take's audio (resampled to the corpus sample rate, 16 kHz by
-default as in thesis §3.4) with its head motion, trimmed to a common length within the tolerance
-of :func:`headmotion.align.align_tracks`.
+default as in thesis §3.4) with its head motion, trimmed to the shorter track within the rule of
+:func:`headmotion.align.recording_tolerance_s` (at most 1 s and 2 %; the seconds cut from each
+track are in ``Recording.meta["trimmed"]``).
 
 Splits are always by recording, never by frame: :func:`leave_one_out` (thesis §5.9) and
 :func:`paper_split` (paper §4.1: per subject 6 recordings train, 2 validation, 2 test; with fewer
@@ -20,13 +21,15 @@ from __future__ import annotations
 
 import csv
 import io as _io
+from collections import OrderedDict
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Iterator, Sequence
 
 import numpy as np
 
-from .align import align_tracks
+from .align import align_tracks, recording_tolerance_s
 from .errors import FormatError, HeadMotionError, ParameterError
 from .types import Audio, Motion
 
@@ -34,6 +37,7 @@ MANIFEST = "corpus.csv"
 REQUIRED_COLUMNS = ("recording", "speaker", "task", "audio", "motion")
 OPTIONAL_COLUMNS = ("split", "speaking", "fps")
 DEFAULT_SAMPLE_RATE = 16000
+RECORDINGS_KEPT = 64  # recordings a corpus on disk keeps loaded (their speech is decoded when read)
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,7 +110,10 @@ class CorpusEntry:
 class Corpus(Sequence[Recording]):
     """An ordered collection of recordings, from a directory or built in memory.
 
-    Recordings from disk are loaded lazily on first access and cached.
+    Recordings from disk are loaded on first access; the corpus keeps the :data:`RECORDINGS_KEPT`
+    most recently used, and their speech is a :class:`~headmotion.stored_audio.StoredAudio`
+    (decoded when read, a bounded cache of recent ones), so that iterating a corpus of tens of
+    hours, or holding a list of all its recordings, does not hold its speech in memory.
     """
 
     def __init__(self, recordings: Sequence[Recording] = (), *, root: Path | None = None,
@@ -116,12 +123,13 @@ class Corpus(Sequence[Recording]):
         if recordings and entries:
             raise ParameterError("give either recordings or manifest entries, not both")
         self._entries: tuple[CorpusEntry, ...] = tuple(entries)
-        self._cache: dict[int, Recording] = {}
+        self._cache: OrderedDict[int, Recording] = OrderedDict()
         if recordings:
             self._entries = tuple(
                 CorpusEntry(r.id, r.speaker, r.task, Path(), Path(), r.split) for r in recordings
             )
-            self._cache = dict(enumerate(recordings))
+            self._cache = OrderedDict(enumerate(recordings))
+        self._given = bool(recordings)  # recordings built in memory are all kept
         ids = [e.recording for e in self._entries]
         dup = sorted({i for i in ids if ids.count(i) > 1})
         if dup:
@@ -234,15 +242,35 @@ class Corpus(Sequence[Recording]):
             index = self.ids.index(index)
         if index < 0:
             index += len(self)
-        if index not in self._cache:
-            self._cache[index] = self._load_entry(self._entries[index])
-        return self._cache[index]
+        rec = self._cache.get(index)
+        if rec is None:
+            rec = self._cache[index] = self._load_entry(self._entries[index])
+        if self.root is not None and not self._given:  # a corpus on disk keeps its recently used ones
+            self._cache.move_to_end(index)
+            while len(self._cache) > RECORDINGS_KEPT:
+                self._cache.popitem(last=False)
+        return rec
 
     def __iter__(self) -> Iterator[Recording]:
         for i in range(len(self)):
             yield self[i]
 
     def _load_entry(self, e: CorpusEntry) -> Recording:
+        """The recording, its speech a :class:`~headmotion.stored_audio.StoredAudio` (decoded
+        again when read after leaving the decoded cache; the samples are those read here)."""
+        from .stored_audio import StoredAudio, _samples
+
+        rec = self._read_entry(e)
+        key = (str(self.root), e.recording, str(e.audio), self.sample_rate)
+        _samples(key, lambda: rec.audio.samples)  # decoded once now: the first read needs no decode
+        audio = StoredAudio(partial(_read_samples, self.root, e, self.sample_rate), len(rec.audio),
+                            rec.audio.sample_rate, key)
+        meta = {**rec.meta, "source": {"corpus": str(self.root), "audio": str(self.root / e.audio)}}
+        return Recording(rec.id, rec.speaker, rec.task, audio, rec.motion, speaking=rec.speaking,
+                         split=rec.split, meta=meta)
+
+    def _read_entry(self, e: CorpusEntry) -> Recording:
+        """Decode and align one entry's files (speech held in memory)."""
         from .io import load_audio, load_motion
 
         base = self.root if self.root is not None else Path()
@@ -259,17 +287,21 @@ class Corpus(Sequence[Recording]):
             if motion.fps != e.fps:
                 motion = motion.replace(fps=e.fps)
             motion = motion.replace(meta={**motion.meta, "fps_from": "corpus.csv"})
-        audio, motion = align_tracks(audio, motion, names=(str(e.audio), str(e.motion)))
+        before = (audio.duration, motion.duration)
+        audio, motion = align_tracks(audio, motion, names=(str(e.audio), str(e.motion)),
+                                     tolerance_s=recording_tolerance_s(before))
+        trimmed = {"audio_s": round(before[0] - audio.duration, 3), "motion_s": round(before[1] - motion.duration, 3)}
         speaking = None
         if e.speaking is not None:
             from .features.vad import load_speaking_annotation
 
             speaking = load_speaking_annotation(base / e.speaking, fps=motion.fps, n_frames=len(motion))
-        return Recording(e.recording, e.speaker, e.task, audio, motion, speaking=speaking, split=e.split)
+        return Recording(e.recording, e.speaker, e.task, audio, motion, speaking=speaking, split=e.split,
+                         meta={"trimmed": trimmed})
 
     def subset(self, indices_or_ids) -> "Corpus":
         idx = [self.ids.index(i) if isinstance(i, str) else int(i) for i in indices_or_ids]
-        if self.root is not None and not all(i in self._cache for i in idx):
+        if self.root is not None:  # stays on disk: recordings loaded when used, the feature cache found
             c = Corpus(root=self.root, entries=[self._entries[i] for i in idx], sample_rate=self.sample_rate)
             for new, old in enumerate(idx):
                 if old in self._cache:
@@ -301,6 +333,11 @@ class Corpus(Sequence[Recording]):
     def __repr__(self) -> str:
         where = f" at {self.root}" if self.root else ""
         return f"Corpus({len(self)} recordings, speakers={self.speakers}{where})"
+
+
+def _read_samples(root: Path, e: CorpusEntry, sample_rate: int) -> np.ndarray:
+    """The aligned speech samples of entry ``e`` of the corpus at ``root`` (a StoredAudio's load)."""
+    return Corpus(root=root, entries=[e], sample_rate=sample_rate)._read_entry(e).audio.samples
 
 
 # -- splits ---------------------------------------------------------------------------------------
@@ -348,24 +385,45 @@ def paper_split(corpus: Corpus, *, seed: int = 0) -> dict[str, str]:
 
 def check_corpus(corpus: Corpus) -> tuple[list[dict], list[str]]:
     """Load every recording; return per-recording rows and a list of problems (never raises for
-    a bad file: the problem is reported and the check goes on)."""
+    a bad file: the problem is reported and the check goes on).
+
+    Each row has ``recording, speaker, task, minutes, fps, speaking, trimmed_s, ok``.  A recording
+    that cannot be loaded is still described from whichever of its files can be read (its motion's
+    length and rate, else its speech's length); a value that no file gives is ``None``, never NaN.
+    ``trimmed_s`` is the longer of the two cuts made to align speech and motion."""
     rows: list[dict] = []
     problems: list[str] = []
     for i, e in enumerate(corpus.entries):
+        base = {"recording": e.recording, "speaker": e.speaker, "task": e.task}
         try:
             r = corpus[i]
         except HeadMotionError as exc:
             problems.append(f"{e.recording}: {exc}")
-            rows.append({"recording": e.recording, "speaker": e.speaker, "task": e.task,
-                         "minutes": float("nan"), "fps": float("nan"), "speaking": float("nan"), "ok": False})
+            rows.append({**base, **_describe_files(corpus, e), "speaking": None, "trimmed_s": None, "ok": False})
             continue
         mask = r.speaking_mask()
-        rows.append({"recording": r.id, "speaker": r.speaker, "task": r.task,
-                     "minutes": r.duration / 60.0, "fps": r.motion.fps,
-                     "speaking": float(np.mean(mask)) if len(mask) else 0.0, "ok": True})
+        trimmed = r.meta.get("trimmed") or {}
+        rows.append({**base, "minutes": r.duration / 60.0, "fps": r.motion.fps,
+                     "speaking": float(np.mean(mask)) if len(mask) else 0.0,
+                     "trimmed_s": max(trimmed.values(), default=0.0), "ok": True})
         if not mask.any():
             problems.append(f"{r.id}: no speaking frames detected")
     return rows, problems
+
+
+def _describe_files(corpus: Corpus, e: CorpusEntry) -> dict:
+    """Minutes and frame rate of an entry that did not load, from the files that can be read."""
+    from .io import load_motion
+    from .io.audio_blocks import audio_duration
+
+    base = corpus.root if corpus.root is not None else Path()
+    try:
+        m = load_motion(base / e.motion) if e.fps is None else load_motion(base / e.motion).replace(fps=e.fps)
+        return {"minutes": m.duration / 60.0, "fps": float(m.fps)}
+    except HeadMotionError:
+        pass
+    seconds = audio_duration(base / e.audio) if (base / e.audio).is_file() else float("nan")
+    return {"minutes": seconds / 60.0 if np.isfinite(seconds) else None, "fps": None}
 
 
 __all__ = ["Recording", "Corpus", "CorpusEntry", "leave_one_out", "paper_split", "check_corpus", "MANIFEST"]

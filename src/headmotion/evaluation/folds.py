@@ -56,7 +56,8 @@ def speaker_groups(speakers: Sequence[str], n_folds: int = 0, *, seed: int = 0) 
 
 def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0,
                speaker_folds: int = 0) -> list[tuple[str, Corpus, Corpus, Corpus | None]]:
-    """``(fold name, train, test, other speakers)`` for ``protocol`` ``"loo"``, ``"split"`` or
+    """``(fold name, train, test, other speakers)`` for ``protocol`` ``"loo"``, ``"split"``,
+    ``"dataset"`` (the corpus's own split column: one fold, train + valid against test) or
     ``"speakers"`` (``speaker_folds`` groups; 0 = leave-one-speaker-out)."""
     entries = corpus.entries
     def others_of(spk):
@@ -79,6 +80,10 @@ def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0,
             folds.append((spk, _with_split(corpus, tr, split), _with_split(corpus, te, split), others_of(spk)))
         if not folds:
             raise ParameterError("the split protocol found no speaker with both train and test recordings")
+    elif protocol == "dataset":
+        from .dataset_split import dataset_split_folds
+
+        folds = dataset_split_folds(corpus)
     elif protocol == "speakers":
         groups = speaker_groups(corpus.speakers, speaker_folds, seed=seed)
         if len(groups) < 2:
@@ -89,7 +94,7 @@ def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0,
             name = g[0] if len(g) == 1 else f"{g[0]}+{len(g) - 1}"
             folds.append((name, corpus.subset(tr), corpus.subset(te), corpus.subset(tr)))
     else:
-        raise ParameterError(f"protocol must be 'loo', 'split' or 'speakers'; got {protocol!r}")
+        raise ParameterError(f"protocol must be 'loo', 'split', 'dataset' or 'speakers'; got {protocol!r}")
     return folds
 
 

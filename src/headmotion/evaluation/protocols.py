@@ -136,7 +136,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         ``NAME[KEY=VALUE;...]``, anchor names (``"shaped-noise"``, ``"desync"``), shipped model
         names (``"default"``, ``"stream"``), model file paths, or ``(name, factory)`` pairs where
         ``factory()`` returns an unfitted Synthesizer.  ``"ground-truth"`` is always included.
-    protocol : ``"loo"`` | ``"split"`` | ``"speakers"`` (``speaker_folds`` groups of held-out
+    protocol : ``"loo"`` | ``"split"`` | ``"dataset"`` | ``"speakers"`` (``speaker_folds`` groups of held-out
         speakers; 0 = one per speaker)
     features : str | callable — the feature set used by FCCA (``f0e`` as in the thesis' choice of
         F0 + energy) or ``callable(audio, fps=, n_frames=) -> FeatureTrack``.

@@ -180,6 +180,7 @@ class Le2012(Synthesizer):
 
     def fit(self, corpus, *, progress=None):
         from ..features import Normalizer
+        from ..features.cache import features_for
 
         self._validate_params()
         recs = list(corpus)
@@ -197,7 +198,7 @@ class Le2012(Synthesizer):
                 continue
             ang.append(rotvec_to_pitch_yaw_roll(m.rotvec))
             rvs.append(m.rotvec)
-            feats.append(np.asarray(cfg.extract(r.audio, n_frames=len(m)).values, dtype=np.float64))
+            feats.append(np.asarray(features_for(r, cfg, len(m)).values, dtype=np.float64))
             if progress:
                 progress(i + 1, len(recs) + 1, f"features {r.id}")
         if not ang:

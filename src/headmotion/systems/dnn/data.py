@@ -28,8 +28,10 @@ def extract(audio, T: int, config) -> np.ndarray:
 
 def prepare(rec, config, fps: float) -> Prepared:
     """A recording's features, motion and speaking flags at the model rate ``fps``."""
+    from ...features.cache import features_for  # the corpus's feature cache when it has one
+
     T = n_frames(len(rec.audio.samples), rec.audio.sample_rate, fps)
-    feats = extract(rec.audio, T, config)
+    feats = np.asarray(features_for(rec, config, T).values, dtype=np.float32)
     mot = rec.motion if abs(rec.motion.fps - fps) < 1e-9 else rec.motion.resample(fps)
     motion = fit_length(np.asarray(mot.rotvec, dtype=np.float64), T)
     if rec.speaking is not None:

@@ -152,6 +152,7 @@ class TwsBase(Synthesizer):
         self.sample_rate_ = (ANALYSIS_RATE if self.feature_config_.name in LIVE_FEATURES
                              else int(recs[0].audio.sample_rate))
         total = len(recs) + 2
+        from ...features.cache import features_for
         from ...features.vad import speaking_mask
 
         motions, raw, names, masks, kept = [], [], [], [], []
@@ -160,7 +161,7 @@ class TwsBase(Synthesizer):
             T = len(m)
             if T < 2 * min_segment_frames(self.fps_):
                 continue
-            tr = self.feature_config_.extract(r.audio, n_frames=T)
+            tr = features_for(r, self.feature_config_, T)
             motions.append(np.asarray(m.rotvec))
             kept.append(r)
             raw.append(np.asarray(tr.values, dtype=np.float64))

@@ -1,0 +1,142 @@
+"""The ``scale`` group: a dataset of hours, from its own folder layout to trained systems.
+
+Planted corpora (real speech tiled, planted head motion; :mod:`headmotion.datasets.planted`) are
+written in BEAT2's layout (1-minute takes, 4 speakers, SMPL-X at 30 fps, 16 kHz speech 0.3 s longer
+than the motion) at each size in ``HEADMOTION_SCALE_HOURS`` (default ``1,4,16``; ``--quick``
+``0.25,0.5``); training only up to ``HEADMOTION_SCALE_TRAIN_MAX_HOURS`` when set.  Each stage runs in a fresh process per size, which reports its wall time and peak
+RSS (``ru_maxrss``):
+
+* ``import``: ``corpus import-dataset beat2`` (scan, check every pair, write the manifest);
+* ``features``: ``corpus features`` for the two systems' sets (f0e-live at 30 fps for tws-hier,
+  mfcc at 100 fps for mfcc-dnn), one process (``--jobs 1``: the RSS is that of one worker);
+* ``train tws-hier`` and ``train mfcc-dnn`` (the default's system; 2 epochs per stage), from
+  ``Corpus.load`` with the feature cache.
+
+Rows: seconds per hour of corpus at each size, the log-log slope of time against size (1 =
+linear), and peak RSS per stage and size with its growth per hour between the smallest and the
+largest size (target: ≤ 4 GB at 16 hours, extrapolated linearly when 16 hours were not run).  Then the smallest corpus is evaluated (``--protocol split``: one fold per speaker,
+tws-basic and shaped-noise) with joblib 2 jobs and with a Dask ``LocalCluster`` of 2 workers, and
+the two metric tables are compared value by value.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from harness import Results, Row, peak_rss_of
+
+RSS_TARGET_MB = 4096.0
+DNN_PARAMS = {"max_epochs": 2, "ae_max_epochs": 2, "pretrain_epochs": 1, "patience": 2}
+
+STAGES = {
+    "import": "from headmotion.datasets import import_dataset\n"
+              "import_dataset('beat2', ROOT / 'beat2', ROOT / 'corpus', jobs=1)\n",
+    "features": "from headmotion.corpus import Corpus\n"
+                "from headmotion.features import FeatureConfig\n"
+                "from headmotion.features.cache import build_feature_cache\n"
+                "build_feature_cache(Corpus.load(ROOT / 'corpus'), [FeatureConfig('f0e-live', fps=30.0), "
+                "FeatureConfig('mfcc', fps=100.0)], n_jobs=1)\n",
+    "train tws-hier": "from headmotion.corpus import Corpus\n"
+                      "from headmotion.systems import create\n"
+                      "create('tws-hier').fit(Corpus.load(ROOT / 'corpus'))\n",
+    "train mfcc-dnn": "from headmotion.corpus import Corpus\n"
+                      "from headmotion.systems import create\n"
+                      f"create('mfcc-dnn', **{DNN_PARAMS!r}).fit(Corpus.load(ROOT / 'corpus'))\n",
+}
+
+
+def train_max_hours() -> float:
+    """Training stages run up to this size (``HEADMOTION_SCALE_TRAIN_MAX_HOURS``; default all)."""
+    return float(os.environ.get("HEADMOTION_SCALE_TRAIN_MAX_HOURS") or "inf")
+
+
+def scale_hours(quick: bool) -> tuple[float, ...]:
+    text = os.environ.get("HEADMOTION_SCALE_HOURS") or ("0.25,0.5" if quick else "1,4,16")
+    return tuple(float(h) for h in text.split(",") if h.strip())
+
+
+def _stage(root: Path, code: str) -> tuple[float, float]:
+    """(seconds, peak RSS in MB) of ``code`` in a fresh process (``ROOT`` bound to ``root``)."""
+    body = ("import time\nfrom pathlib import Path\n"
+            f"ROOT = Path({str(root)!r})\n_t0 = time.perf_counter()\n" + code +
+            "print('__T__', time.perf_counter() - _t0)\n")
+    rss, out = peak_rss_of(body)
+    seconds = float(next(line for line in out.splitlines() if line.startswith("__T__")).split()[1])
+    return seconds, rss
+
+
+def _slope(hours, times) -> float:
+    return float(np.polyfit(np.log(hours), np.log(times), 1)[0]) if len(hours) > 1 else float("nan")
+
+
+def bench_scale(res: Results, quick: bool, *, speech_dir=None) -> None:
+    from headmotion.datasets.planted import write_planted_beat2
+
+    hours = scale_hours(quick)
+    times: dict[str, list[float]] = {s: [] for s in STAGES}
+    rss: dict[str, list[float]] = {s: [] for s in STAGES}
+    with tempfile.TemporaryDirectory(prefix="hm-scale-") as tmp:
+        roots = []
+        for h in hours:
+            root = Path(tmp) / f"{h:g}h"
+            t0 = time.perf_counter()
+            write_planted_beat2(root / "beat2", hours=h, take_minutes=1.0, speakers=4, seed=1, speech_dir=speech_dir)
+            res.add(Row("11 scale", f"planted BEAT2 folder, {h:g} h", time.perf_counter() - t0, "s", "-", None,
+                        f"{int(round(h * 60))} takes of 1 min, 4 speakers"))
+            for stage, code in STAGES.items():
+                if stage.startswith("train") and h > train_max_hours():
+                    continue
+                t, r = _stage(root, code)
+                times[stage].append(t)
+                rss[stage].append(r)
+                res.add(Row("11 scale", f"{stage}: {h:g} h", t / h, "s per h", "-", None,
+                            f"{t:.1f} s; peak RSS {r:,.0f} MB"))
+            roots.append(root)
+        for stage in STAGES:
+            done = hours[:len(times[stage])]
+            s = _slope(done, times[stage])
+            res.add(Row("11 scale", f"{stage}: log-log slope of time", s, "", "<= 1.1 (linear)",
+                        None if np.isnan(s) else s <= 1.1, f"hours {list(done)}"))
+            per_h = (rss[stage][-1] - rss[stage][0]) / (done[-1] - done[0]) if len(done) > 1 else 0.0
+            at16 = rss[stage][-1] + max(per_h, 0.0) * (16.0 - done[-1])
+            res.add(Row("11 scale", f"{stage}: peak RSS at {done[-1]:g} h", rss[stage][-1], "MB",
+                        "<= 4096 MB at 16 h", at16 <= RSS_TARGET_MB,
+                        f"{', '.join(f'{x:,.0f}' for x in rss[stage])} MB; {per_h:+.0f} MB per h, so "
+                        f"{at16:,.0f} MB at 16 h, {rss[stage][-1] + max(per_h, 0.0) * (60.0 - done[-1]):,.0f} at 60 h"
+                        + (" (extrapolated)" if done[-1] < 16 else "")))
+        _bench_parallel_evaluation(res, roots[0] / "corpus", hours[0])
+
+
+def _bench_parallel_evaluation(res: Results, corpus_dir: Path, hours: float) -> None:
+    from headmotion.corpus import Corpus
+    from headmotion.evaluation.protocols import evaluate
+
+    corpus = Corpus.load(corpus_dir)
+    kw = dict(protocol="split", seed=0, n_shifts=20, feature_sets=[], samples=0, fig48=False)
+    systems = ["tws-basic", "shaped-noise"]
+    t0 = time.perf_counter()
+    local = evaluate(corpus, systems, n_jobs=2, **kw)
+    t_local = time.perf_counter() - t0
+    res.add(Row("11 scale", f"evaluate {hours:g} h, split protocol, joblib 2 jobs", t_local, "s", "-", None,
+                f"{local.config['folds']} folds, {len(local.recordings)} test recordings"))
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        res.add(Row("11 scale", "same on Dask LocalCluster", None, "s", "-", None, "dask not installed"))
+        return
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        t0 = time.perf_counter()
+        dask = evaluate(corpus, systems, scheduler=client.scheduler.address, **kw)
+        t_dask = time.perf_counter() - t0
+    key = lambda r: (r["system"], r["recording"], r["metric"])  # noqa: E731
+    a = {key(r): r["value"] for r in local.rows}
+    b = {key(r): r["value"] for r in dask.rows}
+    same = a.keys() == b.keys() and all(np.isclose(a[k], b[k], equal_nan=True, rtol=0, atol=1e-9) for k in a)
+    res.add(Row("11 scale", "same on Dask LocalCluster (2 workers)", t_dask, "s", "same metrics", same,
+                f"{len(a)} metric values compared; joblib {t_local:.0f} s"))
