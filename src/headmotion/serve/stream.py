@@ -339,13 +339,17 @@ class Session:
             if t_recv is not None:
                 self.st.metrics.frame_latency.observe(time.perf_counter() - t_recv)
 
-    async def _fail(self, exc: ProtocolError) -> None:
+    async def _stop_sender(self) -> None:
+        """Cancel the frame sender and wait until it has stopped."""
         if self.sender is not None and not self.sender.done():
             self.sender.cancel()
             try:
                 await self.sender
             except (asyncio.CancelledError, Exception):
                 pass
+
+    async def _fail(self, exc: ProtocolError) -> None:
+        await self._stop_sender()
         try:
             await self.ws.send_text(json.dumps({"type": "error", "error": exc.kind, "detail": exc.detail}))
             await self.ws.close(exc.code, reason=f"{exc.kind}: {exc.detail}"[:120])
@@ -353,12 +357,7 @@ class Session:
             pass
 
     async def _release(self) -> None:
-        if self.sender is not None and not self.sender.done():
-            self.sender.cancel()
-            try:
-                await self.sender
-            except (asyncio.CancelledError, Exception):
-                pass
+        await self._stop_sender()
         if self.slot:
             self.slot = False
             self.st.slots.give(self.key)
