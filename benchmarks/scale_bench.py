@@ -38,7 +38,7 @@ STAGES = {
               "import_dataset('beat2', ROOT / 'beat2', ROOT / 'corpus', jobs=1)\n",
     "features": "from headmotion.corpus import Corpus\n"
                 "from headmotion.features import FeatureConfig\n"
-                "from headmotion.features.cache import build_feature_cache\n"
+                "from headmotion.feature_cache import build_feature_cache\n"
                 "build_feature_cache(Corpus.load(ROOT / 'corpus'), [FeatureConfig('f0e-live', fps=30.0), "
                 "FeatureConfig('mfcc', fps=100.0)], n_jobs=1)\n",
     "train tws-hier": "from headmotion.corpus import Corpus\n"

@@ -144,7 +144,7 @@ def test_feature_cache_resumes_and_recomputes_stale(tmp_path):
     """The corpus feature cache: every recording once; a second run computes nothing; the files
     equal the features computed directly; a changed speech file is recomputed."""
     from headmotion.features import FeatureConfig
-    from headmotion.features.cache import build_feature_cache, cache_path, load_cached
+    from headmotion.feature_cache import build_feature_cache, cache_path, load_cached
 
     root = _beat2(tmp_path / "beat2", [("2_scott_0_1_1", 3.0, 3.0, "train"), ("4_ann_0_1_1", 2.5, 2.5, "test")])
     import_dataset("beat2", root, tmp_path / "c")

@@ -330,7 +330,7 @@ class SpeechStream:
     latency."""
 
     def __init__(self, model, inner, controls: Controls, sample_rate: int):
-        from .live.inputs import Resampler
+        from .io.resampler import Resampler
 
         self.model, self.controls = model, controls
         self.sample_rate, self.frame_rate = int(sample_rate), float(model.frame_rate)

@@ -119,7 +119,7 @@ def features_cmd(
     when it is run again; a recording whose speech file changed is recomputed."""
     from ..corpus import Corpus
     from ..features import FeatureConfig, available
-    from ..features.cache import build_feature_cache
+    from ..feature_cache import build_feature_cache
 
     unknown = [s for s in sets if s not in available()]
     if unknown:

@@ -35,7 +35,7 @@ MIN_FOLD_S = 5.0
 
 def pause_cut_candidates(speech_mask, *, fps: float, min_pause_s: float = MIN_PAUSE_S) -> np.ndarray:
     """Frame indices of the middles of the non-speech runs ≥ ``min_pause_s`` inside the take."""
-    from ..features.vad import _runs
+    from ..features.vad import runs as _runs
 
     s = np.asarray(speech_mask, bool)
     n = max(1, int(round(min_pause_s * fps)))

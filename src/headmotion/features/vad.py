@@ -31,11 +31,17 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FormatError, LengthMismatchError, ParameterError
-from ..motion.pauses import runs as _runs
 from ..types import Audio
 from .frames import frame_signal, log_energy_db
 
 SILENCE_LABELS = frozenset({"sil", "silence", "pause", "noise", "nonspeech", "non-speech", "0"})
+
+
+def runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` index pairs of the True runs of a bool array."""
+    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
+    d = np.diff(m.astype(np.int8))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
 def speaking_mask(audio: Audio, *, fps: float, n_frames: int | None = None, min_snr_db: float = 10.0,
@@ -78,19 +84,19 @@ def speaking_mask(audio: Audio, *, fps: float, n_frames: int | None = None, min_
 
     # fill short pauses
     gap = int(round(max_gap_s * fps))
-    for a, b in _runs(~mask):
+    for a, b in runs(~mask):
         if a > 0 and b < n_frames and b - a <= gap:
             mask[a:b] = True
     # drop blips
     shortest = int(round(min_speech_s * fps))
-    for a, b in _runs(mask):
+    for a, b in runs(mask):
         if b - a < shortest:
             mask[a:b] = False
     if use_voicing and mask.any():
         from .prosody import praat_pitch
 
         _, voiced = praat_pitch(audio, fps=fps, n_frames=n_frames)
-        for a, b in _runs(mask):
+        for a, b in runs(mask):
             if not voiced[a:b].any():
                 mask[a:b] = False
     # hangover on both sides

@@ -41,18 +41,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..features.vad import runs  # the one run finder
 from ..errors import ParameterError
 from ..types import Motion
 
 #: measured on the ZEGGS mocap take (speed in pauses / speed in speech)
 DEFAULT_IDLE = 0.4
-
-
-def runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """``(start, stop)`` index pairs of the True runs of a bool array."""
-    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
-    d = np.diff(m.astype(np.int8))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
 def pause_mask(speech_mask, *, fps: float, min_pause_s: float = 0.5) -> np.ndarray:

@@ -255,7 +255,7 @@ class Session:
         return start
 
     async def _loop(self, start: Start) -> None:
-        from ..live.inputs import Resampler
+        from ..io.resampler import Resampler
 
         model = self.model
         model_sr = int(model.sample_rate)

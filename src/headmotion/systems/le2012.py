@@ -180,7 +180,7 @@ class Le2012(Synthesizer):
 
     def fit(self, corpus, *, progress=None):
         from ..features import Normalizer
-        from ..features.cache import features_for
+        from ..feature_cache import features_for
 
         self._validate_params()
         recs = list(corpus)

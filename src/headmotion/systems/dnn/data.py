@@ -28,7 +28,7 @@ def extract(audio, T: int, config) -> np.ndarray:
 
 def prepare(rec, config, fps: float) -> Prepared:
     """A recording's features, motion and speaking flags at the model rate ``fps``."""
-    from ...features.cache import features_for  # the corpus's feature cache when it has one
+    from ...feature_cache import features_for  # the corpus's feature cache when it has one
 
     T = n_frames(len(rec.audio.samples), rec.audio.sample_rate, fps)
     feats = np.asarray(features_for(rec, config, T).values, dtype=np.float32)

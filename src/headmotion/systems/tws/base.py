@@ -152,7 +152,7 @@ class TwsBase(Synthesizer):
         self.sample_rate_ = (ANALYSIS_RATE if self.feature_config_.name in LIVE_FEATURES
                              else int(recs[0].audio.sample_rate))
         total = len(recs) + 2
-        from ...features.cache import features_for
+        from ...feature_cache import features_for
         from ...features.vad import speaking_mask
 
         motions, raw, names, masks, kept = [], [], [], [], []

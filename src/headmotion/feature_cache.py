@@ -2,7 +2,7 @@
 
 For corpora of tens of hours (BEAT2 is about 60): each recording's features are computed by one
 task (joblib processes locally, or a Dask cluster with ``scheduler``, through
-:func:`headmotion.evaluation.parallel.run_map`) and written atomically to
+:func:`headmotion.parallel.run_map`) and written atomically to
 ``CORPUS/.features/<set>-<config hash>/<recording>.npz``.  A file is valid while the recording's
 speech file keeps its size and modification time (stored in the file), so an interrupted build
 resumes where it stopped and an edited recording is recomputed.  Memory holds one recording per
@@ -19,8 +19,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..types import FeatureTrack
-from . import FeatureConfig
+from .features import FeatureConfig
+from .types import FeatureTrack
 
 CACHE_DIR = ".features"
 
@@ -88,7 +88,7 @@ def features_for(recording, config: FeatureConfig, n_frames: int | None = None) 
     -------
     FeatureTrack
     """
-    from ..align import n_frames as count_frames
+    from .align import n_frames as count_frames
 
     source = (getattr(recording, "meta", None) or {}).get("source")
     audio = recording.audio
@@ -101,8 +101,8 @@ def features_for(recording, config: FeatureConfig, n_frames: int | None = None) 
 
 
 def _compute(task: CacheTask) -> str:
-    from ..corpus import Corpus
-    from ..io.atomic import atomic_path
+    from .corpus import Corpus
+    from .io.atomic import atomic_path
 
     corpus = (Corpus(root=Path(task.corpus_root), entries=[task.entry], sample_rate=task.sample_rate)
               if task.entry is not None else Corpus.load(task.corpus_root, sample_rate=task.sample_rate))
@@ -132,8 +132,8 @@ def build_feature_cache(corpus, configs, *, n_jobs: int = 1, scheduler=None,
     -------
     dict with ``computed`` and ``cached`` (already valid, skipped) counts.
     """
-    from ..errors import ParameterError
-    from ..evaluation.parallel import run_map
+    from .errors import ParameterError
+    from .parallel import run_map
 
     if corpus.root is None:
         raise ParameterError("the feature cache needs a corpus on disk (Corpus.load(folder))")
