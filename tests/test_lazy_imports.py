@@ -78,3 +78,22 @@ def test_info_and_convert_import_no_heavy_library(tmp_path, examples_dir):
         assert _loaded(_modules(*args), HEAVY) == [], args
     assert "scipy.spatial" not in _modules("info", str(examples_dir / "speech" / "short.wav"))
     assert (tmp_path / "m.csv").exists()
+
+
+def test_long_input_read_in_blocks_imports_no_torch(tmp_path, examples_dir):
+    """A recording long enough to be read block by block goes through the default's stream, which
+    must not import torch either (the threshold is lowered so that the bundled speech is long)."""
+    code = (
+        "import json, sys\n"
+        "from headmotion.systems import long_input\n"
+        "long_input.LONG_INPUT_SECONDS = 1.0\n"
+        "from headmotion import synthesis\n"
+        f"assert synthesis.reads_in_blocks(synthesis.load_model('default'), {str(examples_dir / 'speech' / 'speech_male.wav')!r})\n"
+        f"m = synthesis.synthesize({str(examples_dir / 'speech' / 'speech_male.wav')!r})[0]\n"
+        "assert len(m) > 100\n"
+        "print(json.dumps(sorted(sys.modules)))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    mods = set(json.loads(out.stdout.strip().splitlines()[-1]))
+    assert _loaded(mods, HEAVY) == []

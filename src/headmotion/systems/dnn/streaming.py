@@ -106,7 +106,7 @@ class DnnStream:
     def _regress(self, end: int, T: int | None) -> None:
         """Extend the cache of regressor outputs to frames ``< end`` (``T``: the utterance's
         length at flush, for the end's edge padding; None mid-stream)."""
-        from ...models import nets
+        from ...models import numpy_nets as nets  # padding rules without torch
 
         if end <= self.reg_end:
             return
