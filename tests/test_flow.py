@@ -69,6 +69,35 @@ def test_no_jump_where_windows_join(model, corpus):
     assert step[joins].max() <= 2.0 * np.quantile(inside, 0.95), (step[joins], np.quantile(inside, 0.95))
 
 
+def test_join_offsets_carry_a_window_on_from_its_prefix():
+    """The first free frame continues the prefix at its last step; the offset fades out after
+    ``join_frames`` frames; a window without a prefix is left alone."""
+    import torch
+
+    from headmotion.models.flow_net import join_offsets
+
+    W, P = 30, 10
+    prefix = torch.zeros(2, 3, W)
+    prefix[:, :, :P] = 0.1 * torch.arange(P, dtype=torch.float32)
+    mask = torch.zeros(2, 1, W)
+    mask[0, 0, :P] = 1.0
+    clean = torch.full((2, 3, W), 5.0)
+    out = clean + join_offsets(prefix, mask, clean, 4)
+    np.testing.assert_allclose(out[0, :, P].numpy(), 1.0, atol=1e-5)
+    np.testing.assert_allclose(out[0, :, P + 4:].numpy(), 5.0)
+    assert (np.diff(out[0, 0, P:P + 5].numpy()) > 0).all()
+    np.testing.assert_array_equal(out[1].numpy(), clean[1].numpy())
+
+
+def test_replacement_inpainting_changes_only_windows_that_continue_a_prefix(model, corpus):
+    feats = model._features(corpus[0].audio, 60)
+    held = model.generate(feats, seed=2)
+    other = model.set_params(inpaint="replace").generate(feats, seed=2)
+    model.set_params(inpaint="hold")
+    np.testing.assert_array_equal(other[:model.window], held[:model.window])
+    assert other.shape == held.shape and not np.allclose(other, held)
+
+
 def test_speaker_split_keeps_speakers_whole(planted):
     c = planted(minutes=0.6, n_recordings=2, speakers=("a", "b", "c", "d"), seed=2)
     held = speaker_split(list(c), 0.3, seed=0)
@@ -91,7 +120,8 @@ def test_window_sampler_pads_short_recordings_and_mirrors_jointly():
 
 
 @pytest.mark.parametrize("bad", [dict(prefix=12), dict(window=4), dict(guidance=-1.0), dict(device="tpu"),
-                                 dict(cond_dropout=1.0), dict(sampling_steps=0), dict(target="noise")])
+                                 dict(cond_dropout=1.0), dict(sampling_steps=0), dict(target="noise"),
+                                 dict(join_frames=-1), dict(inpaint="blend")])
 def test_bad_parameters_are_refused(bad, corpus):
     with pytest.raises(ParameterError):
         create("motion-flow", **{**TINY, **bad}).fit(corpus)
