@@ -100,7 +100,8 @@ def flow_loss(net: FlowNet, x1, cond, keep, prefix_mask, valid, generator: torch
     error of the frame-to-frame steps of the implied clean window ``x_t + (1 − t)·v`` (a velocity
     loss as in motion diffusion, MDM): it weighs the fast errors that a plain flow loss on a few
     minutes of data leaves as jitter.  ``predict="motion"``: the network's output is the clean window
-    itself (its velocity ``(out − x_t)/(1 − t)``) and the loss is its squared error."""
+    itself (its velocity ``(out − x_t)/(1 − t)``) and the loss is its squared error (the step loss
+    then weighs the steps of that error)."""
     B = x1.shape[0]
     x0 = torch.randn(x1.shape, generator=generator, device=x1.device)
     t = torch.rand((B,), generator=generator, device=x1.device)
@@ -110,11 +111,11 @@ def flow_loss(net: FlowNet, x1, cond, keep, prefix_mask, valid, generator: torch
     out = net(x_t, t, cond, keep, x1, prefix_mask)
     w = valid * (1 - prefix_mask)
     if predict == "motion":
-        return ((out - x1) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1.0)
-    v = out
-    loss = ((v - (x1 - x0)) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1.0)
+        err = out - x1
+    else:
+        err = (1 - tt) * (out - (x1 - x0))
+    loss = ((out - (x1 if predict == "motion" else x1 - x0)) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1.0)
     if smooth_weight > 0:
-        err = (1 - tt) * (v - (x1 - x0))
         wd = w[..., 1:] * w[..., :-1]
         loss = loss + smooth_weight * ((err[..., 1:] - err[..., :-1]) ** 2 * wd).sum() / (3 * wd.sum()).clamp_min(1.0)
     return loss
