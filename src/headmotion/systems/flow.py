@@ -17,9 +17,11 @@ and draws from it: each seed is a different take.
   random known prefix.  Early stopping on recordings of speakers held out of training
   (``valid_share``).
 * **Synthesis**: windows of ``window`` frames, each after the first continuing the previous one's
-  last ``prefix`` frames (a known prefix, held during sampling), so any length is made without
-  seams in bounded memory; the last window is moved back to end at the input's end.  Each window
-  is ``sampling_steps`` Euler steps from Gaussian noise drawn from ``seed``.  No stage after the
+  last ``prefix`` frames (a known prefix, held during sampling), so any length is made in bounded
+  memory; the last window is moved back to end at the input's end.  Each window is
+  ``sampling_steps`` Euler steps from Gaussian noise drawn from ``seed``; the network predicts the
+  clean window (``target="motion"``) and at every step that prediction is carried on from the
+  prefix's end over ``join_frames`` frames, so windows join without a step.  No stage after the
   network changes its output.
 
 The system does not stream: a window's frames are drawn jointly from the whole window's speech
