@@ -50,6 +50,8 @@ FEATURES = (("mfcc", {}, list(range(14))), ("f0e", {"voicing": True}, [0, 1, 2, 
 DEVICES = ("auto", "cpu", "cuda")
 #: what the network outputs: the flow's velocity, or the clean motion window
 TARGETS = ("velocity", "motion")
+#: parameters of models saved before these existed: the values that sample as those models did
+SAVED_BEFORE = {"target": "velocity", "join_frames": 0, "inpaint": "hold"}
 #: how a window's known prefix enters sampling: held and shown to the network, or replaced noised
 INPAINT = ("hold", "replace")
 
@@ -390,7 +392,7 @@ class MotionFlow(Synthesizer):
 
         params = dict(config["params"])
         for k in self._param_names():
-            setattr(self, k, params.get(k, getattr(type(self)(), k)))
+            setattr(self, k, params.get(k, SAVED_BEFORE.get(k, getattr(type(self)(), k))))
         self.n_cond_, self.sample_rate_, self.fps_ = int(config["n_cond"]), int(config["sample_rate"]), float(config["fps"])
         self.train_log_ = config.get("train_log")
         self.feat_mean_ = np.asarray(arrays["feat_mean"], dtype=np.float64)
