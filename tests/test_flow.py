@@ -47,6 +47,17 @@ def test_save_load_gives_identical_motion(model, corpus, tmp_path):
     assert back.get_params() == model.get_params()
 
 
+def test_models_saved_before_the_join_parameters_sample_as_they_did(model):
+    """A saved state without ``target``, ``join_frames`` and ``inpaint`` (older models) is the
+    velocity network with the prefix only held, not today's defaults."""
+    config, arrays = model._get_state()
+    params = {k: v for k, v in config["params"].items() if k not in ("target", "join_frames", "inpaint")}
+    old = type(model)()
+    old._set_state({**config, "params": params}, arrays)
+    assert (old.target, old.join_frames, old.inpaint) == ("velocity", 0, "hold")
+    assert (type(model)().target, type(model)().join_frames) == ("motion", 8)
+
+
 def test_windows_continue_what_came_before(model, corpus):
     """A long input's first window is the window made from those frames alone (a later window never
     changes frames already made), and any length works, shorter than one window included."""
@@ -67,6 +78,35 @@ def test_no_jump_where_windows_join(model, corpus):
     joins = np.arange(W - 1, len(x) - 1, W - P)[:-1]   # the last frame of each known prefix
     inside = np.delete(step, joins)
     assert step[joins].max() <= 2.0 * np.quantile(inside, 0.95), (step[joins], np.quantile(inside, 0.95))
+
+
+def test_join_offsets_carry_a_window_on_from_its_prefix():
+    """The first free frame continues the prefix at its last step; the offset fades out after
+    ``join_frames`` frames; a window without a prefix is left alone."""
+    import torch
+
+    from headmotion.models.flow_net import join_offsets
+
+    W, P = 30, 10
+    prefix = torch.zeros(2, 3, W)
+    prefix[:, :, :P] = 0.1 * torch.arange(P, dtype=torch.float32)
+    mask = torch.zeros(2, 1, W)
+    mask[0, 0, :P] = 1.0
+    clean = torch.full((2, 3, W), 5.0)
+    out = clean + join_offsets(prefix, mask, clean, 4)
+    np.testing.assert_allclose(out[0, :, P].numpy(), 1.0, atol=1e-5)
+    np.testing.assert_allclose(out[0, :, P + 4:].numpy(), 5.0)
+    assert (np.diff(out[0, 0, P:P + 5].numpy()) > 0).all()
+    np.testing.assert_array_equal(out[1].numpy(), clean[1].numpy())
+
+
+def test_replacement_inpainting_changes_only_windows_that_continue_a_prefix(model, corpus):
+    feats = model._features(corpus[0].audio, 60)
+    held = model.generate(feats, seed=2)
+    other = model.set_params(inpaint="replace").generate(feats, seed=2)
+    model.set_params(inpaint="hold")
+    np.testing.assert_array_equal(other[:model.window], held[:model.window])
+    assert other.shape == held.shape and not np.allclose(other, held)
 
 
 def test_speaker_split_keeps_speakers_whole(planted):
@@ -91,7 +131,8 @@ def test_window_sampler_pads_short_recordings_and_mirrors_jointly():
 
 
 @pytest.mark.parametrize("bad", [dict(prefix=12), dict(window=4), dict(guidance=-1.0), dict(device="tpu"),
-                                 dict(cond_dropout=1.0), dict(sampling_steps=0), dict(target="noise")])
+                                 dict(cond_dropout=1.0), dict(sampling_steps=0), dict(target="noise"),
+                                 dict(join_frames=-1), dict(inpaint="blend")])
 def test_bad_parameters_are_refused(bad, corpus):
     with pytest.raises(ParameterError):
         create("motion-flow", **{**TINY, **bad}).fit(corpus)

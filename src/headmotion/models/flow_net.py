@@ -100,7 +100,8 @@ def flow_loss(net: FlowNet, x1, cond, keep, prefix_mask, valid, generator: torch
     error of the frame-to-frame steps of the implied clean window ``x_t + (1 − t)·v`` (a velocity
     loss as in motion diffusion, MDM): it weighs the fast errors that a plain flow loss on a few
     minutes of data leaves as jitter.  ``predict="motion"``: the network's output is the clean window
-    itself (its velocity ``(out − x_t)/(1 − t)``) and the loss is its squared error."""
+    itself (its velocity ``(out − x_t)/(1 − t)``) and the loss is its squared error (the step loss
+    then weighs the steps of that error)."""
     B = x1.shape[0]
     x0 = torch.randn(x1.shape, generator=generator, device=x1.device)
     t = torch.rand((B,), generator=generator, device=x1.device)
@@ -110,41 +111,74 @@ def flow_loss(net: FlowNet, x1, cond, keep, prefix_mask, valid, generator: torch
     out = net(x_t, t, cond, keep, x1, prefix_mask)
     w = valid * (1 - prefix_mask)
     if predict == "motion":
-        return ((out - x1) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1.0)
-    v = out
-    loss = ((v - (x1 - x0)) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1.0)
+        err = out - x1
+    else:
+        err = (1 - tt) * (out - (x1 - x0))
+    loss = ((out - (x1 if predict == "motion" else x1 - x0)) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1.0)
     if smooth_weight > 0:
-        err = (1 - tt) * (v - (x1 - x0))
         wd = w[..., 1:] * w[..., :-1]
         loss = loss + smooth_weight * ((err[..., 1:] - err[..., :-1]) ** 2 * wd).sum() / (3 * wd.sum()).clamp_min(1.0)
     return loss
 
 
+def join_offsets(prefix, prefix_mask, clean, join_frames: int):
+    """Offsets ``(B, 3, W)`` that carry a predicted clean window ``clean`` on from the end of its
+    known prefix: the difference between the first free frame and the prefix's last frame
+    continued at its mean step over its last (up to 4) frames, faded out over ``join_frames`` frames (raised cosine).  Zero where a
+    window has no prefix (or ``join_frames`` is 0)."""
+    B, _, W = clean.shape
+    off = torch.zeros_like(clean)
+    if join_frames <= 0:
+        return off
+    n_known = prefix_mask[:, 0].sum(dim=1).long()
+    j = torch.arange(W, device=clean.device, dtype=clean.dtype)
+    for b in range(B):
+        p = int(n_known[b])
+        if p < 2 or p >= W:
+            continue
+        back = min(4, p - 1)
+        target = prefix[b, :, p - 1] + (prefix[b, :, p - 1] - prefix[b, :, p - 1 - back]) / back
+        d = target - clean[b, :, p]
+        k = (j - p) / join_frames
+        ramp = torch.where((k >= 0) & (k < 1), 0.5 * (1 + torch.cos(math.pi * k)), torch.zeros_like(k))
+        off[b] = d[:, None] * ramp[None, :]
+    return off
+
+
 @torch.no_grad()
 def sample_window(net: FlowNet, noise, cond, prefix, prefix_mask, *, n_steps: int, guidance: float,
-                  predict: str = "velocity"):
+                  predict: str = "velocity", join_frames: int = 0, replace: bool = False):
     """One batch of windows ``(B, 3, W)`` by Euler integration of the guided flow from ``noise``.
 
     ``guidance`` 1 is the plain conditional flow, 0 the unconditional prior, > 1 classifier-free
-    guidance.  Prefix frames are held at their known values throughout."""
+    guidance.  Prefix frames are held at their known values throughout (``replace``: set to the
+    known values noised to the current flow time instead, and not shown to the network, as in
+    replacement-style inpainting).  ``join_frames`` > 0: at every step the predicted clean window
+    is carried on from the prefix's end (:func:`join_offsets`), so the window joins it without a
+    step."""
     B = noise.shape[0]
-    x = torch.where(prefix_mask > 0, prefix, noise)
     ones, zeros = torch.ones(B, device=noise.device), torch.zeros(B, device=noise.device)
+    net_mask = torch.zeros_like(prefix_mask) if replace else prefix_mask
+    x = torch.where(prefix_mask > 0, noise if replace else prefix, noise)
     guided = guidance != 1.0
     for i in range(n_steps):
-        t = torch.full((B,), i / n_steps, device=noise.device)
+        t0 = i / n_steps
+        t = torch.full((B,), t0, device=noise.device)
         if guided:
             v2 = net(torch.cat([x, x]), torch.cat([t, t]), torch.cat([cond, cond]), torch.cat([ones, zeros]),
-                     torch.cat([prefix, prefix]), torch.cat([prefix_mask, prefix_mask]))
+                     torch.cat([prefix, prefix]), torch.cat([net_mask, net_mask]))
             vc, vu = v2[:B], v2[B:]
             v = vu + guidance * (vc - vu)
         else:
-            v = net(x, t, cond, ones, prefix, prefix_mask)
-        if predict == "motion":
-            v = (v - x) / (1.0 - i / n_steps)
-        x = x + v / n_steps
-        x = torch.where(prefix_mask > 0, prefix, x)
+            v = net(x, t, cond, ones, prefix, net_mask)
+        clean = v if predict == "motion" else x + (1.0 - t0) * v
+        if join_frames > 0:
+            clean = clean + join_offsets(prefix, prefix_mask, clean, join_frames)
+        x = x + (clean - x) / (n_steps - i)
+        t1 = (i + 1) / n_steps
+        held = (1 - t1) * noise + t1 * prefix if replace and i < n_steps - 1 else prefix
+        x = torch.where(prefix_mask > 0, held, x)
     return x
 
 
-__all__ = ["FlowNet", "flow_loss", "sample_window", "time_embedding"]
+__all__ = ["FlowNet", "flow_loss", "join_offsets", "sample_window", "time_embedding"]

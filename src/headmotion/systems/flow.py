@@ -17,9 +17,11 @@ and draws from it: each seed is a different take.
   random known prefix.  Early stopping on recordings of speakers held out of training
   (``valid_share``).
 * **Synthesis**: windows of ``window`` frames, each after the first continuing the previous one's
-  last ``prefix`` frames (a known prefix, held during sampling), so any length is made without
-  seams in bounded memory; the last window is moved back to end at the input's end.  Each window
-  is ``sampling_steps`` Euler steps from Gaussian noise drawn from ``seed``.  No stage after the
+  last ``prefix`` frames (a known prefix, held during sampling), so any length is made in bounded
+  memory; the last window is moved back to end at the input's end.  Each window is
+  ``sampling_steps`` Euler steps from Gaussian noise drawn from ``seed``; the network predicts the
+  clean window (``target="motion"``) and at every step that prediction is carried on from the
+  prefix's end over ``join_frames`` frames, so windows join without a step.  No stage after the
   network changes its output.
 
 The system does not stream: a window's frames are drawn jointly from the whole window's speech
@@ -48,6 +50,10 @@ FEATURES = (("mfcc", {}, list(range(14))), ("f0e", {"voicing": True}, [0, 1, 2, 
 DEVICES = ("auto", "cpu", "cuda")
 #: what the network outputs: the flow's velocity, or the clean motion window
 TARGETS = ("velocity", "motion")
+#: parameters of models saved before these existed: the values that sample as those models did
+SAVED_BEFORE = {"target": "velocity", "join_frames": 0, "inpaint": "hold"}
+#: how a window's known prefix enters sampling: held and shown to the network, or replaced noised
+INPAINT = ("hold", "replace")
 
 
 def speech_features(audio: Audio, n: int) -> np.ndarray:
@@ -173,6 +179,10 @@ class MotionFlow(Synthesizer):
     eval_every : int, steps between validations
     augment : bool, mirror / stretch / amplitude / feature-noise augmentation
     target : "velocity" (the network predicts the flow's velocity) or "motion" (the clean window)
+    join_frames : int, frames over which each sampling step carries a window on from its prefix's
+        end (0: none; :func:`~headmotion.models.flow_net.join_offsets`)
+    inpaint : "hold" (the prefix is held and shown to the network) or "replace" (noised to the flow
+        time at every step, replacement-style)
     device : "auto", "cpu" or "cuda" (training and synthesis; torch decides what "auto" sees)
     random_state : int, training randomness; seed : int, default synthesis seed
     n_threads : int or None, torch threads during fit and predict
@@ -182,16 +192,17 @@ class MotionFlow(Synthesizer):
     capabilities: ClassVar[frozenset[str]] = frozenset()
 
     def __init__(self, *, window: int = 100, prefix: int = 20, hidden: int = 48, n_blocks: int = 6,
-                 cond_dropout: float = 0.5, smooth_weight: float = 0.0, guidance: float = 2.5, sampling_steps: int = 8,
+                 cond_dropout: float = 0.5, smooth_weight: float = 0.0, guidance: float = 4.0, sampling_steps: int = 8,
                  train_steps: int = 600, batch_size: int = 32, learning_rate: float = 2e-3,
                  valid_share: float = 0.15, eval_every: int = 50, augment: bool = True, device: str = "auto",
-                 target: str = "velocity", random_state: int = 0, seed: int = 0, n_threads: int | None = None):
+                 target: str = "motion", join_frames: int = 8, inpaint: str = "hold",
+                 random_state: int = 0, seed: int = 0, n_threads: int | None = None):
         self.window, self.prefix, self.hidden, self.n_blocks = window, prefix, hidden, n_blocks
         self.cond_dropout, self.smooth_weight = cond_dropout, smooth_weight
         self.guidance, self.sampling_steps = guidance, sampling_steps
         self.train_steps, self.batch_size, self.learning_rate = train_steps, batch_size, learning_rate
         self.valid_share, self.eval_every, self.augment, self.device = valid_share, eval_every, augment, device
-        self.target = target
+        self.target, self.join_frames, self.inpaint = target, join_frames, inpaint
         self.random_state, self.seed, self.n_threads = random_state, seed, n_threads
 
     # -- parameters ------------------------------------------------------------------------------
@@ -202,7 +213,7 @@ class MotionFlow(Synthesizer):
                 raise ParameterError(f"{self.name}: {name} must be a whole number >= {lo}; got {v!r}")
 
         for name, lo in (("window", 8), ("prefix", 1), ("hidden", 8), ("n_blocks", 1), ("sampling_steps", 1),
-                         ("train_steps", 1), ("batch_size", 1), ("eval_every", 1), ("random_state", 0),
+                         ("train_steps", 1), ("batch_size", 1), ("eval_every", 1), ("random_state", 0), ("join_frames", 0),
                          ("seed", 0)):
             whole(name, lo)
         if self.prefix >= self.window // 2:
@@ -217,6 +228,8 @@ class MotionFlow(Synthesizer):
                 raise ParameterError(f"{self.name}: {name} must be a number >= 0 (learning_rate > 0); got {v!r}")
         if self.target not in TARGETS:
             raise ParameterError(f"{self.name}: target must be one of {list(TARGETS)}; got {self.target!r}")
+        if self.inpaint not in INPAINT:
+            raise ParameterError(f"{self.name}: inpaint must be one of {list(INPAINT)}; got {self.inpaint!r}")
         if self.device not in DEVICES:
             raise ParameterError(f"{self.name}: device must be one of {list(DEVICES)}; got {self.device!r}")
         if self.n_threads is not None:
@@ -344,7 +357,8 @@ class MotionFlow(Synthesizer):
                 args = [torch.from_numpy(a).to(device) for a in
                         (noise, cond_all[start:start + W].T[None].copy(), out[start:start + W].T[None].copy(), pm)]
                 x = sample_window(net, args[0], args[1], args[2], args[3], n_steps=int(self.sampling_steps),
-                                  guidance=float(self.guidance), predict=self.target)
+                                  guidance=float(self.guidance), predict=self.target,
+                                  join_frames=int(self.join_frames), replace=self.inpaint == "replace")
                 out[start:start + W] = x[0].cpu().numpy().T
                 done = start + W
                 if done >= T:
@@ -378,7 +392,7 @@ class MotionFlow(Synthesizer):
 
         params = dict(config["params"])
         for k in self._param_names():
-            setattr(self, k, params.get(k, getattr(type(self)(), k)))
+            setattr(self, k, params.get(k, SAVED_BEFORE.get(k, getattr(type(self)(), k))))
         self.n_cond_, self.sample_rate_, self.fps_ = int(config["n_cond"]), int(config["sample_rate"]), float(config["fps"])
         self.train_log_ = config.get("train_log")
         self.feat_mean_ = np.asarray(arrays["feat_mean"], dtype=np.float64)
