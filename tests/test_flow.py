@@ -49,13 +49,13 @@ def test_save_load_gives_identical_motion(model, corpus, tmp_path):
 
 def test_models_saved_before_the_join_parameters_sample_as_they_did(model):
     """A saved state without ``target``, ``join_frames`` and ``inpaint`` (older models) is the
-    velocity network with the prefix only held, not today's defaults."""
+    velocity network with the prefix only held, not the joined windows of today's defaults."""
     config, arrays = model._get_state()
     params = {k: v for k, v in config["params"].items() if k not in ("target", "join_frames", "inpaint")}
     old = type(model)()
     old._set_state({**config, "params": params}, arrays)
     assert (old.target, old.join_frames, old.inpaint) == ("velocity", 0, "hold")
-    assert (type(model)().target, type(model)().join_frames) == ("motion", 8)
+    assert (type(model)().target, type(model)().join_frames) == ("velocity", 8)
 
 
 def test_windows_continue_what_came_before(model, corpus):
