@@ -185,7 +185,8 @@ def _is_float(c: str) -> bool:
 def _pick(names: list[str], given: str | None, words, what: str, path) -> str | None:
     if given is not None:
         if given not in names:
-            raise NoHeadError(f"no rigid body named {given!r}; rigid bodies: {', '.join(names) or 'none'}", path=path)
+            raise NoHeadError(f"no rigid body named {given!r} for the {what}; rigid bodies: {', '.join(names) or 'none'}",
+                              path=path)
         return given
     hits = [n for n in names if any(w in n.lower() for w in words)]
     return hits[0] if hits else None
