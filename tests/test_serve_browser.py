@@ -64,8 +64,6 @@ def test_example_page_streams_microphone_and_moves_head(playwright):
             pg.click("#mic")
             _wait_js(pg, "window.headmotionExample.frames >= 300")
             st = pg.evaluate("window.headmotionExample")
-            if (ROOT / ".scratch").is_dir():  # for a look at the page
-                pg.screenshot(path=str(ROOT / ".scratch" / "serve_example.png"))
             assert not errors, errors
             assert st["error"] is None and st["status"].startswith("streaming: stream (tws-hier)")
             frames = [f[0] for f in st["received"]]
