@@ -125,7 +125,7 @@ def synth(
     fps: Optional[float] = typer.Option(None, "--fps", help="Output frame rate (default: the model's)."),
     video: Optional[Path] = typer.Option(None, "--video", help="Also render a preview video (.mp4)."),
 ):
-    """Synthesise head motion for a speech file (:func:`headmotion.synthesize`).
+    """Synthesise head motion for a speech file (the same as headmotion.synthesize in Python).
 
     Order of the controls: the model's motion → --style-from → --gain/--offset (about the mean pose:
     the reference's when styled, else the model's) → --still replaces everything but the offset →
