@@ -59,6 +59,20 @@ PEAK_RSS_CODE = (
 )
 
 
+def on_local_cluster(fn: Callable[[str], object], *, workers: int = 2):
+    """``(fn(scheduler_address), seconds)`` on a fresh Dask ``LocalCluster`` of ``workers``
+    single-thread processes; None when dask.distributed is not installed."""
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        return None
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        t0 = time.perf_counter()
+        out = fn(client.scheduler.address)
+        return out, time.perf_counter() - t0
+
+
 def peak_rss_of(code: str, *, timeout: float = 1800) -> tuple[float, str]:
     """Run ``code`` in a fresh Python process; return (its own peak RSS in MB, its stdout)."""
     wrapper = (

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness import Results, Row, peak_rss_of, time_median  # noqa: E402
+from harness import Results, Row, on_local_cluster, peak_rss_of, time_median  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("HEADMOTION_SHARED_DATA", ROOT.parent / "shared" / "data"))
@@ -472,16 +472,12 @@ def bench_evaluate(res: Results, quick: bool):
     t = time.perf_counter() - t0
     res.add(Row("8 evaluate", f"LOO, {minutes} min, {len(systems)} systems, joblib 2 jobs", t / 60, "min",
                 "<= 10 min", t <= 600, ""))
-    try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError:
+    on_dask = on_local_cluster(lambda address: evaluate(corpus, systems, protocol="loo", scheduler=address, seed=0,
+                                                        fig48=False))
+    if on_dask is None:
         res.add(Row("8 evaluate", "same on Dask LocalCluster", None, "min", "-", None, "dask not installed"))
         return
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
-            Client(cluster) as client:
-        t0 = time.perf_counter()
-        evaluate(corpus, systems, protocol="loo", scheduler=client.scheduler.address, seed=0, fig48=False)
-        t = time.perf_counter() - t0
+    t = on_dask[1]
     res.add(Row("8 evaluate", "same on Dask LocalCluster (2 workers)", t / 60, "min", "<= 10 min", t <= 600,
                 ""))
     del local

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from harness import Results, Row, peak_rss_of
+from harness import Results, Row, on_local_cluster, peak_rss_of
 
 RSS_TARGET_MB = 4096.0
 DNN_PARAMS = {"max_epochs": 2, "ae_max_epochs": 2, "pretrain_epochs": 1, "patience": 2}
@@ -124,16 +124,11 @@ def _bench_parallel_evaluation(res: Results, corpus_dir: Path, hours: float) -> 
     t_local = time.perf_counter() - t0
     res.add(Row("11 scale", f"evaluate {hours:g} h, split protocol, joblib 2 jobs", t_local, "s", "-", None,
                 f"{local.config['folds']} folds, {len(local.recordings)} test recordings"))
-    try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError:
+    on_dask = on_local_cluster(lambda address: evaluate(corpus, systems, scheduler=address, **kw))
+    if on_dask is None:
         res.add(Row("11 scale", "same on Dask LocalCluster", None, "s", "-", None, "dask not installed"))
         return
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
-            Client(cluster) as client:
-        t0 = time.perf_counter()
-        dask = evaluate(corpus, systems, scheduler=client.scheduler.address, **kw)
-        t_dask = time.perf_counter() - t0
+    dask, t_dask = on_dask
     key = lambda r: (r["system"], r["recording"], r["metric"])  # noqa: E731
     a = {key(r): r["value"] for r in local.rows}
     b = {key(r): r["value"] for r in dask.rows}

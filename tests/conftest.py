@@ -8,6 +8,7 @@ project's own small files, which are always present.
 from __future__ import annotations
 
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -75,3 +76,19 @@ def gl():
         pytest.skip(f"no offscreen OpenGL: {exc}")
     ctx.release()
     return True
+
+
+#: the Chromium the browser tests drive (Debian's package by default)
+CHROMIUM = os.environ.get("HEADMOTION_CHROMIUM", "/usr/bin/chromium")
+
+
+@pytest.fixture
+def playwright():
+    """``sync_playwright``, or a skip with the reason (no playwright, no Chromium)."""
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.skip("playwright is not installed")
+    if not (Path(CHROMIUM).is_file() or shutil.which(CHROMIUM)):
+        pytest.skip(f"chromium not found at {CHROMIUM}")
+    return sync_playwright

@@ -7,16 +7,14 @@ Skips with a reason without Playwright, chromium, or ../shared/data.
 
 from __future__ import annotations
 
-import os
-import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import CHROMIUM
 
 pytestmark = [pytest.mark.browser, pytest.mark.shared, pytest.mark.timeout(180)]
 
-CHROMIUM = os.environ.get("HEADMOTION_CHROMIUM", "/usr/bin/chromium")
 MODEL = Path(__file__).resolve().parents[1] / "src" / "headmotion" / "data" / "default_model.hmz"
 
 
@@ -32,17 +30,6 @@ def speech_wav(tmp_path_factory, shared_data):
     sf.write(path, x, a.sample_rate, subtype="PCM_16")
     return path
 
-
-@pytest.fixture
-def playwright():
-    """``sync_playwright``, or a skip with the reason (no playwright, no Chromium)."""
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        pytest.skip("playwright is not installed")
-    if not (Path(CHROMIUM).is_file() or shutil.which(CHROMIUM)):
-        pytest.skip(f"chromium not found at {CHROMIUM}")
-    return sync_playwright
 
 
 def test_live_page_moves_head_with_fake_microphone(speech_wav, playwright):

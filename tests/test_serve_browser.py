@@ -4,28 +4,12 @@ and the bundled head moves.  Skips with a reason without Playwright or Chromium.
 
 from __future__ import annotations
 
-import os
-import shutil
-from pathlib import Path
-
 import numpy as np
 import pytest
+from conftest import CHROMIUM
 from serve_helpers import ROOT, registry
 
 pytestmark = [pytest.mark.browser, pytest.mark.timeout(180)]
-
-CHROMIUM = os.environ.get("HEADMOTION_CHROMIUM", "/usr/bin/chromium")
-
-
-@pytest.fixture
-def playwright():
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        pytest.skip("playwright is not installed")
-    if not (Path(CHROMIUM).is_file() or shutil.which(CHROMIUM)):
-        pytest.skip(f"chromium not found at {CHROMIUM}")
-    return sync_playwright
 
 
 def _wait_js(page, expr: str, timeout: float = 60000) -> None:

@@ -29,14 +29,7 @@ from typing import Any
 
 from ..errors import ParameterError
 from ..shipped import SHIPPED_FILES as SHIPPED_MODELS  # shipped name → file (the one registry)
-from ..shipped import shipped_path
-
-
-def shipped_model_path(name: str) -> Path:
-    """The file of a shipped model (:data:`SHIPPED_MODELS`)."""
-    if name not in SHIPPED_MODELS:
-        raise ParameterError(f"unknown shipped model {name!r}; expected one of {sorted(SHIPPED_MODELS)}")
-    return shipped_path(name)
+from ..shipped import shipped_path as shipped_model_path  # the file of a shipped model, by name
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..errors import ParameterError
 from ..types import Motion
 
 #: the name of the reference condition, the recording's own motion
@@ -64,9 +65,10 @@ class Condition(ABC):
         """The pose range the condition can reach, ``(3, 2)`` radians, or None (none declared)."""
         return None
 
-    def embed(self, audio, *, fps: float, n_frames: int):
-        """The learned speech embedding of ``audio`` (conditions with ``embedding``)."""
-        raise NotImplementedError(f"condition {self.name!r} has no embedding")
+    def embed(self, audio, *, fps: float, n_frames: int):  # noqa: ARG002  (the optional hook)
+        """The learned speech embedding of ``audio``; only conditions whose ``embedding`` is True
+        have one (the scoring asks no other)."""
+        raise ParameterError(f"condition {self.name!r} has no learned speech embedding (its `embedding` is False)")
 
     @property
     def fit_warnings(self) -> list[str]:

@@ -79,6 +79,16 @@ class _Layers:
         self.params = [(np.ascontiguousarray(arrays[w], dtype=np.float32),
                         np.ascontiguousarray(arrays[b], dtype=np.float32)) for w, b in keys]
 
+    def forward(self, x: np.ndarray, activation: str) -> np.ndarray:
+        """The layers in order, ``activation`` between them (none after the last), float32."""
+        x = np.asarray(x, dtype=np.float32)
+        last = len(self.params) - 1
+        for i, (w, b) in enumerate(self.params):
+            x = linear(x, w, b)
+            if i < last:
+                x = ACTIVATIONS[activation](x)
+        return x
+
     def state_arrays(self, prefix: str) -> dict[str, np.ndarray]:
         """``{prefix + key: array}``, the arrays :func:`headmotion.models.nets.state_to_arrays` writes."""
         out = {}
@@ -113,25 +123,12 @@ class Autoencoder:
             raise ValueError("the autoencoder's arrays do not hold matching encoder and decoder layers")
         self.sizes = tuple([int(self.encoder.params[0][0].shape[1])] + [int(w.shape[0]) for w, _ in self.encoder.params])
 
-    @property
-    def n_layers(self) -> int:
-        return len(self.encoder.params)
-
     def encode(self, x: np.ndarray) -> np.ndarray:
         """``(B, in_dim) → (B, code_dim)``, float32."""
-        x = np.asarray(x, dtype=np.float32)
-        for i, (w, b) in enumerate(self.encoder.params):
-            x = linear(x, w, b)
-            if i < self.n_layers - 1:
-                x = ACTIVATIONS[self.activation](x)
-        return x
+        return self.encoder.forward(x, self.activation)
 
     def decode(self, z: np.ndarray) -> np.ndarray:
-        for j, (w, b) in enumerate(self.decoder.params):
-            z = linear(z, w, b)
-            if j < self.n_layers - 1:
-                z = ACTIVATIONS[self.activation](z)
-        return z
+        return self.decoder.forward(z, self.activation)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         return self.decode(self.encode(x))
@@ -157,13 +154,7 @@ class Regressor:
         self.out_dim = int(self.layers.params[-1][0].shape[0])
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        x = np.asarray(x, dtype=np.float32)
-        last = len(self.layers.params) - 1
-        for i, (w, b) in enumerate(self.layers.params):
-            x = linear(x, w, b)
-            if i < last:
-                x = ACTIVATIONS["relu"](x)
-        return x
+        return self.layers.forward(x, "relu")
 
     def state_arrays(self, prefix: str) -> dict[str, np.ndarray]:
         return self.layers.state_arrays(prefix)

@@ -9,34 +9,23 @@ onto :class:`headmotion.synthesis.Controls`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .. import synthesis
 from ..errors import ModelFileError, ParameterError
+from ..shipped import SHIPPED_FILES, data_dir
 from ..types import Audio, Motion
 
-def _shipped() -> dict[str, Path]:
-    from .. import synthesis
-
-    return {m.name: Path(m.path) for m in synthesis.list_models()}
-
-
 #: the models shipped in the package, by the names the API knows them by
-SHIPPED = _shipped()
+SHIPPED = {name: data_dir() / file for name, file in SHIPPED_FILES.items()}
 DEFAULT_OFFLINE, DEFAULT_STREAM = "default", "stream"
 
 
-@dataclass(frozen=True)
-class Controls:
-    """What a request may change about the motion: gain about the model's mean pose and offset
-    (radians) per axis (pitch, yaw, roll), a still head, the output frame rate."""
-
-    gain: tuple[float, float, float] = (1.0, 1.0, 1.0)
-    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    still: bool = False
-    fps: float | None = None
+class Controls(synthesis.Controls):
+    """:class:`headmotion.synthesis.Controls` as a request gives them: offsets in degrees, and a
+    frame rate within what the service offers."""
 
     @classmethod
     def parse(cls, *, gain=None, offset_deg=None, gain_pyr=(None, None, None),
@@ -44,8 +33,6 @@ class Controls:
         """Controls from request values: ``gain`` / ``offset_deg`` a number, a (p, y, r) triple or
         the CLI's text ``"1.2"`` / ``"1,0.5,1"``; the per-axis values override them on their axis.
         Offsets are given in degrees (as on the command line) and kept in radians."""
-        from .. import synthesis
-
         if fps is not None:
             try:
                 fps = float(fps)
@@ -53,9 +40,8 @@ class Controls:
                 raise ParameterError(f"fps must be a number of frames per second; got {fps!r}") from None
             if not (np.isfinite(fps) and 1.0 <= fps <= 1000.0):
                 raise ParameterError(f"fps must be between 1 and 1000 frames per second; got {fps}")
-        c = synthesis.Controls.parse(gain=gain, offset_degrees=offset_deg, gain_pyr=gain_pyr,
-                                     offset_pyr_degrees=offset_pyr_deg, still=still, fps=fps)
-        return cls(c.gain, c.offset, c.still, c.fps)
+        return super().parse(gain=gain, offset_degrees=offset_deg, gain_pyr=gain_pyr,
+                             offset_pyr_degrees=offset_pyr_deg, still=still, fps=fps)
 
 
 def model_files(models_dir: Path | None = None) -> dict[str, Path]:
@@ -75,8 +61,6 @@ def model_files(models_dir: Path | None = None) -> dict[str, Path]:
 
 def load(path: Path):
     """A loaded model (read once; shared by every request of this worker)."""
-    from .. import synthesis
-
     return synthesis.load_model(path)
 
 
@@ -96,21 +80,13 @@ def card(name: str, model, path: Path) -> dict:
             "card": summary}
 
 
-def _library_controls(controls: Controls):
-    from .. import synthesis
-
-    return synthesis.Controls(gain=controls.gain, offset=controls.offset, still=controls.still, fps=controls.fps)
-
-
 def synthesize(model, audio: Audio, *, seed: int = 0, samples: int = 1,
                controls: Controls = Controls()) -> list[Motion]:
     """``samples`` motions for ``audio`` (sample k with seed ``seed + k``) from
     :func:`headmotion.synthesis.synthesize`, the controls applied as ``headmotion synth`` applies them."""
-    from .. import synthesis
-
     if not 1 <= int(samples) <= 16:
         raise ParameterError(f"samples must be between 1 and 16; got {samples}")
-    return synthesis.synthesize(audio, model, seed=seed, samples=int(samples), controls=_library_controls(controls))
+    return synthesis.synthesize(audio, model, seed=seed, samples=int(samples), controls=controls)
 
 
 def open_stream(model, *, seed: int = 0, controls: Controls = Controls()):
@@ -118,14 +94,12 @@ def open_stream(model, *, seed: int = 0, controls: Controls = Controls()):
     samples at model.sample_rate) -> Motion`` of the frames now final, ``flush() -> Motion`` of the
     rest; ``latency_ms`` its lookahead.  Frames come at the model's rate (``controls.fps`` applies
     to offline synthesis only)."""
-    from .. import synthesis
-
     if not model.can_stream:
         raise ParameterError(f"model {model.name!r} cannot stream; choose a model whose card lists "
                              f"'causal' or 'streaming'")
     if controls.fps is not None:
         raise ParameterError("fps is an offline control; a stream sends frames at the model's rate")
-    return synthesis.open_stream(model, seed=seed, controls=_library_controls(controls))
+    return synthesis.open_stream(model, seed=seed, controls=controls)
 
 
 def check_loaded(files: dict[str, Path]) -> None:
