@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.resampler import Resampler  # noqa: F401  (the sources resample with it)
+from ..io.resampler import Resampler
 from ..errors import AudioDeviceError, ParameterError
 
 Message = Callable[[str], None]

@@ -29,6 +29,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ...rotations import pitch_yaw_roll_to_rotvec, pitch_yaw_roll_to_rotvec_one
 from ..control import apply_gain_angles
 from ..pauses import CausalPauseWeight, PauseSettler
 from .range_limit import soft_range
@@ -125,14 +126,10 @@ class _Denormalise:
 
 class _ToRotvec:
     def push(self, x, flags):  # noqa: ARG002
-        from ...rotations import pitch_yaw_roll_to_rotvec
-
         return pitch_yaw_roll_to_rotvec(x[:, 0], x[:, 1], x[:, 2])
 
     @staticmethod
     def push_one(x, flag):  # noqa: ARG004
-        from ...rotations import pitch_yaw_roll_to_rotvec_one
-
         return list(pitch_yaw_roll_to_rotvec_one(*x))
 
 
