@@ -13,6 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_limits
+
+# Synthesis runs the networks with the model's n_threads BLAS threads (1 by default), and float32
+# matrix products round differently with more threads: the tests' reference computations run
+# with the same single BLAS thread, whatever the machine's default.
+_BLAS_THREADS = threadpool_limits(limits=1, user_api="blas")
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = Path(os.environ.get("HEADMOTION_SHARED_DATA", ROOT.parent / "shared" / "data"))
