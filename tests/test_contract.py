@@ -29,6 +29,7 @@ TINY = {
     **{name: dict(_DNN_TINY) for name in ("cccae", "ae-dnn", "mfcc-dnn", "fbank-dnn", "f0e-dnn", "wav-dnn")},
     "motion-flow": dict(window=24, prefix=6, hidden=16, n_blocks=2, train_steps=20, batch_size=8, eval_every=10,
                         sampling_steps=2, n_threads=1),
+    "motion-match": dict(),
 }
 BAD = {
     "tws-basic": {"method": "best"},
@@ -36,6 +37,7 @@ BAD = {
     "le2012": {"n_steps": 0},
     **{name: {"embedding_dim": 0} for name in ("cccae", "ae-dnn", "mfcc-dnn", "fbank-dnn", "f0e-dnn", "wav-dnn")},
     "motion-flow": {"sampling_steps": 0},
+    "motion-match": {"temperature": 0.0},
 }
 
 

@@ -381,9 +381,26 @@ def statistic_aucs(F: np.ndarray, y: np.ndarray) -> dict[str, float]:
     return {n: _auc(y, F[:, j]) for j, n in enumerate(statistic_names())}
 
 
+def _samples_within(real: Mapping, generated: Mapping, within: Mapping | None, *, fps, chunk_s):
+    """:func:`make_samples` of each evaluation fold (``within``: recording → fold; copies are looked
+    for inside a fold), concatenated, and the window indices of each fold."""
+    if not within:
+        s = make_samples(real, generated, fps=fps, chunk_s=chunk_s)
+        return s, [np.arange(len(s.y))]
+    parts, blocks, n = [], [], 0
+    for f in dict.fromkeys(within[r] for r in real if r in within):
+        rk = {r: m for r, m in real.items() if within.get(r) == f}
+        s = make_samples(rk, {r: m for r, m in generated.items() if r in rk}, fps=fps, chunk_s=chunk_s)
+        parts.append(s)
+        blocks.append(np.arange(n, n + len(s.y)))
+        n += len(s.y)
+    return Samples(np.concatenate([p.X for p in parts]), np.concatenate([p.y for p in parts]),
+                   np.concatenate([p.groups for p in parts])), blocks
+
+
 def detectability(real: Mapping, generated: Mapping, *, fps=None, seed: int = 0, n_splits: int = 5,
                   n_boot: int = 1000, classifiers: Sequence[str] = CLASSIFIERS,
-                  chunk_s: float | None = None) -> DetectabilityResult:
+                  chunk_s: float | None = None, within: Mapping | None = None) -> DetectabilityResult:
     """Classifier two-sample test of recorded against generated motion (see the module docstring).
 
     Parameters
@@ -397,6 +414,11 @@ def detectability(real: Mapping, generated: Mapping, *, fps=None, seed: int = 0,
     n_boot : int — bootstrap resamples of the recordings for the intervals
     classifiers : subset of ``("stats", "cnn")``
     chunk_s : float, optional — cut every recording into groups of this many seconds
+    within : mapping recording → evaluation fold, optional — classifiers are trained and tested
+        only among one fold's windows (out-of-fold probabilities pooled over the folds): a
+        condition that replays other recordings' motion (retrieval, ``other-speaker``) made its
+        motion from the *other* folds' recordings, which a pooled classifier would also see
+        labelled "recorded"
 
     Returns
     -------
@@ -405,11 +427,11 @@ def detectability(real: Mapping, generated: Mapping, *, fps=None, seed: int = 0,
     bad = [c for c in classifiers if c not in CLASSIFIERS]
     if bad or not classifiers:
         raise ParameterError(f"classifiers must be a non-empty subset of {CLASSIFIERS}; got {list(classifiers)}")
-    s = make_samples(real, generated, fps=fps, chunk_s=chunk_s)
+    s, blocks = _samples_within(real, generated, within, fps=fps, chunk_s=chunk_s)
     F = window_statistics(s.X)
-    folds = _folds(s.y, s.groups, n_splits, seed)
+    folds = [(b[tr], b[te]) for b in blocks for tr, te in _folds(s.y[b], s.groups[b], n_splits, seed)]
     scores = {}
-    few = min(np.sum(s.y == 0), np.sum(s.y == 1)) < MIN_CNN_WINDOWS
+    few = min(min(np.sum(s.y[b] == 0), np.sum(s.y[b] == 1)) for b in blocks) < MIN_CNN_WINDOWS
     for name in classifiers:
         if name == "cnn" and few and len(classifiers) > 1:
             continue  # too few windows to train a network: the statistics classifier decides
@@ -466,9 +488,35 @@ def result_rows(system: str, res: DetectabilityResult, *, prefix: str = "detect"
     return [{"system": system, "recording": "ALL", "metric": k, "value": float(v)} for k, v in vals.items()]
 
 
+def _condition_rows(cond: str, real: Mapping, gen: Mapping, kw: dict) -> list[dict]:
+    """One condition's rows: the test within folds (``detect*``, ``detect_within_folds`` = 1) and
+    over all folds (``detect_pooled*``, statistics classifier); when a fold has too little motion
+    for the test within folds, the test over all folds is ``detect*`` (``detect_within_folds`` = 0)."""
+    rows: list[dict] = []
+    if kw["within"]:
+        try:
+            rows = result_rows(cond, detectability(real, gen, **kw))
+        except ParameterError:
+            rows = []  # a fold with too little motion of 4 s windows: the test over all folds decides
+    within_ok = bool(rows)
+    try:
+        pooled = detectability(real, gen, **{**kw, "within": None,
+                                             "classifiers": ("stats",) if within_ok else kw["classifiers"]})
+    except ParameterError:
+        return rows
+    if within_ok:
+        rows += [r for r in result_rows(cond, pooled, prefix="detect_pooled") if "_stat_auc[" not in r["metric"]]
+    else:
+        rows = result_rows(cond, pooled)
+    if kw["within"]:
+        rows.append({"system": cond, "recording": "ALL", "metric": "detect_within_folds", "value": float(within_ok)})
+    return rows
+
+
 def detectability_rows(real_by_rec: Mapping, generated_by_condition: Mapping[str, Mapping], fps=None, *,
                        seed: int = 0, ruler: str | None = "ground-truth", n_boot: int = 1000,
-                       classifiers: Sequence[str] = CLASSIFIERS, chunk_s: float | None = None) -> list[dict]:
+                       classifiers: Sequence[str] = CLASSIFIERS, chunk_s: float | None = None,
+                       within: Mapping | None = None) -> list[dict]:
     """Detectability rows for every condition, for ``metrics.csv``.
 
     Parameters
@@ -479,6 +527,9 @@ def detectability_rows(real_by_rec: Mapping, generated_by_condition: Mapping[str
     fps : float | mapping recording → float — the rate of arrays
     ruler : system name under which the ruler's anchors (:func:`ruler_motions`) are reported as
         ``detect_reversed``, ``detect_phase_randomised``, ``detect_still`` (None: no ruler)
+    within : mapping recording → evaluation fold, optional — the classifiers are trained and
+        tested within each fold (:func:`detectability`); the test over all folds at once, with the
+        statistics classifier, is reported beside it as ``detect_pooled*``
 
     Returns
     -------
@@ -488,16 +539,13 @@ def detectability_rows(real_by_rec: Mapping, generated_by_condition: Mapping[str
     """
     rows: list[dict] = []
     real = dict(real_by_rec)
-    kw = {"fps": fps, "seed": seed, "n_boot": n_boot, "classifiers": classifiers, "chunk_s": chunk_s}
+    within = within if within and len(set(within.values())) > 1 else None
+    kw = {"fps": fps, "seed": seed, "n_boot": n_boot, "classifiers": classifiers, "chunk_s": chunk_s, "within": within}
     for cond, gen in generated_by_condition.items():
         g = {r: m for r, m in gen.items() if r in real}
         if len(g) < 2:
             continue
-        try:
-            res = detectability({r: real[r] for r in g}, g, **kw)
-        except ParameterError:
-            continue  # too little motion of 4 s windows
-        rows += result_rows(cond, res)
+        rows += _condition_rows(cond, {r: real[r] for r in g}, g, kw)
     if ruler:
         arrays = {r: (m.rotvec if isinstance(m, Motion) else m) for r, m in real.items()}
         rates = {r: (m.fps if isinstance(m, Motion) else (fps[r] if isinstance(fps, Mapping) else fps))
@@ -506,7 +554,10 @@ def detectability_rows(real_by_rec: Mapping, generated_by_condition: Mapping[str
             try:
                 res = detectability(arrays, gen, **{**kw, "fps": rates})
             except ParameterError:
-                continue
+                try:  # a fold with too little motion: over all folds (the ruler's motions copy nothing)
+                    res = detectability(arrays, gen, **{**kw, "fps": rates, "within": None})
+                except ParameterError:
+                    continue
             rows += [r for r in result_rows(ruler, res, prefix=f"detect_{name.replace('-', '_')}")
                      if "_stat_auc[" not in r["metric"]]
     return rows

@@ -73,7 +73,9 @@ def assemble(results: Sequence[dict], *, corpus, conditions: Sequence[str], tabl
     warns: list[str] = []
     motions: dict[str, dict[str, np.ndarray]] = {}
     k_samples: dict[str, dict[str, list]] = {}
-    for res in results:
+    fold_of: dict[str, int] = {}
+    for k, res in enumerate(results):
+        fold_of.update(dict.fromkeys(res["gt"], k))
         rows += res["rows"]
         for cond, d in res.get("motions", {}).items():
             motions.setdefault(cond, {}).update(d)
@@ -92,7 +94,8 @@ def assemble(results: Sequence[dict], *, corpus, conditions: Sequence[str], tabl
         rows += fig48_rows(gt)
     pooled = PooledScoring(rows=list(rows), conditions=list(conditions), motions=motions,
                            references={rid: Motion(g[0], g[3]) for rid, g in gt.items()}, samples=k_samples,
-                           n_shifts=n_shifts, seed=int(seed), options=dict(options or {}))
+                           n_shifts=n_shifts, seed=int(seed), options=dict(options or {}),
+                           folds=fold_of)
     for measure in S.POOLED_MEASURES:
         t0 = time.perf_counter()
         rows += measure.fn(pooled)

@@ -260,6 +260,8 @@ class PooledScoring:
     seed: int = 0
     #: switches and settings of optional pooled measures, by name (what ``evaluate`` passes on)
     options: dict = field(default_factory=dict)
+    #: ``{recording: fold}`` the fold each held-out recording was held out in
+    folds: dict = field(default_factory=dict)
 
     @property
     def fps(self) -> dict[str, float]:
@@ -385,7 +387,7 @@ def _pooled_detectability(p: PooledScoring) -> list[dict]:
     from .detectability import detectability_rows
 
     return detectability_rows(p.motions[GROUND_TRUTH], {c: d for c, d in p.motions.items() if c != GROUND_TRUTH},
-                              p.fps, seed=int(p.seed), ruler=GROUND_TRUTH, chunk_s=DETECT_CHUNK_S)
+                              p.fps, seed=int(p.seed), ruler=GROUND_TRUTH, chunk_s=DETECT_CHUNK_S, within=p.folds)
 
 
 POOLED_MEASURES: tuple[PooledMeasure, ...] = (PooledMeasure("pooled coupling", _pooled_coupling),

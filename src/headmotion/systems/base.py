@@ -73,6 +73,7 @@ SYSTEMS: dict[str, str] = {
     "f0e-dnn": "headmotion.systems.dnn.registered:F0eDnnSystem",
     "wav-dnn": "headmotion.systems.dnn.registered:WavDnnSystem",
     "motion-flow": "headmotion.systems.flow:MotionFlow",
+    "motion-match": "headmotion.systems.motion_match:MotionMatch",
 }
 
 #: capability names

@@ -1,0 +1,294 @@
+"""``motion-match``: head motion *sampled* from speech by choosing recorded movements
+(speech-conditioned motion matching; docs/decisions/motion-matching.md).
+
+A regressor predicts the average head; a generative network trembles where a head holds still.
+Here the training motion itself is the vocabulary of movements, and the model is a
+speech-conditioned way of walking through it (motion matching, Clavet 2016; for speech-driven
+gesture, Habibie et al. 2022):
+
+* **Library** (:meth:`MotionMatch.fit`): every training recording's pitch, yaw and roll at 25 fps
+  in degrees, its mean pose removed (:func:`~headmotion.systems.flow.motion_degrees`), and, with
+  ``mirror``, its copy with yaw and roll negated; beside each frame, its prosody — energy, log F0,
+  their deltas and voicing (:func:`~headmotion.systems.flow.speech_features`, standardised).
+* **Matching**: every ``hop`` frames the system scores each library frame by how far the prosody
+  around it (``context`` frames back to ``lookahead`` frames ahead) is from the prosody around the
+  current frame, and how far its pose and velocity are from the motion made so far; a frame other
+  than the one that continues the clip already playing pays ``switch_cost``.  One of the ``top_k``
+  cheapest is drawn from the seed with weight ``exp(-(cost - best) / temperature)``, and its
+  motion plays from there.
+* **Joins** (inertialisation): when the clip changes, the difference between where the motion was
+  going (position and velocity) and where the new clip starts decays as a critically damped spring
+  that settles over ``blend`` frames, so a join has neither a step nor a kink; nothing else
+  changes the recorded motion.
+
+Same seed, same motion; another seed makes other choices, so ``--samples K`` gives K takes made of
+different movements.  Memory is the library (25 frames a second of training motion) and the
+output; any length.  Decisions use ``lookahead`` frames of speech ahead (0.4 s by default).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import ClassVar
+
+import numpy as np
+
+from ..align import n_frames as _n_frames
+from ..errors import ParameterError
+from ..motion.control import mean_pose_of
+from ..rotations import pitch_yaw_roll_to_rotvec
+from ..types import Audio, Motion
+from .base import Synthesizer
+from .flow import FPS, motion_degrees, speech_features
+
+#: the columns of :func:`~headmotion.systems.flow.speech_features` matched: energy, Δenergy,
+#: log F0, energy (prosody), Δlog F0, voicing
+PROSODY = [0, 13, 14, 15, 16, 18]
+#: the voicing column within PROSODY
+VOICING = 5
+
+
+def _smooth(x: np.ndarray, width: int) -> np.ndarray:
+    """Centred moving average over ``width`` frames along axis 0 (edges repeated)."""
+    if width <= 1 or len(x) == 0:
+        return x
+    pad = np.concatenate([np.repeat(x[:1], width // 2, 0), x, np.repeat(x[-1:], width - 1 - width // 2, 0)])
+    c = np.cumsum(np.concatenate([np.zeros((1, x.shape[1])), pad]), axis=0)
+    return (c[width:] - c[:-width]) / width
+
+
+def speech_descriptors(feats: np.ndarray, taps: np.ndarray) -> np.ndarray:
+    """``(T, len(taps) * D)``: the (smoothed) features of each frame at the offsets ``taps``
+    (frames; edges repeated) — the speech around a frame, as matched."""
+    T = len(feats)
+    s = _smooth(feats.astype(np.float64), 5)
+    idx = np.clip(np.arange(T)[:, None] + taps[None, :], 0, max(T - 1, 0))
+    return s[idx].reshape(T, -1).astype(np.float32)
+
+
+class MotionMatch(Synthesizer):
+    """Speech-conditioned motion matching over the training motion (see the module docstring).
+
+    Parameters
+    ----------
+    hop : int, frames (25 fps) between decisions
+    context, lookahead : int, frames of speech before and after a frame that are matched
+    speech_weight, pose_weight, velocity_weight : float, weights of the three costs
+    switch_cost : float, cost of leaving the clip that is playing
+    top_k : int, candidates drawn from; temperature : float, of the draw's weights
+    blend : int, frames over which a join's offset settles
+    mirror : bool, add every training motion with yaw and roll negated
+    seed : int, default synthesis seed
+    """
+
+    name: ClassVar[str] = "motion-match"
+    capabilities: ClassVar[frozenset[str]] = frozenset()
+
+    def __init__(self, *, hop: int = 10, context: int = 10, lookahead: int = 10, speech_weight: float = 1.0,
+                 pose_weight: float = 1.0, velocity_weight: float = 1.0, switch_cost: float = 0.3,
+                 top_k: int = 8, temperature: float = 0.3, blend: int = 10, mirror: bool = True,
+                 target_weight: float = 0.0, ridge: float = 10.0, pause_weight: float = 0.0, seed: int = 0):
+        self.hop, self.context, self.lookahead = hop, context, lookahead
+        self.target_weight, self.ridge, self.pause_weight = target_weight, ridge, pause_weight
+        self.speech_weight, self.pose_weight, self.velocity_weight = speech_weight, pose_weight, velocity_weight
+        self.switch_cost, self.top_k, self.temperature, self.blend = switch_cost, top_k, temperature, blend
+        self.mirror, self.seed = mirror, seed
+
+    # -- parameters ------------------------------------------------------------------------------
+    def _validate_params(self) -> None:
+        for name, lo in (("hop", 1), ("context", 0), ("lookahead", 0), ("top_k", 1), ("blend", 1), ("seed", 0)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ParameterError(f"{self.name}: {name} must be a whole number >= {lo}; got {v!r}")
+        for name in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "temperature",
+                     "target_weight", "ridge", "pause_weight"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
+                raise ParameterError(f"{self.name}: {name} must be a number >= 0; got {v!r}")
+        if self.temperature == 0:
+            raise ParameterError(f"{self.name}: temperature must be > 0; got {self.temperature!r}")
+        if not isinstance(self.mirror, (bool, np.bool_)):
+            raise ParameterError(f"{self.name}: mirror must be true or false; got {self.mirror!r}")
+
+    @property
+    def _taps(self) -> np.ndarray:
+        step = max(1, (int(self.context) + int(self.lookahead)) // 4)
+        return np.unique(np.r_[np.arange(-int(self.context), int(self.lookahead) + 1, step), int(self.lookahead)])
+
+    # -- fitting ---------------------------------------------------------------------------------
+    def fit(self, corpus, *, progress=None) -> "MotionMatch":
+        """Build the library from ``corpus`` (see the module docstring).
+
+        Parameters
+        ----------
+        corpus : Corpus
+        progress : callable ``progress(done, total, description)`` or None
+        """
+        self._validate_params()
+        recs = list(corpus)
+        if not recs:
+            raise ParameterError(f"cannot fit {self.name} on an empty corpus")
+        t0 = time.perf_counter()
+        motions, feats = [], []
+        for i, r in enumerate(recs):
+            n = _n_frames(len(r.audio.samples), r.audio.sample_rate, FPS)
+            if n < int(self.hop) + 2:
+                continue
+            motions.append(motion_degrees(r.motion, n).astype(np.float32))
+            feats.append(self._prosody(r.audio, n))
+            if progress is not None:
+                progress(i + 1, len(recs), f"motion-match library {i + 1}/{len(recs)}")
+        if not motions:
+            raise ParameterError(f"{self.name}: no training recording is longer than {(int(self.hop) + 2) / FPS:.2f} s")
+        allf = np.concatenate(feats).astype(np.float64)
+        self.feat_mean_, self.feat_std_ = allf.mean(axis=0), np.maximum(allf.std(axis=0), 1e-6)
+        self.lib_motion_ = np.concatenate(motions)
+        self.lib_feats_ = ((allf - self.feat_mean_) / self.feat_std_).astype(np.float32)
+        self.lib_lengths_ = np.array([len(m) for m in motions], dtype=np.int64)
+        self.mean_pose_ = mean_pose_of([r.motion.rotvec for r in recs])
+        self.sample_rate_, self.fps_ = int(recs[0].audio.sample_rate), FPS
+        self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
+        self.fit_warnings_ = []
+        self._index()
+        self.fit_seconds_ = time.perf_counter() - t0
+        self.fitted_ = True
+        return self
+
+    def _index(self) -> None:
+        """The search tables: per library frame its speech descriptor, pose, velocity, and whether
+        a clip may start there (``hop`` frames must follow in its recording)."""
+        S, P, V, ok, A, end = [], [], [], [], [], []
+        start = 0
+        for n in self.lib_lengths_:
+            m = self.lib_motion_[start:start + n].astype(np.float64)
+            f = self.lib_feats_[start:start + n]
+            d = speech_descriptors(f, self._taps)
+            v = np.vstack([m[1:2] - m[:1], np.diff(m, axis=0)])
+            good = np.zeros(n, bool)
+            good[:n - int(self.hop) - 1] = True
+            copies = [m, m * np.array([1.0, -1.0, -1.0])] if self.mirror else [m]
+            H = int(self.hop)
+            for c in copies:
+                S.append(d)
+                P.append(c)
+                A.append(np.vstack([c[H:] - c[:-H], np.zeros((min(H, n), 3))])[:n])
+                V.append(np.vstack([c[1:2] - c[:1], np.diff(c, axis=0)]))
+                ok.append(good)
+                end.append(np.full(n, sum(len(x) for x in P), dtype=np.int64))
+            start += n
+        self._S = np.concatenate(S).astype(np.float32)
+        self._P = np.concatenate(P)
+        self._V = np.concatenate(V)
+        self._ok = np.concatenate(ok)
+        self._end = np.concatenate(end)  # where each frame's recording (copy) ends
+        self._pose_sd = np.maximum(self._P.std(axis=0), 1e-3)
+        self._vel_sd = np.maximum(self._V.std(axis=0), 1e-4)
+        self._S2 = np.einsum("ij,ij->i", self._S, self._S)
+        self._A = np.concatenate(A)
+        # the pose path the speech asks for: ridge regression of the pose on the speech around a
+        # frame, each axis scaled to the library's SD (a regression predicts the average head)
+        X = np.c_[self._S.astype(np.float64), np.ones(len(self._S))]
+        reg = float(self.ridge) * np.eye(X.shape[1])
+        reg[-1, -1] = 0.0
+        self._W = np.linalg.solve(X.T @ X + reg, X.T @ self._P)
+        pred_sd = (X @ self._W).std(axis=0)
+        # axes the speech predicts (with ``mirror``, yaw and roll are predicted as 0: no goal for them)
+        self._goal_axes = pred_sd > 0.02 * self._pose_sd
+        self._W *= np.where(self._goal_axes, np.minimum(self._pose_sd / np.maximum(pred_sd, 1e-12), 10.0), 0.0)
+
+    # -- synthesis -------------------------------------------------------------------------------
+    def _costs(self, s: np.ndarray, pose: np.ndarray | None, vel: np.ndarray | None,
+               goal: np.ndarray | None = None, speaking: float = 1.0, only: int | None = None):
+        """The cost of starting a clip at every library frame (or at the frame ``only``, a float)
+        for the speech descriptor ``s``, the next pose and velocity the motion is heading for,
+        the pose ``goal`` at the end of the hop and the share of voiced frames in it."""
+        at = slice(None) if only is None else slice(only, only + 1)
+        S, A = self._S[at], self._A[at]
+        c = float(self.speech_weight) * (self._S2[at] - 2.0 * (S @ s) + float(s @ s)) / S.shape[1]
+        if goal is not None and self.target_weight > 0 and self._goal_axes.any():
+            ax = self._goal_axes
+            step = (goal - (pose if pose is not None else 0.0))[ax]
+            c = c + float(self.target_weight) * speaking * (((A[:, ax] - step) / self._pose_sd[ax]) ** 2).mean(axis=1)
+        if self.pause_weight > 0 and speaking < 1.0:  # in a pause, clips that hold
+            c = c + float(self.pause_weight) * (1.0 - speaking) * ((A / self._pose_sd) ** 2).mean(axis=1)
+        if pose is not None:
+            c = c + float(self.pose_weight) * (((self._P[at] - pose) / self._pose_sd) ** 2).mean(axis=1)
+            c = c + float(self.velocity_weight) * (((self._V[at] - vel) / self._vel_sd) ** 2).mean(axis=1)
+        return float(c[0]) if only is not None else np.where(self._ok, c, np.inf)
+
+    def _draw(self, cost: np.ndarray, rng: np.random.Generator) -> int:
+        k = min(int(self.top_k), int(np.isfinite(cost).sum()))
+        idx = np.argpartition(cost, k - 1)[:k]
+        idx = idx[np.argsort(cost[idx], kind="stable")]
+        w = np.exp(-(cost[idx] - cost[idx[0]]) / float(self.temperature))
+        return int(idx[rng.choice(k, p=w / w.sum())])
+
+    def generate(self, feats: np.ndarray, seed: int) -> np.ndarray:
+        """Motion ``(T, 3)`` in degrees about the mean pose for standardised prosody ``(T, 6)``."""
+        T, H = len(feats), int(self.hop)
+        rng = np.random.default_rng(int(seed))
+        desc = speech_descriptors(feats, self._taps)
+        goals = np.c_[desc.astype(np.float64), np.ones(T)] @ self._W if self.target_weight > 0 else None
+        voiced = np.clip(feats[:, VOICING] * self.feat_std_[VOICING] + self.feat_mean_[VOICING], 0.0, 1.0)
+        out = np.zeros((T, 3))
+        lam = 4.0 / float(self.blend)
+        pos, x0, v0, age = -1, np.zeros(3), np.zeros(3), 0
+        for t in range(0, T, H):
+            goal = goals[min(t + H, T - 1)] if goals is not None else None
+            speaking = float(voiced[t:t + H].mean())
+            n = min(H, T - t)
+            if t == 0:
+                cost = self._costs(desc[t], None, None, goal, speaking)
+            else:
+                vel = out[t - 1] - out[t - 2] if t >= 2 else np.zeros(3)
+                cost = self._costs(desc[t], out[t - 1] + vel, vel, goal, speaking) + float(self.switch_cost)
+                if 0 <= pos < len(cost) and pos + n <= self._end[pos - 1]:  # the clip playing goes on
+                    cost[pos] = self._costs(desc[t], out[t - 1] + vel, vel, goal, speaking, only=pos)
+            j = self._draw(cost, rng)
+            if t > 0 and j != pos:  # a join: carry on from where the motion was going
+                x0 = out[t - 1] + vel - self._P[j]
+                v0 = vel - self._V[j] if j + 1 < len(self._P) else np.zeros(3)
+                age = 0
+            a = np.arange(age, age + n, dtype=np.float64)[:, None]
+            spring = (x0 + (v0 + lam * x0) * a) * np.exp(-lam * a)
+            out[t:t + n] = self._P[j:j + n] + spring
+            age += n
+            pos = j + n
+        return out
+
+    @staticmethod
+    def _prosody(audio: Audio, n: int) -> np.ndarray:
+        """The raw prosody columns matched, ``(n, 6)`` at 25 fps."""
+        return speech_features(audio, n)[:, PROSODY]
+
+    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
+        seed = int(seed)  # filled by the contract (Synthesizer._synthesis_seed)
+        n = _n_frames(len(audio.samples), audio.sample_rate, FPS)
+        if n == 0:
+            return Motion(np.zeros((0, 3)), FPS)
+        f = ((self._prosody(audio, n) - self.feat_mean_) / self.feat_std_).astype(np.float32)
+        pyr = np.radians(self.generate(f, seed)) + self.mean_pose_
+        return Motion(pitch_yaw_roll_to_rotvec(pyr[:, 0], pyr[:, 1], pyr[:, 2]), FPS)
+
+    # -- persistence -----------------------------------------------------------------------------
+    def _get_state(self):
+        config = {"params": self.get_params(), "sample_rate": self.sample_rate_, "fps": FPS}
+        arrays = {"feat_mean": self.feat_mean_, "feat_std": self.feat_std_, "lib_motion": self.lib_motion_,
+                  "lib_feats": self.lib_feats_, "lib_lengths": self.lib_lengths_}
+        return config, arrays
+
+    def _set_state(self, config, arrays):
+        params = dict(config["params"])
+        for k in self._param_names():
+            setattr(self, k, params.get(k, getattr(type(self)(), k)))
+        self.sample_rate_, self.fps_ = int(config["sample_rate"]), float(config.get("fps", FPS))
+        self.feat_mean_ = np.asarray(arrays["feat_mean"], dtype=np.float64)
+        self.feat_std_ = np.asarray(arrays["feat_std"], dtype=np.float64)
+        self.lib_motion_ = np.asarray(arrays["lib_motion"], dtype=np.float32)
+        self.lib_feats_ = np.asarray(arrays["lib_feats"], dtype=np.float32)
+        self.lib_lengths_ = np.asarray(arrays["lib_lengths"], dtype=np.int64)
+        self.fit_warnings_ = []
+        self._index()
+
+
+__all__ = ["MotionMatch", "PROSODY", "speech_descriptors"]

@@ -1,0 +1,85 @@
+"""motion-match: recorded movements chosen by the speech — a known answer (its own training
+recording played back), seeded takes, joins without steps, persistence (planted corpus; the
+contract checks are in test_contract.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from headmotion.errors import ParameterError
+from headmotion.rotations import rotvec_to_pitch_yaw_roll
+from headmotion.systems import create, load_model
+from headmotion.systems.flow import FPS, motion_degrees
+from headmotion.systems.motion_match import speech_descriptors
+
+
+@pytest.fixture(scope="module")
+def corpus(planted):
+    return planted(minutes=1.5, n_recordings=3, seed=11)
+
+
+@pytest.fixture(scope="module")
+def model(corpus):
+    return create("motion-match", target_weight=1.0, pause_weight=1.0).fit(corpus)
+
+
+def angles(motion):
+    return np.degrees(rotvec_to_pitch_yaw_roll(motion.rotvec))
+
+
+def test_its_own_training_speech_plays_its_recorded_motion_back(corpus):
+    """One recording as the library, no mirror, the nearest match only and leaving a clip costly:
+    given that recording's own speech, every decision continues the clip, so the output is the
+    recorded motion (mean pose removed) to float precision."""
+    one = corpus.subset([0])
+    m = create("motion-match", mirror=False, top_k=1, switch_cost=100.0).fit(one)
+    rec = one[0]
+    out = angles(m.predict(rec.audio, seed=0))
+    truth = motion_degrees(rec.motion, len(out))
+    np.testing.assert_allclose(out - np.degrees(m.mean_pose_), truth, atol=1e-6)
+
+
+def test_same_seed_same_motion_other_seed_other_take(model, corpus):
+    audio = corpus[2].audio.slice_seconds(0, 20.0)
+    a, b, c = (angles(model.predict(audio, seed=s)) for s in (3, 3, 4))
+    np.testing.assert_array_equal(a, b)
+    assert not np.allclose(a, c)
+    # a different take, not one path with an offset
+    assert min(abs(np.corrcoef(a[:, k], c[:, k])[0, 1]) for k in range(3)) < 0.9
+    np.testing.assert_array_equal(angles(model.predict(audio)), angles(model.predict(audio, seed=model.seed)))
+
+
+def test_no_step_where_clips_join(model, corpus):
+    """Where the playing clip changes, the frame-to-frame step is no larger than the steps a
+    recorded motion takes (the join is carried on from where the motion was going)."""
+    audio = corpus[1].audio
+    n = int(len(audio.samples) / audio.sample_rate * FPS)
+    feats = ((model._prosody(audio, n) - model.feat_mean_) / model.feat_std_).astype(np.float32)
+    x = model.generate(feats, seed=2)
+    step = np.abs(np.diff(x, axis=0)).max(axis=1)
+    library_step = np.abs(np.diff(model.lib_motion_, axis=0)).max(axis=1)
+    joins = np.arange(model.hop - 1, len(x) - 1, model.hop)
+    assert step[joins].max() <= 2.0 * np.quantile(library_step, 0.99)
+
+
+def test_save_load_gives_identical_motion(model, corpus, tmp_path):
+    audio = corpus[1].audio.slice_seconds(0, 6.0)
+    back = load_model(model.save(tmp_path / "mm.hmz"))
+    np.testing.assert_array_equal(back.predict(audio, seed=2).rotvec, model.predict(audio, seed=2).rotvec)
+    assert back.get_params() == model.get_params()
+
+
+def test_speech_descriptors_look_back_and_ahead():
+    f = np.arange(20, dtype=np.float32)[:, None]
+    d = speech_descriptors(f, np.array([-2, 0, 3]))
+    # smoothed over 5 frames (edges repeated): frame 10 sees frames 8, 10 and 13
+    np.testing.assert_allclose(d[10], [8.0, 10.0, 13.0])
+    np.testing.assert_allclose(d[0], [0.6, 0.6, 3.0])  # before the start: frame 0 smoothed over 0, 0, 0, 1, 2
+
+
+@pytest.mark.parametrize("bad", [{"hop": 0}, {"top_k": 0}, {"temperature": 0.0}, {"switch_cost": -1.0},
+                                 {"mirror": "yes"}, {"target_weight": float("nan")}])
+def test_bad_parameters_are_refused(bad, corpus):
+    with pytest.raises(ParameterError, match=next(iter(bad))):
+        create("motion-match", **bad).fit(corpus)
