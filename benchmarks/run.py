@@ -144,6 +144,28 @@ def _bench_generative(res: Results, audio, corpus, quick: bool):
     rt = audio.duration / t
     res.add(Row("2 synth", f"motion-flow ({what}): features + synthesis, 60 s", rt, "x RT", ">= 100x", rt >= 100,
                 f"{t * 1000:.0f} ms wall, {cpu * 1000:.0f} ms CPU; {flow.sampling_steps} Euler steps per window"))
+    _bench_motion_match(res, audio, corpus, quick)
+
+
+def _bench_motion_match(res: Results, audio, corpus, quick: bool):
+    """motion-match: the shipped model when present, else one built from the planted corpus (its
+    library is that corpus: 25 frames a second of it, mirrored); wall and process CPU time."""
+    from headmotion.shipped import SHIPPED_FILES, data_dir
+    from headmotion.systems import create, load_model
+
+    path = data_dir() / SHIPPED_FILES.get("motion-match", "motion_match_model.hmz")
+    if path.is_file():
+        mm, what = load_model(path), "shipped model"
+    else:
+        mm, what = create("motion-match").fit(corpus), "library of the planted corpus"
+    mm.predict(audio, seed=0)
+    t = time_median(lambda: mm.predict(audio, seed=0), repeats=2 if quick else 3)
+    c0 = time.process_time()
+    mm.predict(audio, seed=1)
+    cpu = time.process_time() - c0
+    rt = audio.duration / t
+    res.add(Row("2 synth", f"motion-match ({what}): features + synthesis, 60 s", rt, "x RT", ">= 100x", rt >= 100,
+                f"{t * 1000:.0f} ms wall, {cpu * 1000:.0f} ms CPU; library of {len(mm._P)} frames"))
 
 
 def _paced_latency(stream, audio, secs: float, fps: float) -> dict:

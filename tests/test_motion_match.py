@@ -29,11 +29,12 @@ def angles(motion):
 
 
 def test_its_own_training_speech_plays_its_recorded_motion_back(corpus):
-    """One recording as the library, no mirror, the nearest match only and leaving a clip costly:
+    """One recording as the library, no mirror, speech and continuity only (no pose goal or pause
+    preference), the nearest match only and leaving a clip costly:
     given that recording's own speech, every decision continues the clip, so the output is the
     recorded motion (mean pose removed) to float precision."""
     one = corpus.subset([0])
-    m = create("motion-match", mirror=False, top_k=1, switch_cost=100.0).fit(one)
+    m = create("motion-match", mirror=False, top_k=1, switch_cost=100.0, target_weight=0.0, pause_weight=0.0).fit(one)
     rec = one[0]
     out = angles(m.predict(rec.audio, seed=0))
     truth = motion_degrees(rec.motion, len(out))
@@ -83,3 +84,20 @@ def test_speech_descriptors_look_back_and_ahead():
 def test_bad_parameters_are_refused(bad, corpus):
     with pytest.raises(ParameterError, match=next(iter(bad))):
         create("motion-match", **bad).fit(corpus)
+
+
+def test_a_tracking_glitch_ends_a_clip():
+    """A jump above MAX_STEP_DEG between two library frames (a tracker's glitch) ends the clip
+    there: no clip may start so close before it that its hop would play across it."""
+    from headmotion.systems.motion_match import MAX_STEP_DEG
+
+    m = create("motion-match", hop=5, mirror=False)
+    motion = np.zeros((60, 3), np.float32)
+    motion[30:, 1] = 3 * MAX_STEP_DEG  # frames 29 → 30 jump
+    m.lib_motion_, m.lib_lengths_ = motion, np.array([60])
+    m.lib_feats_ = np.random.default_rng(0).normal(size=(60, 6)).astype(np.float32)
+    m._index()
+    assert list(m._end[[0, 29, 30, 59]]) == [30, 30, 60, 60]
+    starts = np.flatnonzero(m._ok)
+    assert not np.any((starts + m.hop >= 30) & (starts < 30))   # nothing plays across the jump
+    assert 0 in starts and 23 in starts and 24 not in starts and 30 in starts and 53 in starts and 54 not in starts

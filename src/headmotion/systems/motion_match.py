@@ -35,6 +35,7 @@ import numpy as np
 
 from ..align import n_frames as _n_frames
 from ..errors import ParameterError
+from ..models.numpy_nets import inference_threads
 from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec
 from ..types import Audio, Motion
@@ -44,6 +45,8 @@ from .flow import FPS, motion_degrees, speech_features
 #: the columns of :func:`~headmotion.systems.flow.speech_features` matched: energy, Δenergy,
 #: log F0, energy (prosody), Δlog F0, voicing
 PROSODY = [0, 13, 14, 15, 16, 18]
+#: a frame-to-frame change above this (degrees at 25 fps, 250 °/s) is a tracking glitch: clips end there
+MAX_STEP_DEG = 10.0
 #: the voicing column within PROSODY
 VOICING = 5
 
@@ -84,10 +87,10 @@ class MotionMatch(Synthesizer):
     name: ClassVar[str] = "motion-match"
     capabilities: ClassVar[frozenset[str]] = frozenset()
 
-    def __init__(self, *, hop: int = 10, context: int = 10, lookahead: int = 10, speech_weight: float = 1.0,
+    def __init__(self, *, hop: int = 15, context: int = 10, lookahead: int = 10, speech_weight: float = 1.0,
                  pose_weight: float = 1.0, velocity_weight: float = 1.0, switch_cost: float = 0.3,
-                 top_k: int = 8, temperature: float = 0.3, blend: int = 10, mirror: bool = True,
-                 target_weight: float = 0.0, ridge: float = 10.0, pause_weight: float = 0.0, seed: int = 0):
+                 top_k: int = 8, temperature: float = 0.3, blend: int = 8, mirror: bool = True,
+                 target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, seed: int = 0):
         self.hop, self.context, self.lookahead = hop, context, lookahead
         self.target_weight, self.ridge, self.pause_weight = target_weight, ridge, pause_weight
         self.speech_weight, self.pose_weight, self.velocity_weight = speech_weight, pose_weight, velocity_weight
@@ -155,26 +158,28 @@ class MotionMatch(Synthesizer):
         return self
 
     def _index(self) -> None:
-        """The search tables: per library frame its speech descriptor, pose, velocity, and whether
-        a clip may start there (``hop`` frames must follow in its recording)."""
+        """The search tables: per library frame its speech descriptor, pose, velocity, the pose
+        change over the next ``hop`` frames, where its clip ends (the end of its recording, or a
+        jump above ``MAX_STEP_DEG``: a tracking glitch is never played) and whether a clip may
+        start there (``hop`` frames must follow before that end)."""
         S, P, V, ok, A, end = [], [], [], [], [], []
-        start = 0
+        start, H = 0, int(self.hop)
         for n in self.lib_lengths_:
             m = self.lib_motion_[start:start + n].astype(np.float64)
-            f = self.lib_feats_[start:start + n]
-            d = speech_descriptors(f, self._taps)
-            v = np.vstack([m[1:2] - m[:1], np.diff(m, axis=0)])
-            good = np.zeros(n, bool)
-            good[:n - int(self.hop) - 1] = True
+            d = speech_descriptors(self.lib_feats_[start:start + n], self._taps)
+            cuts = np.flatnonzero(np.abs(np.diff(m, axis=0)).max(axis=1) > MAX_STEP_DEG) + 1
+            bounds = np.r_[0, cuts, n]
+            clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends
+            good = np.arange(n) + H + 1 < clip_end
             copies = [m, m * np.array([1.0, -1.0, -1.0])] if self.mirror else [m]
-            H = int(self.hop)
             for c in copies:
+                offset = sum(len(x) for x in P)
                 S.append(d)
                 P.append(c)
                 A.append(np.vstack([c[H:] - c[:-H], np.zeros((min(H, n), 3))])[:n])
                 V.append(np.vstack([c[1:2] - c[:1], np.diff(c, axis=0)]))
                 ok.append(good)
-                end.append(np.full(n, sum(len(x) for x in P), dtype=np.int64))
+                end.append(clip_end + offset)
             start += n
         self._S = np.concatenate(S).astype(np.float32)
         self._P = np.concatenate(P)
@@ -183,7 +188,6 @@ class MotionMatch(Synthesizer):
         self._end = np.concatenate(end)  # where each frame's recording (copy) ends
         self._pose_sd = np.maximum(self._P.std(axis=0), 1e-3)
         self._vel_sd = np.maximum(self._V.std(axis=0), 1e-4)
-        self._S2 = np.einsum("ij,ij->i", self._S, self._S)
         self._A = np.concatenate(A)
         # the pose path the speech asks for: ridge regression of the pose on the speech around a
         # frame, each axis scaled to the library's SD (a regression predicts the average head)
@@ -195,25 +199,36 @@ class MotionMatch(Synthesizer):
         # axes the speech predicts (with ``mirror``, yaw and roll are predicted as 0: no goal for them)
         self._goal_axes = pred_sd > 0.02 * self._pose_sd
         self._W *= np.where(self._goal_axes, np.minimum(self._pose_sd / np.maximum(pred_sd, 1e-12), 10.0), 0.0)
+        scaled = {"S": self._S, "P": self._P / self._pose_sd, "V": self._V / self._vel_sd,
+                  "A": self._A / self._pose_sd, "G": (self._A / self._pose_sd)[:, self._goal_axes]}
+        self._tables = {}
+        for k, x in scaled.items():
+            x = np.ascontiguousarray(x, dtype=np.float32)
+            self._tables[k], self._tables[k + "2"] = x, np.einsum("ij,ij->i", x, x, dtype=np.float64)
 
     # -- synthesis -------------------------------------------------------------------------------
     def _costs(self, s: np.ndarray, pose: np.ndarray | None, vel: np.ndarray | None,
                goal: np.ndarray | None = None, speaking: float = 1.0, only: int | None = None):
         """The cost of starting a clip at every library frame (or at the frame ``only``, a float)
         for the speech descriptor ``s``, the next pose and velocity the motion is heading for,
-        the pose ``goal`` at the end of the hop and the share of voiced frames in it."""
+        the pose ``goal`` at the end of the hop and whether the hop is speech (1) or a pause (0).
+        Squared distances are expanded (|a|² − 2a·b + |b|²) around the library's stored norms."""
         at = slice(None) if only is None else slice(only, only + 1)
-        S, A = self._S[at], self._A[at]
-        c = float(self.speech_weight) * (self._S2[at] - 2.0 * (S @ s) + float(s @ s)) / S.shape[1]
-        if goal is not None and self.target_weight > 0 and self._goal_axes.any():
+        t = self._tables
+
+        def sq(name: str, q: np.ndarray) -> np.ndarray:
+            return t[name + "2"][at] - 2.0 * (t[name][at] @ q) + float(q @ q)
+
+        c = float(self.speech_weight) / len(s) * sq("S", s)
+        if goal is not None and self.target_weight > 0 and speaking > 0 and self._goal_axes.any():
             ax = self._goal_axes
-            step = (goal - (pose if pose is not None else 0.0))[ax]
-            c = c + float(self.target_weight) * speaking * (((A[:, ax] - step) / self._pose_sd[ax]) ** 2).mean(axis=1)
+            step = ((goal - (pose if pose is not None else 0.0)) / self._pose_sd)[ax].astype(np.float32)
+            c = c + float(self.target_weight) / int(ax.sum()) * sq("G", step)
         if self.pause_weight > 0 and speaking < 1.0:  # in a pause, clips that hold
-            c = c + float(self.pause_weight) * (1.0 - speaking) * ((A / self._pose_sd) ** 2).mean(axis=1)
+            c = c + float(self.pause_weight) * (1.0 - speaking) / 3.0 * t["A2"][at]
         if pose is not None:
-            c = c + float(self.pose_weight) * (((self._P[at] - pose) / self._pose_sd) ** 2).mean(axis=1)
-            c = c + float(self.velocity_weight) * (((self._V[at] - vel) / self._vel_sd) ** 2).mean(axis=1)
+            c = c + float(self.pose_weight) / 3.0 * sq("P", (pose / self._pose_sd).astype(np.float32))
+            c = c + float(self.velocity_weight) / 3.0 * sq("V", (vel / self._vel_sd).astype(np.float32))
         return float(c[0]) if only is not None else np.where(self._ok, c, np.inf)
 
     def _draw(self, cost: np.ndarray, rng: np.random.Generator) -> int:
@@ -235,7 +250,7 @@ class MotionMatch(Synthesizer):
         pos, x0, v0, age = -1, np.zeros(3), np.zeros(3), 0
         for t in range(0, T, H):
             goal = goals[min(t + H, T - 1)] if goals is not None else None
-            speaking = float(voiced[t:t + H].mean())
+            speaking = float(voiced[t:t + H].mean() >= 0.2)  # 0 in a pause
             n = min(H, T - t)
             if t == 0:
                 cost = self._costs(desc[t], None, None, goal, speaking)
@@ -267,7 +282,9 @@ class MotionMatch(Synthesizer):
         if n == 0:
             return Motion(np.zeros((0, 3)), FPS)
         f = ((self._prosody(audio, n) - self.feat_mean_) / self.feat_std_).astype(np.float32)
-        pyr = np.radians(self.generate(f, seed)) + self.mean_pose_
+        with inference_threads(1):  # the search is matrix-vector products: fastest on one BLAS thread
+            x = self.generate(f, seed)
+        pyr = np.radians(x) + self.mean_pose_
         return Motion(pitch_yaw_roll_to_rotvec(pyr[:, 0], pyr[:, 1], pyr[:, 2]), FPS)
 
     # -- persistence -----------------------------------------------------------------------------
