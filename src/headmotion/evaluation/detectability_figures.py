@@ -119,9 +119,13 @@ def detectability_section(rows: Sequence[Mapping], systems: Sequence[str], *, to
     lines = ["## Detectability", "",
              "Classifier two-sample test of recorded against generated motion (4 s windows, 6 Hz low-pass, 25 fps; "
              "folds grouped by recording; out-of-fold balanced accuracy (BA) and AUC with 95 % bootstrap intervals "
-             "over recordings). Detectability = the larger BA: 0.5 cannot be told apart, 1 always is.", "",
-             "| condition | detectability | BA statistics | AUC statistics | BA CNN | AUC CNN | gives it away (AUC) |",
-             "|---|---|---|---|---|---|---|"]
+             "over recordings). Detectability = the larger BA: 0.5 cannot be told apart, 1 always is. Where the "
+             "folds allow, the classifiers are trained and tested within each evaluation fold (a system replaying "
+             "recorded motion made one fold's motion from the other folds' recordings); *over all folds* is the "
+             "statistics classifier's BA on every fold's windows at once.", "",
+             "| condition | detectability | BA statistics | AUC statistics | BA CNN | AUC CNN | over all folds | "
+             "gives it away (AUC) |",
+             "|---|---|---|---|---|---|---|---|"]
     for s in systems:
         d = per.get(s)
         if not d or "detect" not in d:
@@ -129,8 +133,11 @@ def detectability_section(rows: Sequence[Mapping], systems: Sequence[str], *, to
         stats = sorted(((k[len("detect_stat_auc["):-1], v) for k, v in d.items() if k.startswith("detect_stat_auc[")),
                        key=lambda kv: -abs(kv[1] - 0.5))[:top]
         give = ", ".join(f"{n} {v:.2f}" for n, v in stats)
+        within = d.get("detect_within_folds", 0.0) == 1.0
+        pooled = f"{d['detect_pooled']:.2f}" if "detect_pooled" in d else "–"
         lines.append(f"| {s} | {d['detect']:.2f} | {_cell(d, 'detect_ba_stats')} | {_cell(d, 'detect_auc_stats')} | "
-                     f"{_cell(d, 'detect_ba_cnn')} | {_cell(d, 'detect_auc_cnn')} | {give} |")
+                     f"{_cell(d, 'detect_ba_cnn')} | {_cell(d, 'detect_auc_cnn')} | {pooled if within else '–'} | "
+                     f"{give} |")
     ruler = per.get(GROUND_TRUTH, {})
     if any(k.startswith("detect_reversed") for k in ruler):
         lines += ["", "Ruler (recorded heads against): " + "; ".join(
