@@ -125,9 +125,24 @@ def bench_synth(res: Results, quick: bool, cache: dict):
                         f"{own * 1000:.0f} ms = predict {t * 1000:.0f} - features {tf * 1000:.0f}"))
 
 
+def _generative_row(res: Results, model, audio, quick: bool, label: str, detail: str):
+    """One "2 synth" row for a generative system: the median wall time of ``predict`` on ``audio``
+    (after a warm-up call) and the process CPU time of one more call, target 100x real time."""
+    model.predict(audio, seed=0)   # first call: warm-up (torch, caches)
+    t = time_median(lambda: model.predict(audio, seed=0), repeats=2 if quick else 3)
+    c0 = time.process_time()
+    model.predict(audio, seed=1)
+    cpu = time.process_time() - c0
+    rt = audio.duration / t
+    res.add(Row("2 synth", f"{label}: features + synthesis, 60 s", rt, "x RT", ">= 100x", rt >= 100,
+                f"{t * 1000:.0f} ms wall, {cpu * 1000:.0f} ms CPU; {detail}"))
+
+
 def _bench_generative(res: Results, audio, corpus, quick: bool):
-    """motion-flow: the shipped generative model when present, else one trained briefly on the planted
-    corpus (synthesis cost does not depend on training); wall and process CPU time, one torch thread."""
+    """The generative systems. motion-flow: the shipped generative model when present, else one
+    trained briefly on the planted corpus (synthesis cost does not depend on training), one torch
+    thread; motion-match: its library built from the planted corpus (25 frames a second of it,
+    mirrored)."""
     from headmotion.systems import create, load_model
 
     path = ROOT / "src/headmotion/data/generative_model.hmz"
@@ -136,36 +151,10 @@ def _bench_generative(res: Results, audio, corpus, quick: bool):
     else:
         flow = create("motion-flow", train_steps=20 if quick else 100, n_threads=1).fit(corpus)
         what = "trained on the planted corpus"
-    flow.predict(audio, seed=0)   # first call: torch warm-up
-    t = time_median(lambda: flow.predict(audio, seed=0), repeats=2 if quick else 3)
-    c0 = time.process_time()
-    flow.predict(audio, seed=1)
-    cpu = time.process_time() - c0
-    rt = audio.duration / t
-    res.add(Row("2 synth", f"motion-flow ({what}): features + synthesis, 60 s", rt, "x RT", ">= 100x", rt >= 100,
-                f"{t * 1000:.0f} ms wall, {cpu * 1000:.0f} ms CPU; {flow.sampling_steps} Euler steps per window"))
-    _bench_motion_match(res, audio, corpus, quick)
-
-
-def _bench_motion_match(res: Results, audio, corpus, quick: bool):
-    """motion-match: the shipped model when present, else one built from the planted corpus (its
-    library is that corpus: 25 frames a second of it, mirrored); wall and process CPU time."""
-    from headmotion.shipped import SHIPPED_FILES, data_dir
-    from headmotion.systems import create, load_model
-
-    path = data_dir() / SHIPPED_FILES.get("motion-match", "motion_match_model.hmz")
-    if path.is_file():
-        mm, what = load_model(path), "shipped model"
-    else:
-        mm, what = create("motion-match").fit(corpus), "library of the planted corpus"
-    mm.predict(audio, seed=0)
-    t = time_median(lambda: mm.predict(audio, seed=0), repeats=2 if quick else 3)
-    c0 = time.process_time()
-    mm.predict(audio, seed=1)
-    cpu = time.process_time() - c0
-    rt = audio.duration / t
-    res.add(Row("2 synth", f"motion-match ({what}): features + synthesis, 60 s", rt, "x RT", ">= 100x", rt >= 100,
-                f"{t * 1000:.0f} ms wall, {cpu * 1000:.0f} ms CPU; library of {len(mm._P)} frames"))
+    _generative_row(res, flow, audio, quick, f"motion-flow ({what})", f"{flow.sampling_steps} Euler steps per window")
+    mm = create("motion-match").fit(corpus)
+    _generative_row(res, mm, audio, quick, "motion-match (library of the planted corpus)",
+                    f"library of {len(mm.lib_motion_)} frames, mirrored")
 
 
 def _paced_latency(stream, audio, secs: float, fps: float) -> dict:
