@@ -20,6 +20,9 @@ import numpy as np
 
 from ..errors import ParameterError
 
+#: the GMM/HMM systems' default training budget (``max_train_hours``)
+DEFAULT_TRAIN_HOURS = 4.0
+
 
 def recording_seconds(corpus, index: int) -> float:
     """Duration in seconds of recording ``index``: read from the speech file's header for a corpus on
@@ -84,9 +87,25 @@ def _speakers(corpus, cand) -> dict[int, str]:
     return {i: str(corpus[i].speaker) for i in cand}
 
 
-def hours_to_seconds(hours: float | None) -> float | None:
-    """``max_train_hours`` → seconds (None stays None: no budget)."""
-    return None if hours is None else float(hours) * 3600.0
+def check_hours(system) -> None:
+    """Raise ParameterError unless ``system.max_train_hours`` is None or a positive number."""
+    h = system.max_train_hours
+    if h is not None and (isinstance(h, bool) or not isinstance(h, (int, float, np.integer, np.floating))
+                          or not h > 0):
+        raise ParameterError(f"the 'max_train_hours' parameter of {system.name} must be a positive number of "
+                             f"hours or None (every recording); got {h!r}")
 
 
-__all__ = ["budget_subset", "recording_seconds", "hours_to_seconds"]
+def training_recordings(system, corpus) -> list:
+    """The recordings ``system`` trains on: all of ``corpus`` within ``system.max_train_hours``, else
+    the draw of :func:`budget_subset` seeded with ``system.random_state``; records the draw in
+    ``system.train_subsample_`` (None when every recording is used)."""
+    hours = system.max_train_hours
+    keep = budget_subset(corpus, None if hours is None else float(hours) * 3600.0,
+                         seed=int(system.random_state))
+    system.train_subsample_ = (None if len(keep) == len(corpus) else
+                               {"recordings": len(keep), "of": len(corpus), "max_train_hours": float(hours)})
+    return [corpus[i] for i in keep]
+
+
+__all__ = ["DEFAULT_TRAIN_HOURS", "budget_subset", "recording_seconds", "check_hours", "training_recordings"]

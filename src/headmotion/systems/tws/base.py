@@ -55,6 +55,7 @@ from ...motion.post.restore import band_variance
 from ...motion.segmentation import min_segment_frames
 from ...rotations import rotvec_to_pitch_yaw_roll
 from ...types import Audio, Motion
+from ..budget import check_hours
 from ..base import CAUSAL, Synthesizer, check_stochastic, cross_fitted, pair_shortest
 from .features import extract_blocked, make_feature_config
 from .generator import LIVE_FEATURES, Generator, TwsStream
@@ -97,6 +98,7 @@ class TwsBase(Synthesizer):
             if not isinstance(getattr(self, k), (bool, np.bool_)):
                 raise ParameterError(f"the {k!r} parameter of {self.name} must be True or False; "
                                      f"got {getattr(self, k)!r}")
+        check_hours(self)
         if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
             raise ParameterError(f"the 'fps' parameter of {self.name} must be a positive number or None; got {self.fps!r}")
 
@@ -140,9 +142,10 @@ class TwsBase(Synthesizer):
     # -- training ---------------------------------------------------------------------------
     def fit(self, corpus, *, progress=None):
         from ...features import Normalizer
+        from ..budget import training_recordings
 
         self._validate_params()
-        recs = list(corpus)
+        recs = training_recordings(self, corpus)
         if not recs:
             raise ParameterError("cannot train on an empty corpus")
         fps_set = sorted({float(r.motion.fps) for r in recs})
@@ -194,6 +197,8 @@ class TwsBase(Synthesizer):
             progress(len(recs) + 1, total, "models")
         self._fit_axes(data, progress=progress)
         self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
+        if self.corpus_summary_ is not None and self.train_subsample_ is not None:
+            self.corpus_summary_["trained_on"] = self.train_subsample_
         self.speed_map_ = None
         self.slow_band_gains_ = None
         self.amplitude_gains_ = None
