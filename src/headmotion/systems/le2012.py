@@ -37,6 +37,9 @@ gives the literal system (``pull_tau_s=None, start_sd=0, idle=None, post_restore
   recording by a model trained on the other half of the speakers
   (:func:`headmotion.systems.base.cross_fitted`; ``docs/decisions/cross-fitting.md``).
 
+Training on a corpus longer than ``max_train_hours`` (4 h) uses a seeded, speaker-balanced
+subsample of whole recordings (:mod:`headmotion.systems.budget`), before the EM frame sample.
+
 Streaming: with ``prosody-live`` (YIN pitch + cIntensity loudness, computed by the same code
 offline and on a stream) the ascent, the seeded noise (drawn frame by frame from one generator) and
 the post-processing chain are causal, so :meth:`Le2012.stream` gives offline ``predict``'s frames

@@ -1,7 +1,13 @@
 """The DNN systems' shared implementation, :class:`DnnSystem` (paper §3–4): training in stages
 (:mod:`.data`, :mod:`.training`, :mod:`.calibration`), synthesis (:mod:`.inference` for the
 networks, :mod:`.synthesis` for the post-processing chain), streaming (:mod:`.streaming`) and model
-files (:mod:`.persistence`).  The registered systems are in :mod:`.registered`."""
+files (:mod:`.persistence`).  The registered systems are in :mod:`.registered`.
+
+A corpus on disk with more than an hour of training speech, or training on a GPU (``device``:
+"cpu" by default, "auto" = CUDA when torch sees one, "cuda"), takes the streamed path of
+:mod:`.stream_fit` (memory bounded, the model close to the in-memory one); otherwise the networks
+train in memory exactly as before.  Synthesis runs the numpy networks on the CPU whatever
+``device`` says.  See ``docs/decisions/bounded-training.md``."""
 
 from __future__ import annotations
 

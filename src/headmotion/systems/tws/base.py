@@ -34,6 +34,11 @@ After the generator, the post-processing chain of :mod:`headmotion.motion.post`
 * ``slow_band_restore=True`` — the slow band's share of power moved onto the training heads'
   share, the total variance kept (:func:`.post.slow_band_bank`).
 
+Training reads every recording's features and motion into memory, so on a corpus longer than
+``max_train_hours`` (4 h) it learns from a seeded, speaker-balanced subsample of whole recordings of
+that much speech (:mod:`headmotion.systems.budget`; ``docs/decisions/bounded-training.md``); the
+model's corpus summary says so (``trained_on``).
+
 The calibration synthesis is this system's synthesis of its training speech (recording k with
 seed k, without the stages), or with ``cross_fit`` that of a model trained on the other half of
 the recordings (``docs/decisions/cross-fitting.md``).  Model files written before a stage existed
