@@ -172,8 +172,9 @@ def _add_training(data: StreamedData, p: Prepared, index: int, feats: Moments, m
     s = p.speaking
     feats.add(p.feats[s])
     motion.add(p.motion[s])
-    pose[0] = pose[0] + rotvec_to_pitch_yaw_roll(p.motion).sum(axis=0) if len(p.motion) else pose[0]
-    pose[1] += len(p.motion)
+    if len(p.motion):
+        pose[0] = pose[0] + rotvec_to_pitch_yaw_roll(p.motion).sum(axis=0)
+        pose[1] += len(p.motion)
     data.n_speaking += int(s.sum())
 
 
