@@ -57,6 +57,9 @@ def train(
     seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Random seed for training (the random_state parameter)."),
     fps: Optional[float] = typer.Option(None, "--fps", help="Model frame rate, for systems with an fps parameter "
                                         "(motion is resampled; tws and le2012 default to the corpus rate)."),
+    device: Optional[str] = typer.Option(None, "--device", help="Where the networks train, for systems with a "
+                                         "device parameter (motion-flow, the DNN systems): auto (CUDA when torch "
+                                         "sees one), cpu or cuda."),
 ):
     """Train a synthesis system on a corpus and save it."""
     from ..corpus import Corpus
@@ -67,7 +70,7 @@ def train(
     model = create(name, **set_params)
     system = name
     params = model.get_params()
-    given = {"features": features, "random_state": seed, "fps": fps}
+    given = {"features": features, "random_state": seed, "fps": fps, "device": device}
     for k, v in given.items():
         if v is None:
             continue

@@ -39,6 +39,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..align import n_frames as _n_frames
+from ..devices import DEVICES, resolve_device
 from ..errors import ParameterError
 from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
@@ -48,7 +49,6 @@ from .base import Synthesizer
 FPS = 25.0
 #: the speech features: (feature set, extractor parameters, columns kept)
 FEATURES = (("mfcc", {}, list(range(14))), ("f0e", {"voicing": True}, [0, 1, 2, 3, 6]))
-DEVICES = ("auto", "cpu", "cuda")
 #: what the network outputs: the flow's velocity, or the clean motion window
 TARGETS = ("velocity", "motion")
 #: parameters of models saved before these existed: the values that sample as those models did
@@ -75,17 +75,6 @@ def motion_degrees(motion: Motion, n: int) -> np.ndarray:
     else:
         pyr = np.concatenate([pyr, np.repeat(pyr[-1:], n - len(pyr), axis=0)])
     return pyr - pyr.mean(axis=0)
-
-
-def resolve_device(device: str) -> str:
-    """``"cuda"`` or ``"cpu"`` for the ``device`` parameter (``"auto"``: CUDA when torch sees one)."""
-    import torch
-
-    if device == "auto":
-        return "cuda" if torch.cuda.is_available() else "cpu"
-    if device == "cuda" and not torch.cuda.is_available():
-        raise ParameterError("device='cuda' but torch sees no CUDA device; use device='cpu' or 'auto'")
-    return device
 
 
 @contextlib.contextmanager

@@ -37,6 +37,9 @@ gives the literal system (``pull_tau_s=None, start_sd=0, idle=None, post_restore
   recording by a model trained on the other half of the speakers
   (:func:`headmotion.systems.base.cross_fitted`; ``docs/decisions/cross-fitting.md``).
 
+Training on a corpus longer than ``max_train_hours`` (4 h) uses a seeded, speaker-balanced
+subsample of whole recordings (:mod:`headmotion.systems.budget`), before the EM frame sample.
+
 Streaming: with ``prosody-live`` (YIN pitch + cIntensity loudness, computed by the same code
 offline and on a stream) the ascent, the seeded noise (drawn frame by frame from one generator) and
 the post-processing chain are causal, so :meth:`Le2012.stream` gives offline ``predict``'s frames
@@ -59,6 +62,7 @@ from ..motion.control import mean_pose_of
 from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
 from .base import CAUSAL, Synthesizer, cross_fitted, pair_shortest
+from .budget import DEFAULT_TRAIN_HOURS, check_hours, training_recordings
 from .tws.features import make_feature_config
 from .tws.generator import LIVE_FEATURES
 
@@ -125,6 +129,8 @@ class Le2012(Synthesizer):
     cross_fit : bool, fit the post stages and ``idle="auto"`` on synthesis of training speech by
         a model trained on the other half of the recordings (module docstring; False: on this
         model's synthesis of its own training speech)
+    max_train_hours : float or None, on a longer corpus train on a seeded subsample of its
+        recordings of this much speech (4; None: every recording; :mod:`headmotion.systems.budget`)
     """
 
     name = "le2012"
@@ -135,7 +141,8 @@ class Le2012(Synthesizer):
                  joint: bool = False, n_steps: int = 12, step: float = 0.05,
                  max_train_frames: int = 10000, random_state: int = 0, seed: int | None = 0,
                  compiled: bool = True, pull_tau_s: float | None = 2.0, start_sd: float = 0.5,
-                 idle: float | str | None = "auto", post_restore: bool = True, cross_fit: bool = True):
+                 idle: float | str | None = "auto", post_restore: bool = True, cross_fit: bool = True,
+                 max_train_hours: float | None = DEFAULT_TRAIN_HOURS):
         self.features = features
         self.post_restore = post_restore
         self.cross_fit = cross_fit
@@ -151,8 +158,10 @@ class Le2012(Synthesizer):
         self.max_train_frames = max_train_frames
         self.random_state = random_state
         self.seed = seed
+        self.max_train_hours = max_train_hours
 
     def _validate_params(self) -> None:
+        check_hours(self)
         for k in ("n_components", "n_steps", "max_train_frames"):
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
@@ -183,7 +192,7 @@ class Le2012(Synthesizer):
         from ..feature_cache import features_for
 
         self._validate_params()
-        recs = list(corpus)
+        recs = training_recordings(self, corpus)
         if not recs:
             raise ParameterError("cannot train le2012 on an empty corpus")
         self.fps_ = float(self.fps) if self.fps else float(recs[0].motion.fps)
@@ -231,6 +240,8 @@ class Le2012(Synthesizer):
         self.lo_, self.hi_ = allA.min(axis=0), allA.max(axis=0)
         self.mean_pose_ = mean_pose_of(rvs)
         self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
+        if self.corpus_summary_ is not None and self.train_subsample_ is not None:
+            self.corpus_summary_["trained_on"] = self.train_subsample_
         self.post_bank_ = self.speed_map_ = None
         self.idle_ = IDLE_FALLBACK if self.idle == "auto" else None
         self.fitted_ = True

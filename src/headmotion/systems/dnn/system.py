@@ -1,7 +1,13 @@
 """The DNN systems' shared implementation, :class:`DnnSystem` (paper §3–4): training in stages
 (:mod:`.data`, :mod:`.training`, :mod:`.calibration`), synthesis (:mod:`.inference` for the
 networks, :mod:`.synthesis` for the post-processing chain), streaming (:mod:`.streaming`) and model
-files (:mod:`.persistence`).  The registered systems are in :mod:`.registered`."""
+files (:mod:`.persistence`).  The registered systems are in :mod:`.registered`.
+
+A corpus on disk with more than an hour of training speech, or training on a GPU (``device``:
+"cpu" by default, "auto" = CUDA when torch sees one, "cuda"), takes the streamed path of
+:mod:`.stream_fit` (memory bounded, the model close to the in-memory one); otherwise the networks
+train in memory exactly as before.  Synthesis runs the numpy networks on the CPU whatever
+``device`` says.  See ``docs/decisions/bounded-training.md``."""
 
 from __future__ import annotations
 
@@ -18,7 +24,7 @@ from ...motion.post.range_limit import range_from_training
 from ...rotations import rotvec_to_pitch_yaw_roll
 from ...types import Audio, FeatureTrack, Motion
 from ..base import STREAMING, Synthesizer
-from . import calibration, data, inference, persistence, training
+from . import calibration, data, inference, persistence, streamed, training
 from .params import (DEFAULT_DRIFT_SHARE, DEFAULT_DRIFT_TAU_S, DEFAULT_SLOW_BAND_GAIN, DNN_IDLE, MODEL_FPS,
                      check_network_params, check_post_params)
 from .synthesis import DnnPost, frame_energy_db, post_tables
@@ -68,7 +74,7 @@ class DnnSystem(Synthesizer):
                  drift_share: float = DEFAULT_DRIFT_SHARE, drift_tau_s: float = DEFAULT_DRIFT_TAU_S,
                  slow_band_gain: float = DEFAULT_SLOW_BAND_GAIN, speed_shaping: bool = True, idle: float | None = DNN_IDLE,
                  range_limit: bool = True, cross_fit: bool | None = None, speed_max_gain: float | None = None,
-                 seed: int | None = 0):
+                 seed: int | None = 0, device: str = "cpu"):
         self.features = features
         self.feature_params = feature_params
         self.alpha = alpha
@@ -107,6 +113,7 @@ class DnnSystem(Synthesizer):
         self.cross_fit = cross_fit
         self.speed_max_gain = speed_max_gain
         self.seed = seed
+        self.device = device
 
     # -- parameters ---------------------------------------------------------------------------
     @property
@@ -120,8 +127,11 @@ class DnnSystem(Synthesizer):
         return bool(self.default_cross_fit if self.cross_fit is None else self.cross_fit)
 
     def _validate_params(self) -> None:
+        from ...devices import check_device
+
         check_network_params(self)
         check_post_params(self)
+        check_device(self.device, self.name)
 
     @property
     def feature_name(self) -> str:
@@ -161,6 +171,11 @@ class DnnSystem(Synthesizer):
             raise ParameterError(f"cannot fit {self.name} on an empty corpus")
         config = self._feature_config()
         split = data.split(corpus, random_state=self.random_state, holdout_test=self.holdout_test)
+        train_idx = [i for i, rid in enumerate(corpus.ids) if split[rid] == "train"]
+        if train_idx and streamed.uses_stream(self, corpus, train_idx):
+            from .stream_fit import fit_streamed
+
+            return fit_streamed(self, corpus, split, config, progress, t0)
         train_recs = [r for r in corpus if split[r.id] == "train"]
         valid_recs = [r for r in corpus if split[r.id] == "valid"]
         if not train_recs:

@@ -34,6 +34,11 @@ After the generator, the post-processing chain of :mod:`headmotion.motion.post`
 * ``slow_band_restore=True`` — the slow band's share of power moved onto the training heads'
   share, the total variance kept (:func:`.post.slow_band_bank`).
 
+Training reads every recording's features and motion into memory, so on a corpus longer than
+``max_train_hours`` (4 h) it learns from a seeded, speaker-balanced subsample of whole recordings of
+that much speech (:mod:`headmotion.systems.budget`; ``docs/decisions/bounded-training.md``); the
+model's corpus summary says so (``trained_on``).
+
 The calibration synthesis is this system's synthesis of its training speech (recording k with
 seed k, without the stages), or with ``cross_fit`` that of a model trained on the other half of
 the recordings (``docs/decisions/cross-fitting.md``).  Model files written before a stage existed
@@ -55,6 +60,7 @@ from ...motion.post.restore import band_variance
 from ...motion.segmentation import min_segment_frames
 from ...rotations import rotvec_to_pitch_yaw_roll
 from ...types import Audio, Motion
+from ..budget import check_hours
 from ..base import CAUSAL, Synthesizer, check_stochastic, cross_fitted, pair_shortest
 from .features import extract_blocked, make_feature_config
 from .generator import LIVE_FEATURES, Generator, TwsStream
@@ -97,6 +103,7 @@ class TwsBase(Synthesizer):
             if not isinstance(getattr(self, k), (bool, np.bool_)):
                 raise ParameterError(f"the {k!r} parameter of {self.name} must be True or False; "
                                      f"got {getattr(self, k)!r}")
+        check_hours(self)
         if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
             raise ParameterError(f"the 'fps' parameter of {self.name} must be a positive number or None; got {self.fps!r}")
 
@@ -140,9 +147,10 @@ class TwsBase(Synthesizer):
     # -- training ---------------------------------------------------------------------------
     def fit(self, corpus, *, progress=None):
         from ...features import Normalizer
+        from ..budget import training_recordings
 
         self._validate_params()
-        recs = list(corpus)
+        recs = training_recordings(self, corpus)
         if not recs:
             raise ParameterError("cannot train on an empty corpus")
         fps_set = sorted({float(r.motion.fps) for r in recs})
@@ -194,6 +202,8 @@ class TwsBase(Synthesizer):
             progress(len(recs) + 1, total, "models")
         self._fit_axes(data, progress=progress)
         self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
+        if self.corpus_summary_ is not None and self.train_subsample_ is not None:
+            self.corpus_summary_["trained_on"] = self.train_subsample_
         self.speed_map_ = None
         self.slow_band_gains_ = None
         self.amplitude_gains_ = None

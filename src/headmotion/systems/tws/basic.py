@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...models.gmm import GMMRegression
+from ..budget import DEFAULT_TRAIN_HOURS
 from .base import TwsBase
 from .vectors import collect
 
@@ -67,6 +68,8 @@ class TwsBasic(TwsBase):
     random_state : EM initialisation seed (training)
     n_init : EM restarts
     blocked : compute features block by block in ``predict`` too (equals the stream exactly)
+    max_train_hours : float or None — on a longer corpus, train on a seeded subsample of its
+        recordings of this much speech (4; None = every recording; see :mod:`headmotion.systems.budget`)
     """
 
     name = "tws-basic"
@@ -76,7 +79,8 @@ class TwsBasic(TwsBase):
                  soft_limit: bool = True, idle: float = 0.4, log_params: bool = False, speed_shaping: bool = True, cross_fit: bool = False,
                  slow_band_restore: bool = True, amplitude_match: bool = True,
                  feature_block: int = 50, feature_context: int = 20, seed: int | None = 0,
-                 random_state: int = 0, n_init: int = 2, blocked: bool = False):
+                 random_state: int = 0, n_init: int = 2, blocked: bool = False,
+                 max_train_hours: float | None = DEFAULT_TRAIN_HOURS):
         self.features = features
         self.fps = fps
         self.n_components = n_components
@@ -96,6 +100,7 @@ class TwsBasic(TwsBase):
         self.random_state = random_state
         self.n_init = n_init
         self.blocked = blocked
+        self.max_train_hours = max_train_hours
 
     @staticmethod
     def _x(prev, others, frame):

@@ -49,6 +49,7 @@ import numpy as np
 from ...errors import ParameterError
 from ...models.gmm import GMMRegression
 from ...models.hmm import ErgodicLM, HMMBank, LeftToRightHMM
+from ..budget import DEFAULT_TRAIN_HOURS
 from .base import TwsBase
 from .vectors import CONTEXT, MAX_HMM_FRAMES, collect, context_frames
 
@@ -137,7 +138,8 @@ class TwsHier(TwsBase):
         half of the recordings (True; see :mod:`headmotion.systems.tws.base`)
     feature_block, feature_context, seed, blocked : see :class:`~headmotion.systems.tws.basic.TwsBasic`
     n_init : int, k-means random restarts
-    random_state : int, training seed (k-means, HMM initialisation)
+    random_state : int, training seed (k-means, HMM initialisation; the budget's draw)
+    max_train_hours : see :class:`~headmotion.systems.tws.basic.TwsBasic`
     """
 
     name = "tws-hier"
@@ -151,7 +153,7 @@ class TwsHier(TwsBase):
                  soft_limit: bool = True, idle: float = 0.4, log_params: bool = False, speed_shaping: bool = True, cross_fit: bool = True,
                  slow_band_restore: bool = True, amplitude_match: bool = True, feature_block: int = 50,
                  feature_context: int = 20, seed: int | None = 0, n_init: int = 10, random_state: int = 0,
-                 blocked: bool = False):
+                 blocked: bool = False, max_train_hours: float | None = DEFAULT_TRAIN_HOURS):
         self.features = features
         self.fps = fps
         self.n_clusters = n_clusters
@@ -174,6 +176,7 @@ class TwsHier(TwsBase):
         self.n_init = n_init
         self.random_state = random_state
         self.blocked = blocked
+        self.max_train_hours = max_train_hours
 
     def _validate_params(self) -> None:
         super()._validate_params()
