@@ -12,10 +12,13 @@ gesture, Habibie et al. 2022):
   their deltas and voicing (:func:`~headmotion.systems.flow.speech_features`, standardised).
 * **Matching**: every ``hop`` frames the system scores each library frame by how far the prosody
   around it (``context`` frames back to ``lookahead`` frames ahead) is from the prosody around the
-  current frame, and how far its pose and velocity are from the motion made so far; a frame other
-  than the one that continues the clip already playing pays ``switch_cost``.  One of the ``top_k``
-  cheapest is drawn from the seed with weight ``exp(-(cost - best) / temperature)``, and its
-  motion plays from there.
+  current frame, and how far its pose and velocity are from where the motion is heading; while
+  speaking (a voiced share of the hop ≥ 0.2), by how far its next ``hop`` frames miss the pitch
+  *goal* (a ridge regression of the pose on the prosody descriptor, scaled to the library's SD;
+  ``target_weight``), and in a pause by how much it moves (``pause_weight``: clips that hold).  A
+  frame other than the one that continues the clip already playing pays ``switch_cost``.  One of
+  the ``top_k`` cheapest is drawn from the seed with weight ``exp(-(cost - best) / temperature)``,
+  and its motion plays from there.
 * **Joins** (inertialisation): when the clip changes, the difference between where the motion was
   going (position and velocity) and where the new clip starts decays as a critically damped spring
   that settles over ``blend`` frames, so a join has neither a step nor a kink; nothing else
@@ -81,7 +84,11 @@ class MotionMatch(Synthesizer):
     top_k : int, candidates drawn from; temperature : float, of the draw's weights
     blend : int, frames over which a join's offset settles
     mirror : bool, add every training motion with yaw and roll negated
+    target_weight : float, weight of the pitch goal while speaking; ridge : float, its regularisation
+    pause_weight : float, weight of holding still in a pause
     seed : int, default synthesis seed
+
+    The defaults were chosen on held-out speakers (docs/decisions/motion-matching.md).
     """
 
     name: ClassVar[str] = "motion-match"
