@@ -103,14 +103,16 @@ def test_parse_host_port():
 
 # -- OSC / VMC on loopback -----------------------------------------------------------------------
 def _osc_server():
+    """An OSC server recording what it receives in arrival order (one thread: a threading server
+    handles each bundle in its own thread, and under load appends them out of order)."""
     from pythonosc.dispatcher import Dispatcher
-    from pythonosc.osc_server import ThreadingOSCUDPServer
+    from pythonosc.osc_server import BlockingOSCUDPServer
 
     got = []
     d = Dispatcher()
     d.map("/VMC/Ext/Bone/Pos", lambda _addr, *args: got.append((time.monotonic(), args)))
     d.map("/VMC/Ext/T", lambda _addr, *args: got.append((time.monotonic(), ("T",) + args)))
-    srv = ThreadingOSCUDPServer(("127.0.0.1", 0), d)
+    srv = BlockingOSCUDPServer(("127.0.0.1", 0), d)
     th = threading.Thread(target=srv.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
     th.start()
     return srv, th, got
