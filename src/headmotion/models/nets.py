@@ -145,6 +145,14 @@ class StackedAutoencoder(nn.Module):
         return out
 
 
+def descend(opt, loss: torch.Tensor) -> float:
+    """One optimiser step on ``loss`` (zero the gradients, back-propagate, step); its value."""
+    opt.zero_grad()
+    loss.backward()
+    opt.step()
+    return float(loss.detach())
+
+
 def _batches(n: int, batch_size: int, *, shuffle: bool = True, drop_small: bool = True):
     """Index batches over ``n`` samples; a last batch smaller than half a batch joins the previous."""
     order = torch.randperm(n) if shuffle else torch.arange(n)
@@ -212,10 +220,7 @@ def pretrain_layerwise(ae: StackedAutoencoder, x: torch.Tensor, *, epochs: int =
             for idx in _batches(len(h_all), batch_size):
                 h = h_all[idx]
                 loss = torch.mean((ae._shallow(i, h) - h) ** 2)
-                opt.zero_grad()
-                loss.backward()
-                opt.step()
-                tot += float(loss.detach()) * len(idx)
+                tot += descend(opt, loss) * len(idx)
                 cnt += len(idx)
             last = tot / max(cnt, 1)
         losses.append(last)
@@ -264,10 +269,7 @@ def train_autoencoder(ae: StackedAutoencoder, x_train: torch.Tensor, y_train: to
         tot, cnt = 0.0, 0
         for idx in _batches(len(x_train), batch_size):
             obj, _, _ = cccae_loss(ae, x_train[idx], y_train[idx] if use_cca else None, alpha, reg=reg)
-            opt.zero_grad()
-            obj.backward()
-            opt.step()
-            tot += float(obj.detach()) * len(idx)
+            tot += descend(opt, obj) * len(idx)
             cnt += len(idx)
         ae.eval()
         with torch.no_grad():
@@ -372,10 +374,7 @@ def train_regressor(net: ContextRegressor, train: PaddedSequences, train_starts:
         for idx in _batches(len(ts), batch_size):
             pred = net(gather_windows(train.data, ts[idx], width))
             loss = torch.mean((pred - ty[idx]) ** 2)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            tot += float(loss.detach()) * len(idx)
+            tot += descend(opt, loss) * len(idx)
             cnt += len(idx)
         net.eval()
         with torch.no_grad():
@@ -441,10 +440,7 @@ def train_postfilter(dae: StackedAutoencoder, train_segments: np.ndarray, valid_
             clean = x[idx]
             sd = torch.rand(len(idx), 1) * 2 * noise
             loss = torch.mean((dae(clean + sd * torch.randn_like(clean)) - clean) ** 2)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            tot += float(loss.detach()) * len(idx)
+            tot += descend(opt, loss) * len(idx)
             cnt += len(idx)
         dae.eval()
         with torch.no_grad():

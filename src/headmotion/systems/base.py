@@ -180,6 +180,15 @@ class Synthesizer(ABC):
         return float(self.fps_)
 
     # -- the interface -------------------------------------------------------------------------
+    def _training_recordings(self, corpus) -> list:
+        """The recordings of ``corpus`` after the parameters are checked; ParameterError when
+        there are none (the start of every ``fit``)."""
+        self._validate_params()
+        recs = list(corpus)
+        if not recs:
+            raise ParameterError(f"cannot fit {self.name} on an empty corpus")
+        return recs
+
     @abstractmethod
     def fit(self, corpus, *, progress=None) -> "Synthesizer":
         """Learn from a corpus; returns ``self``.  ``progress`` is an optional callable

@@ -238,10 +238,7 @@ class MotionFlow(Synthesizer):
 
         from ..models.flow_net import FlowNet
 
-        self._validate_params()
-        recs = list(corpus)
-        if not recs:
-            raise ParameterError(f"cannot fit {self.name} on an empty corpus")
+        recs = self._training_recordings(corpus)
         t0 = time.perf_counter()
         device = resolve_device(self.device)
         raw = []

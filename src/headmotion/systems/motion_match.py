@@ -134,10 +134,7 @@ class MotionMatch(Synthesizer):
         corpus : Corpus
         progress : callable ``progress(done, total, description)`` or None
         """
-        self._validate_params()
-        recs = list(corpus)
-        if not recs:
-            raise ParameterError(f"cannot fit {self.name} on an empty corpus")
+        recs = self._training_recordings(corpus)
         t0 = time.perf_counter()
         motions, feats = [], []
         for i, r in enumerate(recs):
@@ -195,7 +192,7 @@ class MotionMatch(Synthesizer):
         self._end = np.concatenate(end)  # where each frame's recording (copy) ends
         self._pose_sd = np.maximum(self._P.std(axis=0), 1e-3)
         self._vel_sd = np.maximum(self._V.std(axis=0), 1e-4)
-        self._A = np.concatenate(A)
+        moved = np.concatenate(A) / self._pose_sd
         # the pose path the speech asks for: ridge regression of the pose on the speech around a
         # frame, each axis scaled to the library's SD (a regression predicts the average head)
         X = np.c_[self._S.astype(np.float64), np.ones(len(self._S))]
@@ -207,7 +204,7 @@ class MotionMatch(Synthesizer):
         self._goal_axes = pred_sd > 0.02 * self._pose_sd
         self._W *= np.where(self._goal_axes, np.minimum(self._pose_sd / np.maximum(pred_sd, 1e-12), 10.0), 0.0)
         scaled = {"S": self._S, "P": self._P / self._pose_sd, "V": self._V / self._vel_sd,
-                  "A": self._A / self._pose_sd, "G": (self._A / self._pose_sd)[:, self._goal_axes]}
+                  "A": moved, "G": moved[:, self._goal_axes]}
         self._tables = {}
         for k, x in scaled.items():
             x = np.ascontiguousarray(x, dtype=np.float32)
@@ -269,7 +266,7 @@ class MotionMatch(Synthesizer):
             j = self._draw(cost, rng)
             if t > 0 and j != pos:  # a join: carry on from where the motion was going
                 x0 = out[t - 1] + vel - self._P[j]
-                v0 = vel - self._V[j] if j + 1 < len(self._P) else np.zeros(3)
+                v0 = vel - self._V[j]
                 age = 0
             a = np.arange(age, age + n, dtype=np.float64)[:, None]
             spring = (x0 + (v0 + lam * x0) * a) * np.exp(-lam * a)
