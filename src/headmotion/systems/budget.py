@@ -26,17 +26,15 @@ DEFAULT_TRAIN_HOURS = 4.0
 
 def recording_seconds(corpus, index: int) -> float:
     """Duration in seconds of recording ``index``: read from the speech file's header for a corpus on
-    disk (no decoding), else the loaded recording's."""
+    disk (:func:`headmotion.io.audio_blocks.audio_duration`, no decoding), else the loaded
+    recording's."""
     root = getattr(corpus, "root", None)
     if root is not None:
-        e = corpus.entries[index]
-        try:
-            import soundfile as sf
+        from ..io.audio_blocks import audio_duration
 
-            info = sf.info(str(Path(root) / e.audio))
-            return float(info.frames) / float(info.samplerate)
-        except Exception:  # noqa: BLE001 - a format soundfile cannot describe: load the recording
-            pass
+        seconds = audio_duration(Path(root) / corpus.entries[index].audio)
+        if np.isfinite(seconds):
+            return seconds
     return float(corpus[index].duration)
 
 
@@ -108,4 +106,14 @@ def training_recordings(system, corpus) -> list:
     return [corpus[i] for i in keep]
 
 
-__all__ = ["DEFAULT_TRAIN_HOURS", "budget_subset", "recording_seconds", "check_hours", "training_recordings"]
+def corpus_summary(system, corpus) -> dict | None:
+    """``corpus.summary()`` with the draw of :func:`training_recordings` as ``trained_on`` (when
+    ``system`` trained on a subsample); None for a corpus without a summary."""
+    summary = corpus.summary() if hasattr(corpus, "summary") else None
+    if summary is not None and getattr(system, "train_subsample_", None) is not None:
+        summary["trained_on"] = system.train_subsample_
+    return summary
+
+
+__all__ = ["DEFAULT_TRAIN_HOURS", "budget_subset", "recording_seconds", "check_hours", "training_recordings",
+           "corpus_summary"]

@@ -62,7 +62,7 @@ from ..motion.control import mean_pose_of
 from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
 from .base import CAUSAL, Synthesizer, cross_fitted, pair_shortest
-from .budget import DEFAULT_TRAIN_HOURS, check_hours, training_recordings
+from .budget import DEFAULT_TRAIN_HOURS, check_hours, corpus_summary, training_recordings
 from .tws.features import make_feature_config
 from .tws.generator import LIVE_FEATURES
 
@@ -239,9 +239,7 @@ class Le2012(Synthesizer):
         self.start_ = allA.mean(axis=0)
         self.lo_, self.hi_ = allA.min(axis=0), allA.max(axis=0)
         self.mean_pose_ = mean_pose_of(rvs)
-        self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
-        if self.corpus_summary_ is not None and self.train_subsample_ is not None:
-            self.corpus_summary_["trained_on"] = self.train_subsample_
+        self.corpus_summary_ = corpus_summary(self, corpus)
         self.post_bank_ = self.speed_map_ = None
         self.idle_ = IDLE_FALLBACK if self.idle == "auto" else None
         self.fitted_ = True

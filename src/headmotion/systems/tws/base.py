@@ -147,7 +147,7 @@ class TwsBase(Synthesizer):
     # -- training ---------------------------------------------------------------------------
     def fit(self, corpus, *, progress=None):
         from ...features import Normalizer
-        from ..budget import training_recordings
+        from ..budget import corpus_summary, training_recordings
 
         self._validate_params()
         recs = training_recordings(self, corpus)
@@ -201,9 +201,7 @@ class TwsBase(Synthesizer):
         if progress:
             progress(len(recs) + 1, total, "models")
         self._fit_axes(data, progress=progress)
-        self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
-        if self.corpus_summary_ is not None and self.train_subsample_ is not None:
-            self.corpus_summary_["trained_on"] = self.train_subsample_
+        self.corpus_summary_ = corpus_summary(self, corpus)
         self.speed_map_ = None
         self.slow_band_gains_ = None
         self.amplitude_gains_ = None
