@@ -97,8 +97,9 @@ class MotionMatch(Synthesizer):
     def __init__(self, *, hop: int = 15, context: int = 10, lookahead: int = 10, speech_weight: float = 1.0,
                  pose_weight: float = 1.0, velocity_weight: float = 1.0, switch_cost: float = 0.3,
                  top_k: int = 8, temperature: float = 0.3, blend: int = 8, mirror: bool = True,
-                 target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, seed: int = 0):
-        self.hop, self.context, self.lookahead = hop, context, lookahead
+                 target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, goal_path: bool = True,
+                 seed: int = 0):
+        self.hop, self.context, self.lookahead, self.goal_path = hop, context, lookahead, goal_path
         self.target_weight, self.ridge, self.pause_weight = target_weight, ridge, pause_weight
         self.speech_weight, self.pose_weight, self.velocity_weight = speech_weight, pose_weight, velocity_weight
         self.switch_cost, self.top_k, self.temperature, self.blend = switch_cost, top_k, temperature, blend
@@ -117,8 +118,10 @@ class MotionMatch(Synthesizer):
                 raise ParameterError(f"{self.name}: {name} must be a number >= 0; got {v!r}")
         if self.temperature == 0:
             raise ParameterError(f"{self.name}: temperature must be > 0; got {self.temperature!r}")
-        if not isinstance(self.mirror, (bool, np.bool_)):
-            raise ParameterError(f"{self.name}: mirror must be true or false; got {self.mirror!r}")
+        for name in ("mirror", "goal_path"):
+            v = getattr(self, name)
+            if not isinstance(v, (bool, np.bool_)):
+                raise ParameterError(f"{self.name}: {name} must be true or false; got {v!r}")
 
     @property
     def _taps(self) -> np.ndarray:
@@ -176,11 +179,13 @@ class MotionMatch(Synthesizer):
             clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends
             good = np.arange(n) + H + 1 < clip_end
             copies = [m, m * np.array([1.0, -1.0, -1.0])] if self.mirror else [m]
+            ks = np.arange(1, H + 1) if self.goal_path else np.array([H])
             for c in copies:
                 offset = sum(len(x) for x in P)
                 S.append(d)
                 P.append(c)
-                A.append(np.vstack([c[H:] - c[:-H], np.zeros((min(H, n), 3))])[:n])
+                ahead = np.clip(np.arange(n)[:, None] + ks[None, :], 0, n - 1)
+                A.append(c[ahead] - c[:, None, :])  # (n, len(ks), 3): the pose change k frames on
                 V.append(np.vstack([c[1:2] - c[:1], np.diff(c, axis=0)]))
                 ok.append(good)
                 end.append(clip_end + offset)
@@ -192,7 +197,8 @@ class MotionMatch(Synthesizer):
         self._end = np.concatenate(end)  # where each frame's recording (copy) ends
         self._pose_sd = np.maximum(self._P.std(axis=0), 1e-3)
         self._vel_sd = np.maximum(self._V.std(axis=0), 1e-4)
-        moved = np.concatenate(A) / self._pose_sd
+        path = np.concatenate(A) / self._pose_sd  # (N, steps, 3)
+        moved = path[:, -1, :]
         # the pose path the speech asks for: ridge regression of the pose on the speech around a
         # frame, each axis scaled to the library's SD (a regression predicts the average head)
         X = np.c_[self._S.astype(np.float64), np.ones(len(self._S))]
@@ -204,7 +210,7 @@ class MotionMatch(Synthesizer):
         self._goal_axes = pred_sd > 0.02 * self._pose_sd
         self._W *= np.where(self._goal_axes, np.minimum(self._pose_sd / np.maximum(pred_sd, 1e-12), 10.0), 0.0)
         scaled = {"S": self._S, "P": self._P / self._pose_sd, "V": self._V / self._vel_sd,
-                  "A": moved, "G": moved[:, self._goal_axes]}
+                  "A": moved, "G": path[:, :, self._goal_axes].reshape(len(path), -1)}
         self._tables = {}
         for k, x in scaled.items():
             x = np.ascontiguousarray(x, dtype=np.float32)
@@ -226,8 +232,8 @@ class MotionMatch(Synthesizer):
         c = float(self.speech_weight) / len(s) * sq("S", s)
         if goal is not None and self.target_weight > 0 and speaking > 0 and self._goal_axes.any():
             ax = self._goal_axes
-            step = ((goal - (pose if pose is not None else 0.0)) / self._pose_sd)[ax].astype(np.float32)
-            c = c + float(self.target_weight) / int(ax.sum()) * sq("G", step)
+            step = ((goal - (pose if pose is not None else 0.0)) / self._pose_sd)[..., ax].astype(np.float32).ravel()
+            c = c + float(self.target_weight) / len(step) * sq("G", step)
         if self.pause_weight > 0 and speaking < 1.0:  # in a pause, clips that hold
             c = c + float(self.pause_weight) * (1.0 - speaking) / 3.0 * t["A2"][at]
         if pose is not None:
@@ -235,10 +241,25 @@ class MotionMatch(Synthesizer):
             c = c + float(self.velocity_weight) / 3.0 * sq("V", (vel / self._vel_sd).astype(np.float32))
         return float(c[0]) if only is not None else np.where(self._ok, c, np.inf)
 
-    def _draw(self, cost: np.ndarray, rng: np.random.Generator) -> int:
+    def _draw(self, cost: np.ndarray, rng: np.random.Generator, *, distinct: bool = False) -> int:
+        """One of the ``top_k`` cheapest library frames, drawn with weight exp(−Δcost / temperature);
+        ``distinct``: candidates at least a hop apart (different movements, not one clip's neighbours)."""
         k = min(int(self.top_k), int(np.isfinite(cost).sum()))
-        idx = np.argpartition(cost, k - 1)[:k]
-        idx = idx[np.argsort(cost[idx], kind="stable")]
+        if distinct:
+            m = min(len(cost), 20 * k)
+            pool = np.argpartition(cost, m - 1)[:m]
+            pool = pool[np.argsort(cost[pool], kind="stable")]
+            keep: list[int] = []
+            for j in pool:
+                if np.isfinite(cost[j]) and all(abs(int(j) - i) >= int(self.hop) for i in keep):
+                    keep.append(int(j))
+                    if len(keep) == k:
+                        break
+            idx = np.array(keep)
+            k = len(idx)
+        else:
+            idx = np.argpartition(cost, k - 1)[:k]
+            idx = idx[np.argsort(cost[idx], kind="stable")]
         w = np.exp(-(cost[idx] - cost[idx[0]]) / float(self.temperature))
         return int(idx[rng.choice(k, p=w / w.sum())])
 
@@ -253,7 +274,8 @@ class MotionMatch(Synthesizer):
         lam = 4.0 / float(self.blend)
         pos, x0, v0, age = -1, np.zeros(3), np.zeros(3), 0
         for t in range(0, T, H):
-            goal = goals[min(t + H, T - 1)] if goals is not None else None
+            ks = np.arange(t + 1, t + H + 1) if self.goal_path else np.array([t + H])
+            goal = goals[np.minimum(ks, T - 1)] if goals is not None else None
             speaking = float(voiced[t:t + H].mean() >= 0.2)  # 0 in a pause
             n = min(H, T - t)
             if t == 0:
@@ -263,7 +285,7 @@ class MotionMatch(Synthesizer):
                 cost = self._costs(desc[t], out[t - 1] + vel, vel, goal, speaking) + float(self.switch_cost)
                 if 0 <= pos < len(cost) and pos + n <= self._end[pos - 1]:  # the clip playing goes on
                     cost[pos] = self._costs(desc[t], out[t - 1] + vel, vel, goal, speaking, only=pos)
-            j = self._draw(cost, rng)
+            j = self._draw(cost, rng, distinct=t == 0)  # a take's first movement: from different clips
             if t > 0 and j != pos:  # a join: carry on from where the motion was going
                 x0 = out[t - 1] + vel - self._P[j]
                 v0 = vel - self._V[j]
@@ -300,6 +322,7 @@ class MotionMatch(Synthesizer):
 
     def _set_state(self, config, arrays):
         params = dict(config["params"])
+        params.setdefault("goal_path", False)  # a file without it follows the goal's end only
         for k in self._param_names():
             setattr(self, k, params.get(k, getattr(type(self)(), k)))
         self.sample_rate_, self.fps_ = int(config["sample_rate"]), float(config.get("fps", FPS))
