@@ -101,3 +101,40 @@ def test_a_tracking_glitch_ends_a_clip():
     starts = np.flatnonzero(m._ok)
     assert not np.any((starts + m.hop >= 30) & (starts < 30))   # nothing plays across the jump
     assert 0 in starts and 23 in starts and 24 not in starts and 30 in starts and 53 in starts and 54 not in starts
+
+
+def test_a_takes_first_movement_is_drawn_from_distinct_clips():
+    """The cheapest frames are neighbours in one clip; the first draw of a take chooses among
+    frames at least a hop apart (cost = frame index: the candidates are 0, hop, 2·hop, …)."""
+    m = create("motion-match", hop=5, top_k=3, temperature=100.0)
+    cost = np.arange(100, dtype=float)
+    rng = np.random.default_rng(0)
+    assert {m._draw(cost, rng, distinct=True) for _ in range(200)} == {0, 5, 10}
+    assert {m._draw(cost, rng) for _ in range(200)} == {0, 1, 2}
+
+
+def test_the_goal_is_followed_over_the_whole_hop(model, corpus):
+    """Matching the goal's path over the hop (goal_path) follows it more closely, frame by frame,
+    than matching only where it is at the hop's end — speech and continuity costs off, the
+    cheapest candidate taken."""
+    audio = corpus[1].audio
+    n = int(len(audio.samples) / audio.sample_rate * FPS)
+    feats = ((model._prosody(audio, n) - model.feat_mean_) / model.feat_std_).astype(np.float32)
+    miss = {}
+    for path in (True, False):
+        m = create("motion-match", goal_path=path, speech_weight=0.0, pose_weight=0.0, velocity_weight=0.0,
+                   switch_cost=0.0, pause_weight=0.0, top_k=1, target_weight=1.0).fit(corpus)
+        goal = np.c_[speech_descriptors(feats, m._taps).astype(np.float64), np.ones(n)] @ m._W
+        x = m.generate(feats, seed=0)
+        ax = m._goal_axes
+        assert ax[0] and not ax[1:].any()  # mirrored library: only the pitch has a goal
+        miss[path] = np.mean((x[:, ax] - goal[:, ax]) ** 2)
+    assert miss[True] < 0.8 * miss[False]
+
+
+def test_a_model_file_without_goal_path_follows_the_goals_end(model):
+    config, arrays = model._get_state()
+    del config["params"]["goal_path"]
+    back = type(model)()
+    back._set_state(config, arrays)
+    assert back.goal_path is False
