@@ -95,7 +95,7 @@ class MotionMatch(Synthesizer):
     capabilities: ClassVar[frozenset[str]] = frozenset()
 
     def __init__(self, *, hop: int = 15, context: int = 10, lookahead: int = 10, speech_weight: float = 1.0,
-                 pose_weight: float = 1.0, velocity_weight: float = 1.0, switch_cost: float = 0.3,
+                 pose_weight: float = 1.0, velocity_weight: float = 1.0, switch_cost: float = 3.0,
                  top_k: int = 8, temperature: float = 0.3, blend: int = 8, mirror: bool = True,
                  target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, goal_path: bool = True,
                  seed: int = 0):
