@@ -30,11 +30,12 @@ def angles(motion):
 
 def test_its_own_training_speech_plays_its_recorded_motion_back(corpus):
     """One recording as the library, no mirror, speech and continuity only (no pose goal or pause
-    preference), the nearest match only and leaving a clip costly:
+    preference), the nearest match only and leaving a clip costly, in pauses too:
     given that recording's own speech, every decision continues the clip, so the output is the
     recorded motion (mean pose removed) to float precision."""
     one = corpus.subset([0])
-    m = create("motion-match", mirror=False, top_k=1, switch_cost=100.0, target_weight=0.0, pause_weight=0.0).fit(one)
+    m = create("motion-match", mirror=False, top_k=1, switch_cost=100.0, pause_switch=1.0, target_weight=0.0,
+               pause_weight=0.0).fit(one)
     rec = one[0]
     out = angles(m.predict(rec.audio, seed=0))
     truth = motion_degrees(rec.motion, len(out))
@@ -80,7 +81,8 @@ def test_speech_descriptors_look_back_and_ahead():
 
 
 @pytest.mark.parametrize("bad", [{"hop": 0}, {"top_k": 0}, {"temperature": 0.0}, {"switch_cost": -1.0},
-                                 {"mirror": "yes"}, {"target_weight": float("nan")}])
+                                 {"mirror": "yes"}, {"target_weight": float("nan")}, {"goal_path": 1},
+                                 {"pause_speed": "yes"}, {"pause_switch": -1.0}])
 def test_bad_parameters_are_refused(bad, corpus):
     with pytest.raises(ParameterError, match=next(iter(bad))):
         create("motion-match", **bad).fit(corpus)
@@ -138,3 +140,49 @@ def test_a_model_file_without_goal_path_follows_the_goals_end(model):
     back = type(model)()
     back._set_state(config, arrays)
     assert back.goal_path is False
+
+
+def _pause_library(**params):
+    """A library of one recording: 150 frames nodding ±5° with a period of one hop (every hop
+    ends where it starts), then 150 still frames; all its speech is silence."""
+    m = create("motion-match", hop=15, mirror=False, top_k=1, speech_weight=0.0, target_weight=0.0, **params)
+    t = np.arange(300)
+    motion = np.zeros((300, 3), np.float32)
+    motion[:150, 0] = 5 * np.sin(2 * np.pi * t[:150] / 15)
+    m.lib_motion_, m.lib_lengths_ = motion, np.array([300])
+    m.lib_feats_ = np.zeros((300, 6), np.float32)
+    m.feat_mean_, m.feat_std_ = np.zeros(6), np.ones(6)
+    m._index()
+    return m
+
+
+def test_in_a_pause_the_head_holds_still():
+    """In a pause the cost is the mean speed over the hop: the still frames are chosen over a nod
+    that ends where it started (its net displacement over the hop is zero, as the still frames')."""
+    m = _pause_library(pause_speed=True)
+    x = m.generate(np.zeros((90, 6), np.float32), seed=0)
+    assert np.abs(np.diff(x, axis=0)).max() < 1e-9
+    blind = _pause_library(pause_speed=False)
+    a2 = blind._tables["A2"]  # net displacement over the hop cannot tell the nod from stillness
+    assert a2[:135].max() < 1e-9 and a2[150:].max() < 1e-9
+
+
+def test_in_a_pause_leaving_the_clip_costs_switch_cost_times_pause_switch():
+    """A still head playing the nod at a pause: with pause_switch = 0 it leaves for the still frames
+    at the next decision; with the full switch cost (pause_switch = 1, switch cost above what the
+    nod costs) it keeps nodding.  (The join's spring has settled by the third hop.)"""
+    for pause_switch, still_after in ((0.0, True), (1.0, False)):
+        m = _pause_library(pause_speed=True, pause_switch=pause_switch, switch_cost=1e6)
+        cost = np.full(len(m._P), np.inf)
+        cost[0] = 0.0  # force the first decision onto the nod
+        first = m._draw
+        calls = []
+
+        def draw(c, rng, distinct=False, first=first, calls=calls, cost=cost):
+            calls.append(1)
+            return first(cost if len(calls) == 1 else c, rng, distinct=distinct)
+
+        m._draw = draw
+        x = m.generate(np.zeros((60, 6), np.float32), seed=0)
+        later = np.abs(np.diff(x[45:], axis=0)).max()
+        assert (later < 1e-3) == still_after and (later > 0.5) != still_after

@@ -98,8 +98,9 @@ class MotionMatch(Synthesizer):
                  pose_weight: float = 1.0, velocity_weight: float = 1.0, switch_cost: float = 3.0,
                  top_k: int = 8, temperature: float = 0.3, blend: int = 8, mirror: bool = True,
                  target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, goal_path: bool = True,
-                 seed: int = 0):
+                 pause_switch: float = 0.0, pause_speed: bool = True, seed: int = 0):
         self.hop, self.context, self.lookahead, self.goal_path = hop, context, lookahead, goal_path
+        self.pause_switch, self.pause_speed = pause_switch, pause_speed
         self.target_weight, self.ridge, self.pause_weight = target_weight, ridge, pause_weight
         self.speech_weight, self.pose_weight, self.velocity_weight = speech_weight, pose_weight, velocity_weight
         self.switch_cost, self.top_k, self.temperature, self.blend = switch_cost, top_k, temperature, blend
@@ -112,13 +113,13 @@ class MotionMatch(Synthesizer):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ParameterError(f"{self.name}: {name} must be a whole number >= {lo}; got {v!r}")
         for name in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "temperature",
-                     "target_weight", "ridge", "pause_weight"):
+                     "target_weight", "ridge", "pause_weight", "pause_switch"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
                 raise ParameterError(f"{self.name}: {name} must be a number >= 0; got {v!r}")
         if self.temperature == 0:
             raise ParameterError(f"{self.name}: temperature must be > 0; got {self.temperature!r}")
-        for name in ("mirror", "goal_path"):
+        for name in ("mirror", "goal_path", "pause_speed"):
             v = getattr(self, name)
             if not isinstance(v, (bool, np.bool_)):
                 raise ParameterError(f"{self.name}: {name} must be true or false; got {v!r}")
@@ -169,7 +170,7 @@ class MotionMatch(Synthesizer):
         change over the next ``hop`` frames, where its clip ends (the end of its recording, or a
         jump above ``MAX_STEP_DEG``: a tracking glitch is never played) and whether a clip may
         start there (``hop`` frames must follow before that end)."""
-        S, P, V, ok, A, end = [], [], [], [], [], []
+        S, P, V, ok, A, end, Q = [], [], [], [], [], [], []
         start, H = 0, int(self.hop)
         for n in self.lib_lengths_:
             m = self.lib_motion_[start:start + n].astype(np.float64)
@@ -187,6 +188,8 @@ class MotionMatch(Synthesizer):
                 ahead = np.clip(np.arange(n)[:, None] + ks[None, :], 0, n - 1)
                 A.append(c[ahead] - c[:, None, :])  # (n, len(ks), 3): the pose change k frames on
                 V.append(np.vstack([c[1:2] - c[:1], np.diff(c, axis=0)]))
+                nxt = np.clip(np.arange(n)[:, None] + np.arange(1, H + 1)[None, :], 0, n - 1)
+                Q.append((V[-1][nxt] ** 2).mean(axis=1))  # (n, 3): mean squared velocity over the next hop
                 ok.append(good)
                 end.append(clip_end + offset)
             start += n
@@ -197,6 +200,7 @@ class MotionMatch(Synthesizer):
         self._end = np.concatenate(end)  # where each frame's recording (copy) ends
         self._pose_sd = np.maximum(self._P.std(axis=0), 1e-3)
         self._vel_sd = np.maximum(self._V.std(axis=0), 1e-4)
+        speed2 = (np.concatenate(Q) / self._vel_sd ** 2).sum(axis=1) / 3.0
         path = np.concatenate(A) / self._pose_sd  # (N, steps, 3)
         moved = path[:, -1, :]
         # the pose path the speech asks for: ridge regression of the pose on the speech around a
@@ -211,6 +215,7 @@ class MotionMatch(Synthesizer):
         self._W *= np.where(self._goal_axes, np.minimum(self._pose_sd / np.maximum(pred_sd, 1e-12), 10.0), 0.0)
         scaled = {"S": self._S, "P": self._P / self._pose_sd, "V": self._V / self._vel_sd,
                   "A": moved, "G": path[:, :, self._goal_axes].reshape(len(path), -1)}
+        self._speed2 = speed2
         self._tables = {}
         for k, x in scaled.items():
             x = np.ascontiguousarray(x, dtype=np.float32)
@@ -235,7 +240,8 @@ class MotionMatch(Synthesizer):
             step = ((goal - (pose if pose is not None else 0.0)) / self._pose_sd)[..., ax].astype(np.float32).ravel()
             c = c + float(self.target_weight) / len(step) * sq("G", step)
         if self.pause_weight > 0 and speaking < 1.0:  # in a pause, clips that hold
-            c = c + float(self.pause_weight) * (1.0 - speaking) / 3.0 * t["A2"][at]
+            c = c + float(self.pause_weight) * (1.0 - speaking) * (
+                self._speed2[at] if self.pause_speed else t["A2"][at] / 3.0)
         if pose is not None:
             c = c + float(self.pose_weight) / 3.0 * sq("P", (pose / self._pose_sd).astype(np.float32))
             c = c + float(self.velocity_weight) / 3.0 * sq("V", (vel / self._vel_sd).astype(np.float32))
@@ -282,7 +288,8 @@ class MotionMatch(Synthesizer):
                 cost = self._costs(desc[t], None, None, goal, speaking)
             else:
                 vel = out[t - 1] - out[t - 2] if t >= 2 else np.zeros(3)
-                cost = self._costs(desc[t], out[t - 1] + vel, vel, goal, speaking) + float(self.switch_cost)
+                switch = float(self.switch_cost) * (1.0 if speaking else float(self.pause_switch))
+                cost = self._costs(desc[t], out[t - 1] + vel, vel, goal, speaking) + switch
                 if 0 <= pos < len(cost) and pos + n <= self._end[pos - 1]:  # the clip playing goes on
                     cost[pos] = self._costs(desc[t], out[t - 1] + vel, vel, goal, speaking, only=pos)
             j = self._draw(cost, rng, distinct=t == 0)  # a take's first movement: from different clips
@@ -322,7 +329,10 @@ class MotionMatch(Synthesizer):
 
     def _set_state(self, config, arrays):
         params = dict(config["params"])
-        params.setdefault("goal_path", False)  # a file without it follows the goal's end only
+        # a file without these settings chose as their first form did: the goal's end, a switch
+        # costing the same in pauses, a pause preference for clips that end where they start
+        for k, v in (("goal_path", False), ("pause_switch", 1.0), ("pause_speed", False)):
+            params.setdefault(k, v)
         for k in self._param_names():
             setattr(self, k, params.get(k, getattr(type(self)(), k)))
         self.sample_rate_, self.fps_ = int(config["sample_rate"]), float(config.get("fps", FPS))
