@@ -15,10 +15,13 @@ gesture, Habibie et al. 2022):
   current frame, and how far its pose and velocity are from where the motion is heading; while
   speaking (a voiced share of the hop ≥ 0.2), by how far its next ``hop`` frames miss the pitch
   *goal* (a ridge regression of the pose on the prosody descriptor, scaled to the library's SD;
-  ``target_weight``), and in a pause by how much it moves (``pause_weight``: clips that hold).  A
-  frame other than the one that continues the clip already playing pays ``switch_cost``.  One of
-  the ``top_k`` cheapest is drawn from the seed with weight ``exp(-(cost - best) / temperature)``,
-  and its motion plays from there.
+  ``target_weight``) — frame by frame over the hop (``goal_path``) or at its end only — and in a
+  pause by how much it moves (``pause_weight``; with ``pause_speed`` its mean squared speed over
+  the hop, else its net displacement: clips that hold).  A frame other than the one that continues
+  the clip already playing pays ``switch_cost`` (× ``pause_switch`` in a pause: a head settles or
+  shifts between phrases).  One of the ``top_k`` cheapest is drawn from the seed with weight
+  ``exp(-(cost - best) / temperature)`` — for a take's first movement among frames at least a hop
+  apart (different clips, not one clip's neighbours) — and its motion plays from there.
 * **Joins** (inertialisation): when the clip changes, the difference between where the motion was
   going (position and velocity) and where the new clip starts decays as a critically damped spring
   that settles over ``blend`` frames, so a join has neither a step nor a kink; nothing else
@@ -26,7 +29,8 @@ gesture, Habibie et al. 2022):
 
 Same seed, same motion; another seed makes other choices, so ``--samples K`` gives K takes made of
 different movements.  Memory is the library (25 frames a second of training motion) and the
-output; any length.  Decisions use ``lookahead`` frames of speech ahead (0.4 s by default).
+output; any length.  A decision reads the speech up to ``hop + lookahead`` frames ahead (1.0 s by
+default: the goal over the hop), which is why the system does not stream.
 """
 
 from __future__ import annotations
@@ -85,7 +89,10 @@ class MotionMatch(Synthesizer):
     blend : int, frames over which a join's offset settles
     mirror : bool, add every training motion with yaw and roll negated
     target_weight : float, weight of the pitch goal while speaking; ridge : float, its regularisation
+    goal_path : bool, match the goal frame by frame over the hop (else at the hop's end)
     pause_weight : float, weight of holding still in a pause
+    pause_speed : bool, a pause's cost is the mean squared speed over the hop (else net displacement)
+    pause_switch : float, factor on ``switch_cost`` in a pause
     seed : int, default synthesis seed
 
     The defaults were chosen on held-out speakers (docs/decisions/motion-matching.md).
