@@ -126,7 +126,7 @@ def test_the_goal_is_followed_over_the_whole_hop(model, corpus):
     for path in (True, False):
         m = create("motion-match", goal_path=path, speech_weight=0.0, pose_weight=0.0, velocity_weight=0.0,
                    switch_cost=0.0, pause_weight=0.0, top_k=1, target_weight=1.0).fit(corpus)
-        goal = np.c_[speech_descriptors(feats, m._taps).astype(np.float64), np.ones(n)] @ m._W
+        goal = m.goals(speech_descriptors(feats, m._taps))
         x = m.generate(feats, seed=0)
         ax = m._goal_axes
         assert ax[0] and not ax[1:].any()  # mirrored library: only the pitch has a goal
@@ -186,3 +186,19 @@ def test_in_a_pause_leaving_the_clip_costs_switch_cost_times_pause_switch():
         x = m.generate(np.zeros((60, 6), np.float32), seed=0)
         later = np.abs(np.diff(x[45:], axis=0)).max()
         assert (later < 1e-3) == still_after and (later > 0.5) != still_after
+
+
+def test_the_goal_stays_among_the_librarys_poses(model, corpus):
+    """Speech far from any training speech asks for no pose outside the library's 1st–99th
+    percentile; within it the goal is the ridge prediction itself."""
+    audio = corpus[1].audio
+    n = int(len(audio.samples) / audio.sample_rate * FPS)
+    feats = ((model._prosody(audio, n) - model.feat_mean_) / model.feat_std_).astype(np.float32)
+    desc = speech_descriptors(feats, model._taps)
+    lo, hi = np.percentile(model._P, [1.0, 99.0], axis=0)
+    wild = model.goals(desc * 50.0)
+    assert np.all(wild >= lo - 1e-9) and np.all(wild <= hi + 1e-9) and np.any(wild[:, 0] == hi[0])
+    raw = np.c_[desc.astype(np.float64), np.ones(n)] @ model._W
+    inside = np.all((raw >= lo) & (raw <= hi), axis=1)
+    assert inside.mean() > 0.5
+    np.testing.assert_allclose(model.goals(desc)[inside], raw[inside])

@@ -217,6 +217,9 @@ class MotionMatch(Synthesizer):
         reg[-1, -1] = 0.0
         self._W = np.linalg.solve(X.T @ X + reg, X.T @ self._P)
         pred_sd = (X @ self._W).std(axis=0)
+        # a goal stays among the poses the library holds (speech unlike any training speech, e.g.
+        # the silence before a file's first word, would otherwise ask for a pose no one took)
+        self._goal_range = np.percentile(self._P, [1.0, 99.0], axis=0)
         # axes the speech predicts (with ``mirror``, yaw and roll are predicted as 0: no goal for them)
         self._goal_axes = pred_sd > 0.02 * self._pose_sd
         self._W *= np.where(self._goal_axes, np.minimum(self._pose_sd / np.maximum(pred_sd, 1e-12), 10.0), 0.0)
@@ -276,12 +279,18 @@ class MotionMatch(Synthesizer):
         w = np.exp(-(cost[idx] - cost[idx[0]]) / float(self.temperature))
         return int(idx[rng.choice(k, p=w / w.sum())])
 
+    def goals(self, desc: np.ndarray) -> np.ndarray:
+        """The pose goal ``(T, 3)`` (degrees; 0 on axes without a goal) for speech descriptors
+        ``desc`` (:func:`speech_descriptors`): the ridge prediction, clipped to the 1st–99th
+        percentile of the library's poses."""
+        return np.clip(np.c_[desc.astype(np.float64), np.ones(len(desc))] @ self._W, *self._goal_range)
+
     def generate(self, feats: np.ndarray, seed: int) -> np.ndarray:
         """Motion ``(T, 3)`` in degrees about the mean pose for standardised prosody ``(T, 6)``."""
         T, H = len(feats), int(self.hop)
         rng = np.random.default_rng(int(seed))
         desc = speech_descriptors(feats, self._taps)
-        goals = np.c_[desc.astype(np.float64), np.ones(T)] @ self._W if self.target_weight > 0 else None
+        goals = self.goals(desc) if self.target_weight > 0 else None
         voiced = np.clip(feats[:, VOICING] * self.feat_std_[VOICING] + self.feat_mean_[VOICING], 0.0, 1.0)
         out = np.zeros((T, 3))
         lam = 4.0 / float(self.blend)
