@@ -345,8 +345,8 @@ class MotionMatch(Synthesizer):
 
     def _set_state(self, config, arrays):
         params = dict(config["params"])
-        # a file without these settings chose as their first form did: the goal's end, a switch
-        # costing the same in pauses, a pause preference for clips that end where they start
+        # a model file written without these settings keeps the choices it was built with: the
+        # goal at the hop's end, the full switch cost in pauses, the pause cost on net displacement
         for k, v in (("goal_path", False), ("pause_switch", 1.0), ("pause_speed", False)):
             params.setdefault(k, v)
         for k in self._param_names():
