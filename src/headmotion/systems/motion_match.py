@@ -132,6 +132,12 @@ class MotionMatch(Synthesizer):
                 raise ParameterError(f"{self.name}: {name} must be true or false; got {v!r}")
 
     @property
+    def _goal_steps(self) -> np.ndarray:
+        """Frames after a decision at which the goal is matched: every frame of the hop, or its end."""
+        H = int(self.hop)
+        return np.arange(1, H + 1) if self.goal_path else np.array([H])
+
+    @property
     def _taps(self) -> np.ndarray:
         step = max(1, (int(self.context) + int(self.lookahead)) // 4)
         return np.unique(np.r_[np.arange(-int(self.context), int(self.lookahead) + 1, step), int(self.lookahead)])
@@ -187,7 +193,7 @@ class MotionMatch(Synthesizer):
             clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends
             good = np.arange(n) + H + 1 < clip_end
             copies = [m, m * np.array([1.0, -1.0, -1.0])] if self.mirror else [m]
-            ks = np.arange(1, H + 1) if self.goal_path else np.array([H])
+            ks = self._goal_steps
             for c in copies:
                 offset = sum(len(x) for x in P)
                 S.append(d)
@@ -225,8 +231,7 @@ class MotionMatch(Synthesizer):
         self._W *= np.where(self._goal_axes, np.minimum(self._pose_sd / np.maximum(pred_sd, 1e-12), 10.0), 0.0)
         scaled = {"S": self._S, "P": self._P / self._pose_sd, "V": self._V / self._vel_sd,
                   "A": moved, "G": path[:, :, self._goal_axes].reshape(len(path), -1)}
-        self._speed2 = speed2
-        self._tables = {}
+        self._tables = {"Q2": speed2}
         for k, x in scaled.items():
             x = np.ascontiguousarray(x, dtype=np.float32)
             self._tables[k], self._tables[k + "2"] = x, np.einsum("ij,ij->i", x, x, dtype=np.float64)
@@ -251,7 +256,7 @@ class MotionMatch(Synthesizer):
             c = c + float(self.target_weight) / len(step) * sq("G", step)
         if self.pause_weight > 0 and speaking < 1.0:  # in a pause, clips that hold
             c = c + float(self.pause_weight) * (1.0 - speaking) * (
-                self._speed2[at] if self.pause_speed else t["A2"][at] / 3.0)
+                t["Q2"][at] if self.pause_speed else t["A2"][at] / 3.0)
         if pose is not None:
             c = c + float(self.pose_weight) / 3.0 * sq("P", (pose / self._pose_sd).astype(np.float32))
             c = c + float(self.velocity_weight) / 3.0 * sq("V", (vel / self._vel_sd).astype(np.float32))
@@ -296,8 +301,7 @@ class MotionMatch(Synthesizer):
         lam = 4.0 / float(self.blend)
         pos, x0, v0, age = -1, np.zeros(3), np.zeros(3), 0
         for t in range(0, T, H):
-            ks = np.arange(t + 1, t + H + 1) if self.goal_path else np.array([t + H])
-            goal = goals[np.minimum(ks, T - 1)] if goals is not None else None
+            goal = goals[np.minimum(t + self._goal_steps, T - 1)] if goals is not None else None
             speaking = float(voiced[t:t + H].mean() >= 0.2)  # 0 in a pause
             n = min(H, T - t)
             if t == 0:
