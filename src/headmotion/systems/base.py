@@ -180,11 +180,18 @@ class Synthesizer(ABC):
         return float(self.fps_)
 
     # -- the interface -------------------------------------------------------------------------
-    def _training_recordings(self, corpus) -> list:
+    def _training_recordings(self, corpus, *, budget: bool = False) -> list:
         """The recordings of ``corpus`` after the parameters are checked; ParameterError when
-        there are none (the start of every ``fit``)."""
+        there are none (the start of every ``fit``).  ``budget``: the system has
+        ``max_train_hours`` — only the recordings of :func:`headmotion.systems.budget.training_recordings`
+        are read."""
         self._validate_params()
-        recs = list(corpus)
+        if budget:
+            from .budget import training_recordings
+
+            recs = training_recordings(self, corpus)
+        else:
+            recs = list(corpus)
         if not recs:
             raise ParameterError(f"cannot fit {self.name} on an empty corpus")
         return recs

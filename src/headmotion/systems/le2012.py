@@ -62,7 +62,7 @@ from ..motion.control import mean_pose_of
 from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
 from .base import CAUSAL, Synthesizer, cross_fitted, pair_shortest
-from .budget import DEFAULT_TRAIN_HOURS, check_hours, corpus_summary, training_recordings
+from .budget import DEFAULT_TRAIN_HOURS, check_hours, corpus_summary
 from .tws.features import make_feature_config
 from .tws.generator import LIVE_FEATURES
 
@@ -191,10 +191,7 @@ class Le2012(Synthesizer):
         from ..features import Normalizer
         from ..feature_cache import features_for
 
-        self._validate_params()
-        recs = training_recordings(self, corpus)
-        if not recs:
-            raise ParameterError("cannot train le2012 on an empty corpus")
+        recs = self._training_recordings(corpus, budget=True)
         self.fps_ = float(self.fps) if self.fps else float(recs[0].motion.fps)
         cfg = self._config()
         self._set_capabilities(cfg)

@@ -184,7 +184,7 @@ class MotionMatch(Synthesizer):
         jump above ``MAX_STEP_DEG``: a tracking glitch is never played) and whether a clip may
         start there (``hop`` frames must follow before that end)."""
         S, P, V, ok, A, end, Q = [], [], [], [], [], [], []
-        start, H = 0, int(self.hop)
+        start, offset, H = 0, 0, int(self.hop)
         for n in self.lib_lengths_:
             m = self.lib_motion_[start:start + n].astype(np.float64)
             d = speech_descriptors(self.lib_feats_[start:start + n], self._taps)
@@ -192,19 +192,21 @@ class MotionMatch(Synthesizer):
             bounds = np.r_[0, cuts, n]
             clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends
             good = np.arange(n) + H + 1 < clip_end
-            copies = [m, m * np.array([1.0, -1.0, -1.0])] if self.mirror else [m]
-            ks = self._goal_steps
-            for c in copies:
-                offset = sum(len(x) for x in P)
+            ahead = np.clip(np.arange(n)[:, None] + self._goal_steps[None, :], 0, n - 1)
+            nxt = np.clip(np.arange(n)[:, None] + np.arange(1, H + 1)[None, :], 0, n - 1)
+            v = np.vstack([m[1:2] - m[:1], np.diff(m, axis=0)])
+            q = (v[nxt] ** 2).mean(axis=1)  # (n, 3): mean squared velocity over the next hop (a mirror's too)
+            flips = [np.ones(3), np.array([1.0, -1.0, -1.0])] if self.mirror else [np.ones(3)]
+            for f in flips:
+                c = m * f
                 S.append(d)
                 P.append(c)
-                ahead = np.clip(np.arange(n)[:, None] + ks[None, :], 0, n - 1)
-                A.append(c[ahead] - c[:, None, :])  # (n, len(ks), 3): the pose change k frames on
-                V.append(np.vstack([c[1:2] - c[:1], np.diff(c, axis=0)]))
-                nxt = np.clip(np.arange(n)[:, None] + np.arange(1, H + 1)[None, :], 0, n - 1)
-                Q.append((V[-1][nxt] ** 2).mean(axis=1))  # (n, 3): mean squared velocity over the next hop
+                A.append(c[ahead] - c[:, None, :])  # (n, len(goal steps), 3): the pose change k frames on
+                V.append(v * f)
+                Q.append(q)
                 ok.append(good)
                 end.append(clip_end + offset)
+                offset += n
             start += n
         self._S = np.concatenate(S).astype(np.float32)
         self._P = np.concatenate(P)
@@ -241,7 +243,8 @@ class MotionMatch(Synthesizer):
                goal: np.ndarray | None = None, speaking: float = 1.0, only: int | None = None):
         """The cost of starting a clip at every library frame (or at the frame ``only``, a float)
         for the speech descriptor ``s``, the next pose and velocity the motion is heading for,
-        the pose ``goal`` at the end of the hop and whether the hop is speech (1) or a pause (0).
+        the pose ``goal`` at the goal steps (``(len(_goal_steps), 3)``) and whether the hop is
+        speech (1) or a pause (0).
         Squared distances are expanded (|a|² − 2a·b + |b|²) around the library's stored norms."""
         at = slice(None) if only is None else slice(only, only + 1)
         t = self._tables

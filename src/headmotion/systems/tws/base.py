@@ -147,12 +147,9 @@ class TwsBase(Synthesizer):
     # -- training ---------------------------------------------------------------------------
     def fit(self, corpus, *, progress=None):
         from ...features import Normalizer
-        from ..budget import corpus_summary, training_recordings
+        from ..budget import corpus_summary
 
-        self._validate_params()
-        recs = training_recordings(self, corpus)
-        if not recs:
-            raise ParameterError("cannot train on an empty corpus")
+        recs = self._training_recordings(corpus, budget=True)
         fps_set = sorted({float(r.motion.fps) for r in recs})
         self.fps_ = float(self.fps) if self.fps else fps_set[0]
         self.feature_config_ = make_feature_config(self.features, self.fps_)
