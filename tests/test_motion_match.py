@@ -82,7 +82,7 @@ def test_speech_descriptors_look_back_and_ahead():
 
 @pytest.mark.parametrize("bad", [{"hop": 0}, {"top_k": 0}, {"temperature": 0.0}, {"switch_cost": -1.0},
                                  {"mirror": "yes"}, {"target_weight": float("nan")}, {"goal_path": 1},
-                                 {"pause_speed": "yes"}, {"pause_switch": -1.0}])
+                                 {"pause_speed": "yes"}, {"pause_switch": -1.0}, {"live": "yes"}])
 def test_bad_parameters_are_refused(bad, corpus):
     with pytest.raises(ParameterError, match=next(iter(bad))):
         create("motion-match", **bad).fit(corpus)
@@ -202,3 +202,53 @@ def test_the_goal_stays_among_the_librarys_poses(model, corpus):
     inside = np.all((raw >= lo) & (raw <= hi), axis=1)
     assert inside.mean() > 0.5
     np.testing.assert_allclose(model.goals(desc)[inside], raw[inside])
+
+
+@pytest.fixture(scope="module")
+def live(corpus):
+    return create("motion-match", live=True).fit(corpus)
+
+
+def test_live_streams_and_the_stream_equals_predict(live, corpus):
+    """``live``: the system is causal; pushing the audio in 10 ms chunks gives predict's frames
+    exactly, 39 ms behind the audio (the f0e-live features with no lookahead)."""
+    audio = corpus[1].audio.slice_seconds(0, 9.0)
+    assert live.causal and live.can_stream
+    out = live.predict(audio, seed=5)
+    st = live.stream(seed=5)
+    step = live.sample_rate // 100
+    x = audio.samples
+    parts = [st.push(x[i:i + step]) for i in range(0, len(x), step)] + [st.flush()]
+    np.testing.assert_array_equal(np.concatenate([p.rotvec for p in parts]), out.rotvec)
+    assert 30.0 < st.latency_ms < 50.0
+    assert not create("motion-match").can_stream
+
+
+def test_live_decisions_read_no_speech_after_their_frame(live, corpus):
+    """Changing the audio after 5 s leaves every frame up to the one whose features read it
+    unchanged (the features' 39 ms), and changes frames after it."""
+    audio = corpus[1].audio.slice_seconds(0, 10.0)
+    other = audio.samples.copy()
+    cut = int(5.0 * audio.sample_rate)
+    other[cut:] = corpus[0].audio.samples[cut:len(other)]
+    a = angles(live.predict(audio, seed=1))
+    b = angles(live.predict(type(audio)(other, audio.sample_rate), seed=1))
+    first = int((5.0 - 0.040) * FPS)  # frames whose features end before the cut
+    np.testing.assert_array_equal(a[:first], b[:first])
+    assert not np.allclose(a[first + live.hop:], b[first + live.hop:])
+
+
+def test_causal_descriptor_of_the_last_frame_equals_the_whole_tracks():
+    """descriptor_of_last on the rows up to a frame equals the causal descriptor computed over the
+    whole track, at the start (edges repeated) and later."""
+    from headmotion.systems.motion_match import descriptor_of_last
+
+    f = np.random.default_rng(0).normal(size=(40, 3)).astype(np.float32)
+    taps = np.array([-10, -5, 0])
+    whole = speech_descriptors(f, taps, causal=True)
+    for t in (0, 3, 14, 39):
+        np.testing.assert_allclose(descriptor_of_last(f[:t + 1], taps), whole[t], rtol=1e-6, atol=1e-6)
+    # causal: the frame's own descriptor does not change when later frames do
+    g = f.copy()
+    g[20:] += 5.0
+    np.testing.assert_array_equal(speech_descriptors(g, taps, causal=True)[:20], whole[:20])

@@ -30,7 +30,14 @@ gesture, Habibie et al. 2022):
 Same seed, same motion; another seed makes other choices, so ``--samples K`` gives K takes made of
 different movements.  Memory is the library (25 frames a second of training motion) and the
 output; any length.  A decision reads the speech up to ``hop + lookahead`` frames ahead (1.0 s by
-default: the goal over the hop), which is why the system does not stream.
+default: the goal over the hop).
+
+**Live** (``live=True``, :class:`MotionMatchStream`): the prosody is the f0e-live set (YIN pitch,
+energy, their deltas and voicing, computed incrementally with no lookahead: a frame is final
+39 ms after its start), smoothed and described from the past only, in the library as at
+synthesis; a decision reads the speech up to its own frame, its goal is the pose that speech
+asks for, held over the hop, and a hop is a pause when the last ``hop`` frames were mostly
+unvoiced.  The system then streams 39 ms behind the audio, and the stream equals ``predict``.
 """
 
 from __future__ import annotations
@@ -40,13 +47,14 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..align import fit_length
 from ..align import n_frames as _n_frames
 from ..errors import ParameterError
 from ..models.numpy_nets import inference_threads
 from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec
 from ..types import Audio, Motion
-from .base import Synthesizer
+from .base import CAUSAL, Synthesizer
 from .flow import FPS, motion_degrees, speech_features
 
 #: the columns of :func:`~headmotion.systems.flow.speech_features` matched: energy, Δenergy,
@@ -56,24 +64,46 @@ PROSODY = [0, 13, 14, 15, 16, 18]
 MAX_STEP_DEG = 10.0
 #: the voicing column within PROSODY
 VOICING = 5
+#: ``live``: the columns of the f0e-live features matched (energy, Δenergy, log F0, Δlog F0,
+#: voicing) and their settings: no smoothing or delta lookahead, so a frame is final 39 ms after
+#: its start at 16 kHz
+LIVE_COLUMNS = [1, 3, 0, 2, 6]
+LIVE_FEATURES = {"smooth_lookahead": 0, "delta_lookahead": 0, "voicing": True}
+#: frames of the moving average over the features before they are matched
+SMOOTH = 5
 
 
-def _smooth(x: np.ndarray, width: int) -> np.ndarray:
-    """Centred moving average over ``width`` frames along axis 0 (edges repeated)."""
+def _smooth(x: np.ndarray, width: int, *, causal: bool = False) -> np.ndarray:
+    """Moving average over ``width`` frames along axis 0, centred or (``causal``) ending at each
+    frame; edges repeated."""
     if width <= 1 or len(x) == 0:
         return x
-    pad = np.concatenate([np.repeat(x[:1], width // 2, 0), x, np.repeat(x[-1:], width - 1 - width // 2, 0)])
+    before = width - 1 if causal else width // 2
+    pad = np.concatenate([np.repeat(x[:1], before, 0), x, np.repeat(x[-1:], width - 1 - before, 0)])
     c = np.cumsum(np.concatenate([np.zeros((1, x.shape[1])), pad]), axis=0)
     return (c[width:] - c[:-width]) / width
 
 
-def speech_descriptors(feats: np.ndarray, taps: np.ndarray) -> np.ndarray:
+def speech_descriptors(feats: np.ndarray, taps: np.ndarray, *, causal: bool = False) -> np.ndarray:
     """``(T, len(taps) * D)``: the (smoothed) features of each frame at the offsets ``taps``
-    (frames; edges repeated) — the speech around a frame, as matched."""
+    (frames; edges repeated) — the speech around a frame, as matched.  ``causal``: the smoothing
+    reads no frame after the one it is for (with taps ≤ 0, nothing after the frame is read)."""
     T = len(feats)
-    s = _smooth(feats.astype(np.float64), 5)
+    s = _smooth(feats.astype(np.float64), SMOOTH, causal=causal)
     idx = np.clip(np.arange(T)[:, None] + taps[None, :], 0, max(T - 1, 0))
     return s[idx].reshape(T, -1).astype(np.float32)
+
+
+def descriptor_of_last(past: np.ndarray, taps: np.ndarray) -> np.ndarray:
+    """The causal descriptor (:func:`speech_descriptors` with ``causal=True``) of the last row of
+    ``past`` — the rows up to that frame, at least as many as the taps and the smoothing reach
+    back, or every row since the start (which is then repeated before it, as there)."""
+    need = int(-taps.min()) + SMOOTH
+    p = np.asarray(past[-need:], dtype=np.float64)
+    if len(p) < need:
+        p = np.concatenate([np.repeat(p[:1], need - len(p), 0), p])
+    s = _smooth(p, SMOOTH, causal=True)
+    return s[len(s) - 1 + taps].reshape(-1).astype(np.float32)
 
 
 class MotionMatch(Synthesizer):
@@ -93,25 +123,31 @@ class MotionMatch(Synthesizer):
     pause_weight : float, weight of holding still in a pause
     pause_speed : bool, a pause's cost is the mean squared speed over the hop (else net displacement)
     pause_switch : float, factor on ``switch_cost`` in a pause
+    live : bool, read the speech only up to each decision (f0e-live features, causal descriptors,
+        the goal and the pause test from the past): the system streams, 39 ms behind the audio
     seed : int, default synthesis seed
 
     The defaults were chosen on held-out speakers (docs/decisions/motion-matching.md).
     """
 
     name: ClassVar[str] = "motion-match"
-    capabilities: ClassVar[frozenset[str]] = frozenset()
 
     def __init__(self, *, hop: int = 15, context: int = 10, lookahead: int = 10, speech_weight: float = 1.0,
                  pose_weight: float = 1.0, velocity_weight: float = 1.0, switch_cost: float = 3.0,
                  top_k: int = 8, temperature: float = 0.3, blend: int = 8, mirror: bool = True,
                  target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, goal_path: bool = True,
-                 pause_switch: float = 0.0, pause_speed: bool = True, seed: int = 0):
+                 pause_switch: float = 0.0, pause_speed: bool = True, live: bool = False, seed: int = 0):
         self.hop, self.context, self.lookahead, self.goal_path = hop, context, lookahead, goal_path
         self.pause_switch, self.pause_speed = pause_switch, pause_speed
         self.target_weight, self.ridge, self.pause_weight = target_weight, ridge, pause_weight
         self.speech_weight, self.pose_weight, self.velocity_weight = speech_weight, pose_weight, velocity_weight
         self.switch_cost, self.top_k, self.temperature, self.blend = switch_cost, top_k, temperature, blend
-        self.mirror, self.seed = mirror, seed
+        self.mirror, self.seed, self.live = mirror, seed, live
+
+    @property
+    def capabilities(self) -> frozenset[str]:  # type: ignore[override]
+        """Causal (streams, and the stream equals ``predict``) when ``live``."""
+        return frozenset({CAUSAL}) if self.live is True else frozenset()
 
     # -- parameters ------------------------------------------------------------------------------
     def _validate_params(self) -> None:
@@ -126,7 +162,7 @@ class MotionMatch(Synthesizer):
                 raise ParameterError(f"{self.name}: {name} must be a number >= 0; got {v!r}")
         if self.temperature == 0:
             raise ParameterError(f"{self.name}: temperature must be > 0; got {self.temperature!r}")
-        for name in ("mirror", "goal_path", "pause_speed"):
+        for name in ("mirror", "goal_path", "pause_speed", "live"):
             v = getattr(self, name)
             if not isinstance(v, (bool, np.bool_)):
                 raise ParameterError(f"{self.name}: {name} must be true or false; got {v!r}")
@@ -139,8 +175,13 @@ class MotionMatch(Synthesizer):
 
     @property
     def _taps(self) -> np.ndarray:
-        step = max(1, (int(self.context) + int(self.lookahead)) // 4)
-        return np.unique(np.r_[np.arange(-int(self.context), int(self.lookahead) + 1, step), int(self.lookahead)])
+        ahead = 0 if self.live else int(self.lookahead)
+        step = max(1, (int(self.context) + ahead) // 4)
+        return np.unique(np.r_[np.arange(-int(self.context), ahead + 1, step), ahead])
+
+    @property
+    def _voicing(self) -> int:
+        return len(LIVE_COLUMNS) - 1 if self.live else VOICING
 
     # -- fitting ---------------------------------------------------------------------------------
     def fit(self, corpus, *, progress=None) -> "MotionMatch":
@@ -187,7 +228,7 @@ class MotionMatch(Synthesizer):
         start, offset, H = 0, 0, int(self.hop)
         for n in self.lib_lengths_:
             m = self.lib_motion_[start:start + n].astype(np.float64)
-            d = speech_descriptors(self.lib_feats_[start:start + n], self._taps)
+            d = speech_descriptors(self.lib_feats_[start:start + n], self._taps, causal=bool(self.live))
             cuts = np.flatnonzero(np.abs(np.diff(m, axis=0)).max(axis=1) > MAX_STEP_DEG) + 1
             bounds = np.r_[0, cuts, n]
             clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends
@@ -294,54 +335,65 @@ class MotionMatch(Synthesizer):
         return np.clip(np.c_[desc.astype(np.float64), np.ones(len(desc))] @ self._W, *self._goal_range)
 
     def generate(self, feats: np.ndarray, seed: int) -> np.ndarray:
-        """Motion ``(T, 3)`` in degrees about the mean pose for standardised prosody ``(T, 6)``."""
+        """Motion ``(T, 3)`` in degrees about the mean pose for standardised prosody ``(T, D)``."""
         T, H = len(feats), int(self.hop)
-        rng = np.random.default_rng(int(seed))
+        walk = _Walk(self, seed)
+        out = np.zeros((T, 3))
+        if self.live:  # every decision from the speech up to its frame, as the stream makes it
+            back = max(int(-self._taps.min()) + SMOOTH, H)
+            for t in range(0, T, H):
+                out[t:t + H] = walk.hop(*self.live_inputs(feats[max(0, t + 1 - back):t + 1]), H)[:T - t]
+            return out
         desc = speech_descriptors(feats, self._taps)
         goals = self.goals(desc) if self.target_weight > 0 else None
         voiced = np.clip(feats[:, VOICING] * self.feat_std_[VOICING] + self.feat_mean_[VOICING], 0.0, 1.0)
-        out = np.zeros((T, 3))
-        lam = 4.0 / float(self.blend)
-        pos, x0, v0, age = -1, np.zeros(3), np.zeros(3), 0
         for t in range(0, T, H):
             goal = goals[np.minimum(t + self._goal_steps, T - 1)] if goals is not None else None
             speaking = float(voiced[t:t + H].mean() >= 0.2)  # 0 in a pause
             n = min(H, T - t)
-            if t == 0:
-                cost = self._costs(desc[t], None, None, goal, speaking)
-            else:
-                vel = out[t - 1] - out[t - 2] if t >= 2 else np.zeros(3)
-                switch = float(self.switch_cost) * (1.0 if speaking else float(self.pause_switch))
-                cost = self._costs(desc[t], out[t - 1] + vel, vel, goal, speaking) + switch
-                if 0 <= pos < len(cost) and pos + n <= self._end[pos - 1]:  # the clip playing goes on
-                    cost[pos] = self._costs(desc[t], out[t - 1] + vel, vel, goal, speaking, only=pos)
-            j = self._draw(cost, rng, distinct=t == 0)  # a take's first movement: from different clips
-            if t > 0 and j != pos:  # a join: carry on from where the motion was going
-                x0 = out[t - 1] + vel - self._P[j]
-                v0 = vel - self._V[j]
-                age = 0
-            a = np.arange(age, age + n, dtype=np.float64)[:, None]
-            spring = (x0 + (v0 + lam * x0) * a) * np.exp(-lam * a)
-            out[t:t + n] = self._P[j:j + n] + spring
-            age += n
-            pos = j + n
+            out[t:t + n] = walk.hop(desc[t], goal, speaking, n)
         return out
 
-    @staticmethod
-    def _prosody(audio: Audio, n: int) -> np.ndarray:
-        """The raw prosody columns matched, ``(n, 6)`` at 25 fps."""
+    def live_inputs(self, past: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, float]:
+        """``live``: a decision's speech descriptor, goal and pause test from the standardised
+        prosody up to its frame (``past``, the last row is the frame): the goal is the one the
+        speech so far asks for, held over the hop; a pause is a hop whose last ``hop`` frames
+        had a voiced share below 0.2."""
+        desc = descriptor_of_last(past, self._taps)
+        goal = None
+        if self.target_weight > 0:
+            goal = np.repeat(self.goals(desc[None]), len(self._goal_steps), axis=0)
+        v = self._voicing
+        voiced = np.clip(past[-int(self.hop):, v] * self.feat_std_[v] + self.feat_mean_[v], 0.0, 1.0)
+        return desc, goal, float(voiced.mean() >= 0.2)
+
+    def _prosody(self, audio: Audio, n: int) -> np.ndarray:
+        """The raw prosody columns matched, ``(n, 6)`` at 25 fps (``live``: ``(n, 5)`` of f0e-live)."""
+        if self.live:
+            from ..features.streaming import f0e_live
+
+            return f0e_live(audio, fps=FPS, n_frames=n, **LIVE_FEATURES)[0][:, LIVE_COLUMNS].astype(np.float32)
         return speech_features(audio, n)[:, PROSODY]
+
+    def _degrees_to_motion(self, x: np.ndarray) -> Motion:
+        pyr = np.radians(x) + self.mean_pose_
+        return Motion(pitch_yaw_roll_to_rotvec(pyr[:, 0], pyr[:, 1], pyr[:, 2]), FPS)
 
     def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
         seed = int(seed)  # filled by the contract (Synthesizer._synthesis_seed)
         n = _n_frames(len(audio.samples), audio.sample_rate, FPS)
         if n == 0:
             return Motion(np.zeros((0, 3)), FPS)
+        if self.live and audio.sample_rate != self.sample_rate_:  # the rate the stream is pushed at
+            from ..io.audio import resample
+
+            audio = Audio(resample(audio.samples, audio.sample_rate, self.sample_rate_), self.sample_rate_)
         f = ((self._prosody(audio, n) - self.feat_mean_) / self.feat_std_).astype(np.float32)
         with inference_threads(1):  # the search is matrix-vector products: fastest on one BLAS thread
-            x = self.generate(f, seed)
-        pyr = np.radians(x) + self.mean_pose_
-        return Motion(pitch_yaw_roll_to_rotvec(pyr[:, 0], pyr[:, 1], pyr[:, 2]), FPS)
+            return self._degrees_to_motion(self.generate(f, seed))
+
+    def _stream(self, *, seed: int | None) -> "MotionMatchStream":
+        return MotionMatchStream(self, seed=int(seed))
 
     # -- persistence -----------------------------------------------------------------------------
     def _get_state(self):
@@ -354,7 +406,7 @@ class MotionMatch(Synthesizer):
         params = dict(config["params"])
         # a model file written without these settings keeps the choices it was built with: the
         # goal at the hop's end, the full switch cost in pauses, the pause cost on net displacement
-        for k, v in (("goal_path", False), ("pause_switch", 1.0), ("pause_speed", False)):
+        for k, v in (("goal_path", False), ("pause_switch", 1.0), ("pause_speed", False), ("live", False)):
             params.setdefault(k, v)
         for k in self._param_names():
             setattr(self, k, params.get(k, getattr(type(self)(), k)))
@@ -368,4 +420,91 @@ class MotionMatch(Synthesizer):
         self._index()
 
 
-__all__ = ["MotionMatch", "PROSODY", "speech_descriptors"]
+class _Walk:
+    """The decisions of one take (:meth:`MotionMatch.generate`, :class:`MotionMatchStream`): the
+    draws from the seed, the clip playing, the spring of the last join and the last two frames."""
+
+    def __init__(self, model: MotionMatch, seed: int):
+        self.m, self.rng = model, np.random.default_rng(int(seed))
+        self.t, self.pos, self.age = 0, -1, 0
+        self.x0, self.v0 = np.zeros(3), np.zeros(3)
+        self.last = np.zeros((0, 3))
+        self.lam = 4.0 / float(model.blend)
+
+    def hop(self, desc: np.ndarray, goal: np.ndarray | None, speaking: float, n: int) -> np.ndarray:
+        """The next ``n`` frames (degrees): one decision for the speech descriptor ``desc``, the
+        pose ``goal`` at the goal steps and whether the hop is speech (1) or a pause (0)."""
+        m, pos = self.m, self.pos
+        if self.t == 0:
+            cost = m._costs(desc, None, None, goal, speaking)
+        else:
+            vel = self.last[-1] - self.last[-2] if len(self.last) >= 2 else np.zeros(3)
+            ahead = self.last[-1] + vel
+            switch = float(m.switch_cost) * (1.0 if speaking else float(m.pause_switch))
+            cost = m._costs(desc, ahead, vel, goal, speaking) + switch
+            if 0 <= pos < len(cost) and pos + n <= m._end[pos - 1]:  # the clip playing goes on
+                cost[pos] = m._costs(desc, ahead, vel, goal, speaking, only=pos)
+        j = m._draw(cost, self.rng, distinct=self.t == 0)  # a take's first movement: from different clips
+        if self.t > 0 and j != pos:  # a join: carry on from where the motion was going
+            self.x0 = ahead - m._P[j]
+            self.v0 = vel - m._V[j]
+            self.age = 0
+        a = np.arange(self.age, self.age + n, dtype=np.float64)[:, None]
+        frames = m._P[j:j + n] + (self.x0 + (self.v0 + self.lam * self.x0) * a) * np.exp(-self.lam * a)
+        self.age += n
+        self.pos = j + n
+        self.t += n
+        self.last = np.concatenate([self.last, frames])[-2:]
+        return frames
+
+
+class MotionMatchStream:
+    """:meth:`MotionMatch.stream` (``live`` models): push float samples at the model's
+    ``sample_rate``; a frame is final once its f0e-live features are (``latency_ms``, 39 ms at
+    16 kHz), and the frames equal ``predict``'s.  Every ``hop`` frames a decision is made from the
+    prosody so far and its frames are emitted as their features arrive.  State: the feature
+    extractor, the last frames of prosody a decision reads, the take's walk — bounded."""
+
+    def __init__(self, model: MotionMatch, *, seed: int):
+        from ..features.streaming import StreamingF0e
+
+        self.m = model
+        self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **LIVE_FEATURES)
+        self.latency_ms = self.ex.latency_ms
+        self.walk = _Walk(model, seed)
+        self.back = max(int(-model._taps.min()) + SMOOTH, int(model.hop))
+        self.past = np.zeros((0, len(LIVE_COLUMNS)), np.float32)
+        self.pending = np.zeros((0, 3))
+        self.k = 0            # frames emitted
+        self.samples = 0      # samples pushed
+        self.raw_last = None  # the last raw feature row (repeated if the file ends before its frames)
+
+    def _frames(self, raw: np.ndarray) -> Motion:
+        m, H = self.m, int(self.m.hop)
+        out = np.zeros((len(raw), 3))
+        for i, row in enumerate(raw):
+            f = ((row[LIVE_COLUMNS] - m.feat_mean_) / m.feat_std_).astype(np.float32)
+            self.past = np.concatenate([self.past, f[None]])[-self.back:]
+            if self.k % H == 0:
+                self.pending = self.walk.hop(*m.live_inputs(self.past), H)
+            out[i] = self.pending[self.k % H]
+            self.k += 1
+        if len(raw):
+            self.raw_last = raw[-1]
+        return m._degrees_to_motion(out)
+
+    def push(self, samples: np.ndarray) -> Motion:
+        x = np.asarray(samples, dtype=np.float64).reshape(-1)
+        self.samples += len(x)
+        return self._frames(self.ex.push(x))
+
+    def flush(self) -> Motion:
+        """The remaining frames: as many in all as ``predict`` gives for the audio pushed."""
+        raw = np.asarray(self.ex.flush()).reshape(-1, len(self.ex.names))
+        n = max(_n_frames(self.samples, int(self.m.sample_rate_), FPS) - self.k, 0)
+        if self.raw_last is None:  # as predict's features: fit to the length of the audio
+            return self._frames(fit_length(raw, n))
+        return self._frames(fit_length(np.concatenate([self.raw_last[None], raw]), n + 1)[1:])
+
+
+__all__ = ["MotionMatch", "MotionMatchStream", "PROSODY", "speech_descriptors"]
