@@ -196,7 +196,8 @@ def _chunk_rows(res: Results, label: str, wall, cpu, note: str = "") -> None:
 
 
 def bench_causal_streams(res: Results, quick: bool, cache: dict):
-    """Every causal system with its live features (the defaults of new models):
+    """Every causal system with its live features (the defaults of new models; motion-match with
+    ``live`` and a decision every 8 frames, its library the planted corpus):
     algorithmic latency, compute per 10 ms chunk (thread CPU and wall), end-to-end latency paced in
     real time."""
     from headmotion.systems import create
@@ -205,16 +206,16 @@ def bench_causal_streams(res: Results, quick: bool, cache: dict):
     chunk = audio.sample_rate // 100  # 10 ms
     corpus = planted(2.0)
     secs = 5.0 if quick else 15.0
-    for name in ("tws-basic", "tws-hier", "le2012"):
+    for name, params in (("tws-basic", {}), ("tws-hier", {}), ("le2012", {}), ("motion-match", {"live": True, "hop": 8})):
         s = cache.get(f"{name}-live")
         if s is None:
             import warnings
 
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                s = create(name).fit(corpus)
+                s = create(name, **params).fit(corpus)
             cache[f"{name}-live"] = s
-        feats = s._config().name if hasattr(s, "_config") else "?"
+        feats = s._config().name if hasattr(s, "_config") else "f0e-live"
         t0 = time.perf_counter()
         warm = s.stream(seed=0)  # the first stream of the process loads what it needs (le2012: numba)
         start_ms = 1000 * (time.perf_counter() - t0)

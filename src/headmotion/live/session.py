@@ -199,7 +199,7 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
 
     if not getattr(model, "can_stream", getattr(model, "causal", False)):
         raise ParameterError(f"system {getattr(model, 'name', '?')!r} cannot stream (neither causal nor "
-                             "streaming); use a tws-basic, tws-hier, le2012 or DNN model")
+                             "streaming); use a tws-basic, tws-hier, le2012, DNN or motion-match[live=true] model")
     rate = int(model.sample_rate)
     fps = float(model.frame_rate)
     from ..synthesis import open_stream
