@@ -147,7 +147,8 @@ class MotionMatch(Synthesizer):
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]
         """Causal (streams, and the stream equals ``predict``) when ``live``."""
-        return frozenset({CAUSAL}) if self.live is True else frozenset()
+        live = isinstance(self.live, (bool, np.bool_)) and bool(self.live)  # not a truthy "yes"
+        return frozenset({CAUSAL}) if live else frozenset()
 
     # -- parameters ------------------------------------------------------------------------------
     def _validate_params(self) -> None:
@@ -178,6 +179,11 @@ class MotionMatch(Synthesizer):
         ahead = 0 if self.live else int(self.lookahead)
         step = max(1, (int(self.context) + ahead) // 4)
         return np.unique(np.r_[np.arange(-int(self.context), ahead + 1, step), ahead])
+
+    @property
+    def _live_back(self) -> int:
+        """``live``: the frames of prosody a decision reads (its descriptor's reach, the pause test's hop)."""
+        return max(int(-self._taps.min()) + SMOOTH, int(self.hop))
 
     @property
     def _voicing(self) -> int:
@@ -340,7 +346,7 @@ class MotionMatch(Synthesizer):
         walk = _Walk(self, seed)
         out = np.zeros((T, 3))
         if self.live:  # every decision from the speech up to its frame, as the stream makes it
-            back = max(int(-self._taps.min()) + SMOOTH, H)
+            back = self._live_back
             for t in range(0, T, H):
                 out[t:t + H] = walk.hop(*self.live_inputs(feats[max(0, t + 1 - back):t + 1]), H)[:T - t]
             return out
@@ -472,7 +478,7 @@ class MotionMatchStream:
         self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **LIVE_FEATURES)
         self.latency_ms = self.ex.latency_ms
         self.walk = _Walk(model, seed)
-        self.back = max(int(-model._taps.min()) + SMOOTH, int(model.hop))
+        self.back = model._live_back
         self.past = np.zeros((0, len(LIVE_COLUMNS)), np.float32)
         self.pending = np.zeros((0, 3))
         self.k = 0            # frames emitted
