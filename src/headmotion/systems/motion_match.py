@@ -50,6 +50,7 @@ import numpy as np
 from ..align import fit_length
 from ..align import n_frames as _n_frames
 from ..errors import ParameterError
+from ..features import ANALYSIS_RATE
 from ..models.numpy_nets import inference_threads
 from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec
@@ -99,11 +100,10 @@ def descriptor_of_last(past: np.ndarray, taps: np.ndarray) -> np.ndarray:
     ``past`` — the rows up to that frame, at least as many as the taps and the smoothing reach
     back, or every row since the start (which is then repeated before it, as there)."""
     need = int(-taps.min()) + SMOOTH
-    p = np.asarray(past[-need:], dtype=np.float64)
+    p = np.asarray(past[-need:])
     if len(p) < need:
         p = np.concatenate([np.repeat(p[:1], need - len(p), 0), p])
-    s = _smooth(p, SMOOTH, causal=True)
-    return s[len(s) - 1 + taps].reshape(-1).astype(np.float32)
+    return speech_descriptors(p, taps, causal=True)[-1]
 
 
 class MotionMatch(Synthesizer):
@@ -217,7 +217,9 @@ class MotionMatch(Synthesizer):
         self.lib_feats_ = ((allf - self.feat_mean_) / self.feat_std_).astype(np.float32)
         self.lib_lengths_ = np.array([len(m) for m in motions], dtype=np.int64)
         self.mean_pose_ = mean_pose_of([r.motion.rotvec for r in recs])
-        self.sample_rate_, self.fps_ = int(recs[0].audio.sample_rate), FPS
+        # live: the features analyse (and the stream takes) audio at the analysis rate
+        self.sample_rate_ = ANALYSIS_RATE if self.live else int(recs[0].audio.sample_rate)
+        self.fps_ = FPS
         self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
         self.fit_warnings_ = []
         self._index()
@@ -375,10 +377,11 @@ class MotionMatch(Synthesizer):
 
     def _prosody(self, audio: Audio, n: int) -> np.ndarray:
         """The raw prosody columns matched, ``(n, 6)`` at 25 fps (``live``: ``(n, 5)`` of f0e-live)."""
-        if self.live:
-            from ..features.streaming import f0e_live
+        if self.live:  # resampled to the analysis rate, the rate the stream is pushed at
+            from ..features import extract
 
-            return f0e_live(audio, fps=FPS, n_frames=n, **LIVE_FEATURES)[0][:, LIVE_COLUMNS].astype(np.float32)
+            return np.asarray(extract("f0e-live", audio, fps=FPS, n_frames=n, **LIVE_FEATURES).values,
+                              dtype=np.float32)[:, LIVE_COLUMNS]
         return speech_features(audio, n)[:, PROSODY]
 
     def _degrees_to_motion(self, x: np.ndarray) -> Motion:
@@ -390,10 +393,6 @@ class MotionMatch(Synthesizer):
         n = _n_frames(len(audio.samples), audio.sample_rate, FPS)
         if n == 0:
             return Motion(np.zeros((0, 3)), FPS)
-        if self.live and audio.sample_rate != self.sample_rate_:  # the rate the stream is pushed at
-            from ..io.audio import resample
-
-            audio = Audio(resample(audio.samples, audio.sample_rate, self.sample_rate_), self.sample_rate_)
         f = ((self._prosody(audio, n) - self.feat_mean_) / self.feat_std_).astype(np.float32)
         with inference_threads(1):  # the search is matrix-vector products: fastest on one BLAS thread
             return self._degrees_to_motion(self.generate(f, seed))
