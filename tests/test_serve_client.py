@@ -12,6 +12,7 @@ from serve_helpers import SPEECH, registry, speech_f32
 
 from headmotion.io import load_audio
 from headmotion.serve.client import Client, ServerError
+from headmotion.serve.protocol import WS_PROTOCOL
 
 
 @pytest.fixture(scope="module")
@@ -24,7 +25,7 @@ def url(tmp_path_factory):
     kf = tmp_path_factory.mktemp("keys") / "keys.txt"
     kf.write_text(key_line("client-key", name="c") + "\n")
     app = create_app(ServeConfig(api_keys=str(kf)), registry=registry())
-    with running_app(app, ws="websockets-sansio") as u:
+    with running_app(app, ws=WS_PROTOCOL) as u:
         yield u.rstrip("/")
 
 

@@ -37,6 +37,14 @@ DEFAULT_MODEL = "default"
 #: the shipped model :func:`open_stream` uses unless told otherwise (causal)
 DEFAULT_STREAM_MODEL = "stream"
 
+#: the ranges of the controls, checked here for every front end (the command line, Python,
+#: ``headmotion serve``'s HTTP and stream): gain per axis (0 holds the mean pose; a negative gain
+#: would mirror the motion and is refused), offset per axis in degrees, seeds (with ``samples=K``,
+#: ``seed + K - 1``) — the range of numpy's legacy seeds, which some systems use
+GAIN_RANGE = (0.0, 10.0)
+OFFSET_RANGE_DEG = (-90.0, 90.0)
+SEED_MAX = 2 ** 32 - 1
+
 
 def _triple(value, what: str, *, degrees: bool = False) -> tuple[float, float, float]:
     """A number, a ``(pitch, yaw, roll)`` triple or a string ``"x"`` / ``"p,y,r"`` as 3 floats
@@ -63,6 +71,14 @@ def _per_axis(base: tuple, axes, what: str, *, degrees: bool = False) -> tuple[f
         if v is not None:
             out[j] = _triple(v, what, degrees=degrees)[0]
     return tuple(out)
+
+
+def _check_range(values: tuple, bounds: tuple, what: str, unit: str) -> None:
+    lo, hi = bounds
+    if not all(lo - 1e-9 <= v <= hi + 1e-9 for v in values):
+        got = ", ".join(f"{v:.6g}" for v in values)
+        raise ParameterError(f"{what} must be between {lo:g} and {hi:g}{unit} on every axis (pitch, yaw, roll); "
+                             f"got ({got}){unit}")
 
 
 @dataclass(frozen=True)
@@ -104,6 +120,8 @@ class Controls:
         set_ = object.__setattr__
         set_(self, "gain", _triple(self.gain, "gain"))
         set_(self, "offset", _triple(self.offset, "offset"))
+        _check_range(self.gain, GAIN_RANGE, "gain (--gain)", "")
+        _check_range(tuple(math.degrees(v) for v in self.offset), OFFSET_RANGE_DEG, "offset (--offset)", " degrees")
         set_(self, "still", bool(self.still))
         set_(self, "style_keep_pose", bool(self.style_keep_pose))
         s = self.style_strength
@@ -207,11 +225,16 @@ def _with_stochastic(model, mode: str | None, samples: int):
     return copy.copy(model).set_params(stochastic=mode)
 
 
-def _check_seed(seed, samples: int = 1) -> None:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ParameterError(f"seed (--seed) must be a whole number >= 0; got {seed!r}")
+def check_seed(seed, samples: int = 1) -> None:
+    """Refuse a seed outside ``0 … SEED_MAX`` (with ``samples=K``: ``seed + K - 1`` at most
+    :data:`SEED_MAX`) and a sample count below 1 (:class:`ParameterError` with the range)."""
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise ParameterError(f"samples (--samples) must be a whole number >= 1; got {samples!r}")
+    top = SEED_MAX - (int(samples) - 1)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= top:
+        more = f" (seed + samples - 1 at most {SEED_MAX})" if samples > 1 else ""
+        raise ParameterError(f"seed (--seed) must be a whole number from 0 to {top}{more}; got {seed!r:.40}")
+
 
 
 def reads_in_blocks(model, audio) -> bool:
@@ -300,7 +323,7 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int = 0, samples: int = 1, c
         ``samples`` motions, at ``controls.fps`` or the model's frame rate.
     """
     c = _controls(controls, controls_kwargs)
-    _check_seed(seed, samples)
+    check_seed(seed, samples)
     m = load_model(model)
     speech, duration, in_blocks = _speech(audio, m)
     reference = _style_reference(c)
@@ -380,7 +403,7 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int = 0, sample_rate: int |
         ``push(samples) -> Motion`` (the frames now final, maybe none), ``flush() -> Motion``.
     """
     c = _controls(controls, controls_kwargs)
-    _check_seed(seed)
+    check_seed(seed)
     m = load_model(model)
     if c.style_from is not None:
         raise ParameterError("style_from needs the whole recording: use synthesize, not a stream")
@@ -395,5 +418,6 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int = 0, sample_rate: int |
     return SpeechStream(m, inner, c, int(m.sample_rate) if sample_rate is None else int(sample_rate))
 
 
-__all__ = ["DEFAULT_MODEL", "DEFAULT_STREAM_MODEL", "Controls", "ShippedModel", "SpeechStream", "apply_controls",
+__all__ = ["DEFAULT_MODEL", "DEFAULT_STREAM_MODEL", "GAIN_RANGE", "OFFSET_RANGE_DEG", "SEED_MAX", "check_seed",
+           "Controls", "ShippedModel", "SpeechStream", "apply_controls",
            "list_models", "load_model", "open_stream", "reads_in_blocks", "synthesize"]

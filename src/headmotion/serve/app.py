@@ -17,19 +17,23 @@ from pathlib import Path
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
+from fastapi.middleware.cors import CORSMiddleware
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
+from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import WebSocketRoute
 
-from ..errors import HeadMotionError
+from ..errors import HeadMotionError, ParameterError
 from . import engine
-from .access import ApiError, authorize
+from .access import ApiError, identify
 from .auth import KeyStore, RateLimiter, Slots, load_keys
 from .config import ServeConfig
 from .metrics import Metrics, log_event
 from .models import Registry, UnknownModel
 from .security import Guard, allowed_hosts, plain
 
+#: the router's own HTTP answers → the error kind they carry
+HTTP_KINDS = {404: "not_found", 405: "method_not_allowed"}
 STATIC = Path(__file__).resolve().parent / "static"
 VIEWER_STATIC = Path(__file__).resolve().parents[1] / "web" / "static"
 
@@ -96,7 +100,7 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
     ASGI app (the Host/Origin guard around FastAPI).
     """
     from . import offline
-    from .stream import stream_endpoint
+    from .stream import no_such_stream, stream_endpoint
 
     config = config or ServeConfig()
     keys = KeyStore(None if config.api_keys is None else load_keys(config.api_keys))
@@ -125,9 +129,19 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
 
     @app.exception_handler(HeadMotionError)
     async def library_error(_request: Request, exc: HeadMotionError):
-        kind = "unknown_model" if isinstance(exc, UnknownModel) else "bad_input"
+        kind = ("unknown_model" if isinstance(exc, UnknownModel) else
+                "bad_parameter" if isinstance(exc, ParameterError) else "bad_input")
         st.metrics.errors.labels(kind).inc()
         return JSONResponse({"error": kind, "detail": str(exc)}, status_code=404 if kind == "unknown_model" else 400)
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, exc: StarletteHTTPException):
+        # the router's own answers (no such route, method not allowed) in the API's one error shape
+        kind = HTTP_KINDS.get(exc.status_code, "http_error")
+        detail = {404: f"no route {request.url.path!r}; the API is described at /openapi.json",
+                  405: f"{request.method} is not allowed on {request.url.path!r}"}.get(exc.status_code, str(exc.detail))
+        st.metrics.errors.labels(kind).inc()
+        return JSONResponse({"error": kind, "detail": detail}, status_code=exc.status_code, headers=exc.headers)
 
     @app.exception_handler(RequestValidationError)
     async def validation_error(_request: Request, exc: RequestValidationError):
@@ -139,22 +153,25 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
     def healthz():
         return {"status": "ok"}
 
-    @app.get("/readyz", tags=["operations"], summary="The models are loaded")
-    def readyz():
+    @app.get("/readyz", tags=["operations"], summary="The models are loaded (open streams: with a key)")
+    def readyz(request: Request):
         if not reg.ready:
             return JSONResponse({"status": "failed" if reg.error else "loading", "error": reg.error}, status_code=503)
-        return {"status": "ready", "models": sorted(reg.models), "open_streams": st.slots.total()}
+        out = {"status": "ready", "models": sorted(reg.models)}
+        if keys.identify(request.headers.get("authorization")) is not None:  # the load is not for strangers
+            out["open_streams"] = st.slots.total()
+        return out
 
     @app.get("/metrics", tags=["operations"], summary="Prometheus metrics")
     def metrics(request: Request):
-        if keys.required:
-            authorize(request, st)
+        if keys.required:  # a key, but not a request against its rate (scrapes are not calls)
+            request.state.key = identify(st, request.headers.get("authorization")).name
         body, ctype = st.metrics.render()
         return Response(body, media_type=ctype)
 
     @app.get("/v1/models", tags=["motion"], summary="The models this server offers, with their cards")
     def models(request: Request):
-        authorize(request, st)
+        request.state.key = identify(st, request.headers.get("authorization")).name  # not counted against the rate
         reg.check_ready()
         return {"models": [reg.cards[n] for n in sorted(reg.cards)],
                 "default_offline": engine.DEFAULT_OFFLINE, "default_stream": engine.DEFAULT_STREAM}
@@ -165,8 +182,14 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
 
     app.include_router(offline.router)
     app.router.routes.append(WebSocketRoute("/v1/stream", stream_endpoint))
+    app.router.routes.append(WebSocketRoute("/{path:path}", no_such_stream))  # after every real route
     app.mount("/v1/example/static", StaticFiles(directory=STATIC), name="example-static")
     app.mount("/v1/example/viewer", StaticFiles(directory=VIEWER_STATIC), name="example-viewer")
+    if config.allowed_origins:  # a page on an allowed origin may call the HTTP API (CORS; preflight answered)
+        app.add_middleware(CORSMiddleware, allow_origins=[o.rstrip("/").lower() for o in config.allowed_origins],
+                           allow_methods=["GET", "POST"], allow_headers=["authorization", "content-type"],
+                           expose_headers=["content-disposition", "retry-after", "x-headmotion-model"],
+                           max_age=600)
     guarded = Guard(AccessLog(app, lambda: st), hosts=allowed_hosts(config.host, config.allowed_hosts),
                     origins=config.allowed_origins)
     guarded.state = app.state  # tests reach the shared state through the outer app

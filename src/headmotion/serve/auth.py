@@ -154,11 +154,28 @@ class RateLimiter:
 
 
 class Slots:
-    """Concurrent streams per key."""
+    """Concurrent streams per key, and connections not yet started (their key not yet known), which
+    count toward the worker's stream limit (:meth:`load`) as open streams do."""
 
     def __init__(self):
         self.open: dict[str, int] = {}
+        self.pending = 0
         self.lock = threading.Lock()
+
+    def enter(self) -> None:
+        """A connection admitted, not yet a stream."""
+        with self.lock:
+            self.pending += 1
+
+    def leave(self) -> None:
+        """A connection admitted earlier became a stream or went away."""
+        with self.lock:
+            self.pending = max(0, self.pending - 1)
+
+    def load(self) -> int:
+        """Open streams plus connections not yet started."""
+        with self.lock:
+            return sum(self.open.values()) + self.pending
 
     def take(self, key: Key) -> bool:
         with self.lock:

@@ -24,7 +24,9 @@ class Limits:
     max_message_bytes: int = 1024 * 1024         # one WebSocket message (~32 s of 16 kHz float32)
     idle_timeout_s: float = 30.0                 # a stream that sends nothing this long is closed
     start_timeout_s: float = 10.0                # time to send the first (start) message
-    queue_messages: int = 200                    # unsent frame messages per stream (~2 s at 10 ms chunks)
+    queue_messages: int = 200                    # unsent frame messages per stream; when full, no more audio
+                                                 # is read from that client until one is sent
+    send_timeout_s: float = 10.0                 # a full queue that sends nothing this long: too_slow
     max_streams: int = 64                        # open streams per worker, all keys together
 
 

@@ -21,6 +21,11 @@ from ..types import Audio, Motion
 #: the models shipped in the package, by the names the API knows them by
 SHIPPED = {name: data_dir() / file for name, file in SHIPPED_FILES.items()}
 DEFAULT_OFFLINE, DEFAULT_STREAM = "default", "stream"
+#: the service's own ranges (the controls' ranges are :mod:`headmotion.synthesis`'s, checked by
+#: :class:`Controls` and :func:`check_seed`): output frame rate, samples per offline request
+FPS_RANGE = (1.0, 1000.0)
+MAX_SAMPLES = 16
+check_seed = synthesis.check_seed
 
 
 class Controls(synthesis.Controls):
@@ -38,8 +43,9 @@ class Controls(synthesis.Controls):
                 fps = float(fps)
             except (TypeError, ValueError):
                 raise ParameterError(f"fps must be a number of frames per second; got {fps!r}") from None
-            if not (np.isfinite(fps) and 1.0 <= fps <= 1000.0):
-                raise ParameterError(f"fps must be between 1 and 1000 frames per second; got {fps}")
+            lo, hi = FPS_RANGE
+            if not (np.isfinite(fps) and lo <= fps <= hi):
+                raise ParameterError(f"fps must be between {lo:g} and {hi:g} frames per second; got {fps}")
         return super().parse(gain=gain, offset_degrees=offset_deg, gain_pyr=gain_pyr,
                              offset_pyr_degrees=offset_pyr_deg, still=still, fps=fps)
 
@@ -84,8 +90,8 @@ def synthesize(model, audio: Audio, *, seed: int = 0, samples: int = 1,
                controls: Controls = Controls()) -> list[Motion]:
     """``samples`` motions for ``audio`` (sample k with seed ``seed + k``) from
     :func:`headmotion.synthesis.synthesize`, the controls applied as ``headmotion synth`` applies them."""
-    if not 1 <= int(samples) <= 16:
-        raise ParameterError(f"samples must be between 1 and 16; got {samples}")
+    if not 1 <= int(samples) <= MAX_SAMPLES:
+        raise ParameterError(f"samples must be between 1 and {MAX_SAMPLES}; got {samples}")
     return synthesis.synthesize(audio, model, seed=seed, samples=int(samples), controls=controls)
 
 
@@ -108,5 +114,5 @@ def check_loaded(files: dict[str, Path]) -> None:
         raise ModelFileError("no model to serve: the shipped models are missing and no --models folder was given")
 
 
-__all__ = ["Controls", "SHIPPED", "DEFAULT_OFFLINE", "DEFAULT_STREAM", "model_files", "load", "card",
+__all__ = ["Controls", "FPS_RANGE", "MAX_SAMPLES", "check_seed", "SHIPPED", "DEFAULT_OFFLINE", "DEFAULT_STREAM", "model_files", "load", "card",
            "synthesize", "open_stream", "check_loaded"]

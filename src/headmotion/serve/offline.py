@@ -12,6 +12,7 @@ and ``sample_rate=HZ`` — and the controls are query parameters (``model``, ``s
 
 from __future__ import annotations
 
+import inspect
 import io
 import json
 import tempfile
@@ -25,11 +26,14 @@ from fastapi import APIRouter, Query, Request
 from fastapi.responses import Response
 
 from ..errors import AudioLoadingError, ParameterError
+from ..synthesis import GAIN_RANGE, OFFSET_RANGE_DEG, SEED_MAX
 from ..types import Audio
 from . import engine
 from .access import ApiError, authorize
 
 router = APIRouter()
+_G = f"{GAIN_RANGE[0]:g} to {GAIN_RANGE[1]:g}"
+_O = f"{OFFSET_RANGE_DEG[0]:g} to {OFFSET_RANGE_DEG[1]:g}"
 
 #: ``format`` → (file suffix, media type)
 FORMATS = {"json": (".json", "application/json"), "bvh": (".bvh", "text/plain; charset=utf-8"),
@@ -140,16 +144,19 @@ def encode_motions(motions, fmt: str) -> tuple[bytes, str]:
 async def motion(
     request: Request,
     model: Optional[str] = Query(None, description="Model name (GET /v1/models); default 'default'."),
-    seed: int = Query(0, ge=0, description="Synthesis seed; sample k uses seed + k."),
-    samples: int = Query(1, ge=1, le=16, description="Number of samples."),
-    gain: Optional[str] = Query(None, description="Amplitude about the mean pose: G or P,Y,R."),
-    gain_pitch: Optional[float] = Query(None), gain_yaw: Optional[float] = Query(None),
-    gain_roll: Optional[float] = Query(None),
-    offset: Optional[str] = Query(None, description="Degrees added after the gain: D or P,Y,R."),
-    offset_pitch: Optional[float] = Query(None), offset_yaw: Optional[float] = Query(None),
-    offset_roll: Optional[float] = Query(None),
+    seed: int = Query(0, description=f"Synthesis seed, 0 to {SEED_MAX}; sample k uses seed + k."),
+    samples: int = Query(1, ge=1, le=engine.MAX_SAMPLES, description="Number of samples."),
+    gain: Optional[str] = Query(None, description=f"Amplitude about the mean pose, {_G} on each axis: G or P,Y,R."),
+    gain_pitch: Optional[float] = Query(None, description=f"Pitch amplitude, {_G}."),
+    gain_yaw: Optional[float] = Query(None, description=f"Yaw amplitude, {_G}."),
+    gain_roll: Optional[float] = Query(None, description=f"Roll amplitude, {_G}."),
+    offset: Optional[str] = Query(None, description=f"Degrees added after the gain, {_O} on each axis: D or P,Y,R."),
+    offset_pitch: Optional[float] = Query(None, description=f"Degrees added to pitch, {_O}."),
+    offset_yaw: Optional[float] = Query(None, description=f"Degrees added to yaw, {_O}."),
+    offset_roll: Optional[float] = Query(None, description=f"Degrees added to roll, {_O}."),
     still: bool = Query(False, description="A head that does not move (rest pose plus offset)."),
-    fps: Optional[float] = Query(None, description="Output frame rate (default: the model's)."),
+    fps: Optional[float] = Query(None, description=f"Output frame rate, {engine.FPS_RANGE[0]:g} to "
+                                                   f"{engine.FPS_RANGE[1]:g} (default: the model's)."),
     format: Literal["json", "bvh", "npz", "csv", "gltf", "glb"] = Query("json"),
     encoding: Optional[Literal["s16le", "f32le"]] = Query(None, description="Raw PCM body: its encoding."),
     sample_rate: Optional[int] = Query(None, description="Raw PCM body: its sample rate (Hz)."),
@@ -157,9 +164,11 @@ async def motion(
     st = request.app.state.serve
     authorize(request, st)
     t0 = time.perf_counter()
+    check_query(request, QUERY)
     try:
         controls = engine.Controls.parse(gain=gain, offset_deg=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
                                          offset_pyr_deg=(offset_pitch, offset_yaw, offset_roll), still=still, fps=fps)
+        engine.check_seed(seed, samples)
     except ParameterError as exc:
         raise ApiError(400, "bad_parameter", str(exc)) from None
     name, m = st.registry.get(model, default=engine.DEFAULT_OFFLINE)
@@ -185,4 +194,17 @@ async def motion(
         "content-disposition": f'attachment; filename="motion{suffix}"', "x-headmotion-model": name})
 
 
-__all__ = ["router", "decode_audio", "encode_motions", "read_body", "FORMATS"]
+def check_query(request: Request, known) -> None:
+    """400 ``bad_parameter`` naming any query parameter the route does not take (a misspelt
+    control is refused rather than ignored)."""
+    unknown = sorted(set(request.query_params) - set(known))
+    if unknown:
+        raise ApiError(400, "bad_parameter", f"unknown query parameter{'s' if len(unknown) > 1 else ''} "
+                                             f"{', '.join(repr(u[:40]) for u in unknown[:5])}; "
+                                             f"this route takes {sorted(known)}")
+
+
+#: the query parameters of ``POST /v1/motion`` (the arguments of :func:`motion` but the request)
+QUERY = tuple(p for p in inspect.signature(motion).parameters if p != "request")
+
+__all__ = ["router", "check_query", "QUERY", "decode_audio", "encode_motions", "read_body", "FORMATS"]

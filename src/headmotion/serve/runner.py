@@ -13,10 +13,13 @@ from __future__ import annotations
 
 import os
 import shutil
+import socket
 import tempfile
 from pathlib import Path
 
+from ..errors import ParameterError
 from .config import ENV, ServeConfig, check_bind
+from .protocol import WS_PROTOCOL
 
 GRACE_S = 10
 
@@ -31,7 +34,23 @@ def preflight(config: ServeConfig) -> dict:
         load_keys(config.api_keys)
     files = engine.model_files(None if config.models_dir is None else Path(config.models_dir))
     engine.check_loaded(files)
+    check_port(config.host, config.port)
     return files
+
+
+def check_port(host: str, port: int) -> None:
+    """Refuse a port another program listens on, before anything is announced (uvicorn binds it
+    with the same options a moment later)."""
+    if not port:
+        return
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    try:
+        with socket.socket(family, socket.SOCK_STREAM) as s:
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            s.bind((host.strip("[]"), int(port)))
+    except OSError as exc:
+        raise ParameterError(f"cannot listen on {host}:{port}: {exc.strerror or exc} (is another program "
+                             f"using the port? choose another with --port)") from None
 
 
 def run(config: ServeConfig, *, workers: int = 1, announce=print) -> None:
@@ -50,7 +69,7 @@ def run(config: ServeConfig, *, workers: int = 1, announce=print) -> None:
              f"{'API keys required' if config.api_keys else 'no keys: localhost only'}")
     try:
         uvicorn.run("headmotion.serve.app:app_from_env", factory=True, host=config.host, port=config.port,
-                    workers=workers, ws="websockets-sansio",
+                    workers=workers, ws=WS_PROTOCOL,
                     ws_max_size=4 * config.limits.max_message_bytes, access_log=False,
                     log_level="warning", timeout_graceful_shutdown=GRACE_S, server_header=False)
     finally:
@@ -58,4 +77,4 @@ def run(config: ServeConfig, *, workers: int = 1, announce=print) -> None:
             shutil.rmtree(metrics_dir, ignore_errors=True)
 
 
-__all__ = ["preflight", "run", "GRACE_S"]
+__all__ = ["preflight", "check_port", "run", "GRACE_S"]

@@ -60,11 +60,12 @@ class Guard:
         origin = None if origin is None else origin.decode("latin-1")
         refusal = None
         if split_host(host) not in self.hosts:
-            refusal = (400, "host not allowed (start the server with --allowed-host NAME to serve this name)")
+            refusal = (400, "host not allowed (start the server with --allowed-host NAME to serve this name)",
+                       "bad_host")
         elif (kind == "websocket" or scope.get("method") not in ("GET", "HEAD", "OPTIONS")) and \
                 not origin_ok(origin, host, self.origins):
             refusal = (403, "cross-origin request refused (start the server with --allowed-origin ORIGIN "
-                            "to accept this page)")
+                            "to accept this page)", "bad_origin")
         if refusal is not None:
             if kind == "websocket":
                 await receive()  # websocket.connect

@@ -44,15 +44,20 @@ from .metrics import log_event
 HEADER = struct.Struct("<4sIIfd")
 MAGIC = b"HMF1"
 ENCODINGS = {"s16le": ("<i2", 32768.0), "f32le": ("<f4", 1.0)}
-START_FIELDS = {"type", "model", "sample_rate", "encoding", "seed", "frames", "gain", "offset", "still", "api_key"}
+START_FIELDS = {"type", "model", "sample_rate", "encoding", "seed", "frames", "gain", "offset", "still", "resample",
+                "api_key"}
+#: ``resample`` → soxr quality: ``exact`` resamples as ``POST /v1/motion`` does (the stream's frames
+#: are the offline answer's; ~20 ms of resampling delay), ``fast`` with less delay (~10 ms) and
+#: frames that may differ from the offline answer by a few degrees
+RESAMPLE = {"exact": "HQ", "fast": "LQ"}
 
 
 class ProtocolError(Exception):
     """A message the protocol does not allow: ``kind``, a sentence and the close code."""
 
-    def __init__(self, kind: str, detail: str, code: int = 1008):
+    def __init__(self, kind: str, detail: str, code: int = 1008, extra: dict | None = None):
         super().__init__(detail)
-        self.kind, self.detail, self.code = kind, detail, code
+        self.kind, self.detail, self.code, self.extra = kind, detail, code, extra or {}
 
 
 @dataclass(frozen=True)
@@ -64,6 +69,7 @@ class Start:
     frames: str
     controls: engine.Controls
     api_key: str | None
+    resample: str = "exact"
 
 
 def parse_start(text: str | None) -> Start:
@@ -92,8 +98,13 @@ def parse_start(text: str | None) -> Start:
     if not isinstance(enc, str) or enc not in ENCODINGS:
         raise bad(f"encoding must be one of {sorted(ENCODINGS)}; got {enc!r:.40}")
     seed = obj.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2 ** 32:
-        raise bad(f"seed must be a whole number from 0 to 2**32-1; got {seed!r:.40}")
+    try:
+        engine.check_seed(seed)
+    except HeadMotionError as exc:
+        raise bad(str(exc).replace(" (--seed)", "")) from None
+    resample = obj.get("resample", "exact")
+    if not isinstance(resample, str) or resample not in RESAMPLE:
+        raise bad(f"resample must be one of {sorted(RESAMPLE)}; got {resample!r:.40}")
     frames = obj.get("frames", "json")
     if not isinstance(frames, str) or frames not in ("json", "binary"):
         raise bad(f"frames must be 'json' or 'binary'; got {frames!r:.40}")
@@ -106,7 +117,7 @@ def parse_start(text: str | None) -> Start:
                                          still=_flag(obj.get("still", False)))
     except HeadMotionError as exc:
         raise bad(str(exc)) from None
-    return Start(model, sr, enc, seed, frames, controls, key)
+    return Start(model, sr, enc, seed, frames, controls, key, resample)
 
 
 def _number_or_triple(v, what):
@@ -166,9 +177,30 @@ class _Closed(Exception):
     pass
 
 
+#: the first message of a connection whose key is not yet known (no ``Authorization`` header on
+#: the handshake) may be this large at most: a start message, not audio
+UNAUTHENTICATED_MESSAGE_BYTES = 64 * 1024
+#: close codes of the WebSocket layer → the stream's status
+_CLOSED_STATUS = {1012: "server_shutdown", 1009: "too_large"}
+
+
 async def stream_endpoint(websocket) -> None:
     """The ``/v1/stream`` handler: one session per connection."""
     await Session(websocket, websocket.app.state.serve).run()
+
+
+async def no_such_stream(websocket) -> None:
+    """Any other WebSocket path: one error message ``not_found`` and close 1008 (rather than the
+    bare 403 a refused handshake gives)."""
+    await websocket.accept()
+    path = websocket.scope.get("path", "")
+    detail = f"no WebSocket at {path[:60]!r}; the stream is /v1/stream"
+    websocket.app.state.serve.metrics.errors.labels("not_found").inc()
+    try:
+        await websocket.send_text(json.dumps({"type": "error", "error": "not_found", "detail": detail}))
+        await websocket.close(1008, reason=f"not_found: {detail}"[:120])
+    except Exception:  # noqa: BLE001 - the client is gone already
+        pass
 
 
 class Session:
@@ -178,6 +210,7 @@ class Session:
         self.ws, self.st, self.lim = ws, st, st.config.limits
         self.key = None
         self.slot = False
+        self.pending = False  # admitted, not yet a stream: counts toward the worker's stream limit
         self.queue: asyncio.Queue = asyncio.Queue(maxsize=self.lim.queue_messages)
         self.sender = None
         self.frames = 0
@@ -189,6 +222,7 @@ class Session:
         await self.ws.accept()
         status, reason = "ok", None
         try:
+            self._admit()
             start = await self._start()
             await self._loop(start)
         except ProtocolError as exc:
@@ -196,15 +230,19 @@ class Session:
             await self._fail(exc)
         except ApiError as exc:
             status, reason = exc.kind, exc.detail
-            await self._fail(ProtocolError(exc.kind, exc.detail, 1013 if exc.status == 429 else 1008))
+            retry = exc.headers.get("retry-after")
+            await self._fail(ProtocolError(exc.kind, exc.detail, 1013 if exc.status in (429, 503) else 1008,
+                                           None if retry is None else {"retry_after": int(retry)}))
         except HeadMotionError as exc:  # an unknown model, a model that cannot stream, bad controls
             from .models import UnknownModel
 
             kind = "unknown_model" if isinstance(exc, UnknownModel) else "bad_start"
             status, reason = kind, str(exc)
             await self._fail(ProtocolError(kind, str(exc)))
-        except _Closed as exc:  # 1012: the server shuts down (uvicorn closes open streams with it)
-            status = "server_shutdown" if exc.args and exc.args[0] == 1012 else "client_closed"
+        except _Closed as exc:  # 1012: the server shuts down; 1009: a message over the WebSocket layer's limit
+            status = _CLOSED_STATUS.get(exc.args[0] if exc.args else None, "client_closed")
+            if status == "too_large":
+                reason = "a message over the WebSocket size limit (closed by the WebSocket layer)"
         except Exception as exc:  # a bug: the client is told, the server carries on
             status, reason = "internal", f"{type(exc).__name__}: {exc}"[:200]
             await self._fail(ProtocolError("internal", "internal error; the stream was closed", 1011))
@@ -227,27 +265,44 @@ class Session:
             raise _Closed(msg.get("code"))
         return msg
 
+    def _admit(self) -> None:
+        """Refuse a connection past the worker's stream limit (open streams and connections not
+        yet started count alike), before anything is read from it."""
+        if self.st.slots.load() >= self.lim.max_streams:
+            raise ProtocolError("busy", f"this worker carries its limit of {self.lim.max_streams} streams; "
+                                        f"try again later", 1013, {"retry_after": 1})
+        self.st.slots.enter()
+        self.pending = True
+
     async def _start(self):
-        msg = await self._receive(self.lim.start_timeout_s)
         header = dict(self.ws.scope.get("headers") or []).get(b"authorization")
         header = None if header is None else header.decode("latin-1")
-        if self.st.keys.required and header is None and msg.get("text"):
-            try:  # a browser's key travels in the start message
-                k = json.loads(msg["text"]).get("api_key")
-                header = f"Bearer {k}" if isinstance(k, str) else None
-            except (ValueError, AttributeError, RecursionError):
-                pass
-        self.key = identify(self.st, header)  # before anything else is looked at: a stranger learns nothing
+        limit_size = (self.ws.scope.get("extensions") or {}).get("headmotion.max_size")
+        if header is not None or not self.st.keys.required:
+            self.key = identify(self.st, header)  # before anything is read: a stranger learns nothing
+        elif limit_size is not None:  # the key will come in the start message: until then, no large messages
+            limit_size(UNAUTHENTICATED_MESSAGE_BYTES)
+        msg = await self._receive(self.lim.start_timeout_s)
+        if self.key is None:  # a browser's key travels in the start message
+            text = msg.get("text") if msg.get("bytes") is None else None
+            k = None
+            if text is not None and len(text) <= UNAUTHENTICATED_MESSAGE_BYTES:
+                try:
+                    k = json.loads(text).get("api_key")
+                except (ValueError, AttributeError, RecursionError):
+                    pass
+            self.key = identify(self.st, f"Bearer {k}" if isinstance(k, str) else None)
+            if limit_size is not None:
+                limit_size(None)
         start = parse_start(msg.get("text") if msg.get("bytes") is None else None)
         check_rate(self.st, self.key)
         name, model = self.st.registry.get(start.model, default=engine.DEFAULT_STREAM, streaming=True)
-        if self.st.slots.total() >= self.lim.max_streams:
-            raise ProtocolError("busy", f"this worker carries its limit of {self.lim.max_streams} streams; "
-                                        f"try again later", 1013)
         if not self.st.slots.take(self.key):
             raise ProtocolError("too_many_streams", f"key {self.key.name!r} has its {self.key.streams} concurrent "
                                                     f"streams open", 1013)
         self.slot = True
+        self.pending = False
+        self.st.slots.leave()
         self.st.metrics.active_streams.inc()
         self.model, self.name, self.start = model, name, start
         self.log = {"model": name, "encoding": start.encoding, "frames_format": start.frames,
@@ -264,7 +319,7 @@ class Session:
             stream = engine.open_stream(model, seed=start.seed, controls=start.controls)
         except HeadMotionError as exc:
             raise ProtocolError("bad_start", str(exc)) from None
-        resample = Resampler(sr, model_sr)
+        resample = Resampler(sr, model_sr, quality=RESAMPLE[start.resample])
         fps = float(model.frame_rate)
         self.sender = asyncio.create_task(self._send_loop())
         await self._put(json.dumps({"type": "ready", "model": self.name, "system": model.name, "fps": fps,
@@ -312,14 +367,29 @@ class Session:
             self.st.metrics.frames.inc(n)
 
     async def _put(self, item, t_recv) -> None:
-        if self.sender is not None and self.sender.done():
-            exc = self.sender.exception()
-            raise exc if exc is not None else _Closed()
+        """Queue one outgoing message.  A full queue holds the stream: no more audio is read from
+        the client (TCP passes the pause on to its sender) until a message has gone out; a client
+        that lets nothing go out for ``send_timeout_s`` is closed with ``too_slow``."""
+        self._check_sender()
         try:
             self.queue.put_nowait((item, t_recv))
         except asyncio.QueueFull:
-            raise ProtocolError("too_slow", f"the client is too far behind: {self.queue.qsize()} messages "
-                                            f"unsent; the stream was closed") from None
+            pass
+        else:
+            return
+        putter = asyncio.ensure_future(self.queue.put((item, t_recv)))
+        done, _ = await asyncio.wait({putter, self.sender}, timeout=self.lim.send_timeout_s,
+                                     return_when=asyncio.FIRST_COMPLETED)
+        if putter not in done:
+            putter.cancel()
+            self._check_sender()
+            raise ProtocolError("too_slow", f"the client read none of its {self.queue.qsize()} waiting frame "
+                                            f"messages in {self.lim.send_timeout_s:g} s; the stream was closed")
+
+    def _check_sender(self) -> None:
+        if self.sender is not None and self.sender.done():
+            exc = None if self.sender.cancelled() else self.sender.exception()
+            raise exc if exc is not None else _Closed()
 
     async def _send_loop(self) -> None:
         from starlette.websockets import WebSocketDisconnect
@@ -350,19 +420,24 @@ class Session:
 
     async def _fail(self, exc: ProtocolError) -> None:
         await self._stop_sender()
-        try:
-            await self.ws.send_text(json.dumps({"type": "error", "error": exc.kind, "detail": exc.detail}))
-            await self.ws.close(exc.code, reason=f"{exc.kind}: {exc.detail}"[:120])
-        except Exception:  # the client is gone already
+        try:  # a client that reads nothing cannot be told; it is left after send_timeout_s
+            async with asyncio.timeout(self.lim.send_timeout_s):
+                await self.ws.send_text(json.dumps({"type": "error", "error": exc.kind, "detail": exc.detail,
+                                                    **exc.extra}))
+                await self.ws.close(exc.code, reason=f"{exc.kind}: {exc.detail}"[:120])
+        except Exception:  # noqa: BLE001 - the client is gone already, or does not read
             pass
 
     async def _release(self) -> None:
         await self._stop_sender()
+        if self.pending:
+            self.pending = False
+            self.st.slots.leave()
         if self.slot:
             self.slot = False
             self.st.slots.give(self.key)
             self.st.metrics.active_streams.dec()
 
 
-__all__ = ["stream_endpoint", "parse_start", "decode_chunk", "frames_message", "parse_binary_frames",
+__all__ = ["stream_endpoint", "no_such_stream", "UNAUTHENTICATED_MESSAGE_BYTES", "RESAMPLE", "parse_start", "decode_chunk", "frames_message", "parse_binary_frames",
            "ProtocolError", "Start", "HEADER", "MAGIC"]
