@@ -25,8 +25,9 @@ def registry(*names):
     return _REG[names]
 
 
-def client(tmp_path=None, *, keys=None, names=("stream",), **limits):
-    """A TestClient of an app on localhost; ``keys``: [(key, name, streams, rate)] written hashed."""
+def client(tmp_path=None, *, keys=None, names=("stream",), origins=(), **limits):
+    """A TestClient of an app on localhost; ``keys``: [(key, name, streams, rate)] written hashed;
+    ``origins``: the allowed web page origins."""
     from headmotion.serve.app import create_app
     from headmotion.serve.auth import key_line
     from headmotion.serve.config import Limits, ServeConfig
@@ -38,7 +39,8 @@ def client(tmp_path=None, *, keys=None, names=("stream",), **limits):
     if keys:
         key_file = Path(tmp_path) / "keys.txt"
         key_file.write_text("".join(key_line(k, name=n, streams=s, rate=r) + "\n" for k, n, s, r in keys))
-    cfg = ServeConfig(api_keys=None if key_file is None else str(key_file), limits=Limits(**limits))
+    cfg = ServeConfig(api_keys=None if key_file is None else str(key_file), allowed_origins=tuple(origins),
+                      limits=Limits(**limits))
     return TestClient(create_app(cfg, registry=registry(*names)), base_url="http://localhost")
 
 

@@ -219,10 +219,12 @@ class Session:
         self.log = {}
 
     async def run(self) -> None:
-        await self.ws.accept()
         status, reason = "ok", None
         try:
-            self._admit()
+            try:
+                self._admit()  # counted from before the handshake completes
+            finally:
+                await self.ws.accept()
             start = await self._start()
             await self._loop(start)
         except ProtocolError as exc:
