@@ -82,9 +82,11 @@ def test_speech_descriptors_look_back_and_ahead():
 
 @pytest.mark.parametrize("bad", [{"hop": 0}, {"top_k": 0}, {"temperature": 0.0}, {"switch_cost": -1.0},
                                  {"mirror": "yes"}, {"target_weight": float("nan")}, {"goal_path": 1},
-                                 {"pause_speed": "yes"}, {"pause_switch": -1.0}, {"live": "yes"}])
+                                 {"pause_speed": "yes"}, {"pause_switch": -1.0}, {"live": "yes"},
+                                 {"lowpass": 0.2}, {"lowpass": 12.5}, {"posture_s": -1.0}, {"prosody": "mfcc"},
+                                 {"prosody": "f0e", "live": True}])
 def test_bad_parameters_are_refused(bad, corpus):
-    with pytest.raises(ParameterError, match=next(iter(bad))):
+    with pytest.raises(ParameterError, match=list(bad)[-1]):
         create("motion-match", **bad).fit(corpus)
 
 
@@ -252,3 +254,90 @@ def test_causal_descriptor_of_the_last_frame_equals_the_whole_tracks():
     g = f.copy()
     g[20:] += 5.0
     np.testing.assert_array_equal(speech_descriptors(g, taps, causal=True)[:20], whole[:20])
+
+
+@pytest.fixture(scope="module")
+def windowed(corpus):
+    return create("motion-match", prosody="f0e-live", lowpass=4.0, posture_s=3.0).fit(corpus)
+
+
+@pytest.mark.parametrize("chunk", [160, 4001])
+def test_on_f0e_live_prosody_it_streams_with_lookahead_and_the_stream_equals_predict(windowed, corpus, chunk):
+    """Not live, on the f0e-live prosody: the system streams with the lookahead its decisions
+    read (the features' 39 ms + hop + lookahead + 2 frames at 25 fps) and the stream's frames equal
+    predict's bit for bit, whatever the chunking."""
+    audio = corpus[1].audio.slice_seconds(0, 9.0)
+    assert windowed.can_stream and not windowed.causal
+    out = windowed.predict(audio, seed=5)
+    st = windowed.stream(seed=5)
+    x = audio.samples
+    parts = [st.push(x[i:i + chunk]) for i in range(0, len(x), chunk)] + [st.flush()]
+    np.testing.assert_array_equal(np.concatenate([p.rotvec for p in parts]), out.rotvec)
+    ahead = windowed.hop + windowed.lookahead + 2
+    assert st.latency_ms == pytest.approx(live_latency(windowed) + 1000.0 * ahead / FPS)
+
+
+def live_latency(model) -> float:
+    from headmotion.features.streaming import StreamingF0e
+    from headmotion.systems.motion_match import LIVE_FEATURES
+
+    return StreamingF0e(sample_rate=model.sample_rate, fps=FPS, **LIVE_FEATURES).latency_ms
+
+
+def test_the_windowed_decisions_equal_the_whole_file_ones(corpus):
+    """On the f0e-live prosody a decision's inputs come from a window around it; they equal the
+    descriptors, goals and pause test computed over the whole track (the window reaches as far as
+    a decision reads)."""
+    m = create("motion-match", prosody="f0e-live").fit(corpus)
+    audio = corpus[2].audio.slice_seconds(0, 12.0)
+    n = int(12.0 * FPS)
+    f = ((m._prosody(audio, n) - m.feat_mean_) / m.feat_std_).astype(np.float32)
+    desc = speech_descriptors(f, m._taps)
+    back, ahead = m._reach
+    for t in (0, 15, 150, n - 15):
+        lo = max(0, t - back)
+        d, goal, _ = m.window_inputs(f[lo:t + ahead + 1], t - lo)
+        np.testing.assert_allclose(d, desc[t], atol=1e-5)
+        np.testing.assert_allclose(goal, m.goals(desc[np.minimum(t + m._goal_steps, n - 1)]), atol=1e-4)
+
+
+def test_lowpass_removes_the_trackers_jitter_and_keeps_a_nod():
+    """``lowpass``: a 1 Hz nod with a tracker's frame-to-frame jitter on top (±1°, alternating) is
+    played back as the nod alone (the jitter's reversals gone, the nod's amplitude kept within 5 %)."""
+    t = np.arange(250) / FPS
+    nod = 5.0 * np.sin(2 * np.pi * 1.0 * t)
+    rec = np.c_[nod + 1.0 * (-1.0) ** np.arange(250), np.zeros((250, 2))].astype(np.float32)
+    m = create("motion-match", hop=5, mirror=False, lowpass=4.0)
+    m.lib_motion_, m.lib_lengths_ = rec, np.array([250])
+    m.lib_feats_ = np.random.default_rng(0).normal(size=(250, 6)).astype(np.float32)
+    m._index()
+    played = m._P[:, 0]
+    inner = slice(25, 225)
+    assert np.abs(played[inner] - nod[inner]).max() < 0.25
+    assert np.ptp(played[inner]) == pytest.approx(np.ptp(nod[inner]), rel=0.05)
+    v = np.diff(played)
+    assert (np.sign(v[1:]) * np.sign(v[:-1]) < 0).mean() < 0.1  # the raw track reverses on most frames
+    m0 = create("motion-match", hop=5, mirror=False)
+    m0.lib_motion_, m0.lib_lengths_, m0.lib_feats_ = m.lib_motion_, m.lib_lengths_, m.lib_feats_
+    m0._index()
+    v0 = np.diff(m0._P[:, 0])
+    assert (np.sign(v0[1:]) * np.sign(v0[:-1]) < 0).mean() > 0.5
+
+
+def test_posture_s_keeps_a_reached_posture_for_seconds():
+    """At a join the pose offset settles over ``posture_s`` (a posture is kept), the velocity over
+    the blend: with posture_s = 4 s an offset of 6° is still 6·exp(−1/4) ≈ 4.7° one second on;
+    with the spring (posture_s = 0) it is gone within the blend."""
+    from headmotion.systems.motion_match import _Walk
+
+    for posture_s, after_1s in ((4.0, 6.0 * np.exp(-0.25)), (0.0, 0.0)):
+        m = create("motion-match", hop=25, blend=8, posture_s=posture_s, mirror=False)
+        m.lib_motion_ = np.zeros((200, 3), np.float32)
+        m.lib_lengths_ = np.array([200])
+        m.lib_feats_ = np.zeros((200, 6), np.float32)
+        m._index()
+        w = _Walk(m, 0)
+        w.t, w.pos, w.last = 25, -1, np.array([[6.0, 0.0, 0.0], [6.0, 0.0, 0.0]])
+        frames = w.hop(np.zeros(m._S.shape[1], np.float32), None, 1.0, 26)
+        assert frames[0, 0] == pytest.approx(6.0)  # no step at the join
+        assert frames[25, 0] == pytest.approx(after_1s, abs=1e-3)

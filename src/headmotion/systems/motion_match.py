@@ -55,7 +55,7 @@ from ..models.numpy_nets import inference_threads
 from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec
 from ..types import Audio, Motion
-from .base import CAUSAL, Synthesizer
+from .base import CAUSAL, STREAMING, Synthesizer
 from .flow import FPS, motion_degrees, speech_features
 
 #: the columns of :func:`~headmotion.systems.flow.speech_features` matched: energy, Δenergy,
@@ -95,6 +95,17 @@ def speech_descriptors(feats: np.ndarray, taps: np.ndarray, *, causal: bool = Fa
     return s[idx].reshape(T, -1).astype(np.float32)
 
 
+def lowpass_clip(x: np.ndarray, hz: float, *, fps: float = FPS) -> np.ndarray:
+    """``x`` (``(T, 3)``, one clip) low-passed at ``hz`` with a zero-phase 2nd-order Butterworth
+    filter (``scipy.signal.sosfiltfilt``); clips too short for the filter's padding are padded less."""
+    from scipy.signal import butter, sosfiltfilt
+
+    if len(x) < 4:
+        return x
+    sos = butter(2, hz, fs=fps, output="sos")
+    return sosfiltfilt(sos, x, axis=0, padlen=min(len(x) - 1, 15))
+
+
 def descriptor_of_last(past: np.ndarray, taps: np.ndarray) -> np.ndarray:
     """The causal descriptor (:func:`speech_descriptors` with ``causal=True``) of the last row of
     ``past`` — the rows up to that frame, at least as many as the taps and the smoothing reach
@@ -125,6 +136,16 @@ class MotionMatch(Synthesizer):
     pause_switch : float, factor on ``switch_cost`` in a pause
     live : bool, read the speech only up to each decision (f0e-live features, causal descriptors,
         the goal and the pause test from the past): the system streams, 39 ms behind the audio
+    lowpass : float, Hz; > 0: every library clip is low-passed there (zero-phase) before it is
+        played — a face tracker's frame-to-frame jitter is not replayed, a nod is kept; 0: as recorded
+    posture_s : float, seconds; > 0: at a join the pose offset settles over this time constant
+        (the velocity still over ``blend`` frames), so a posture the head has reached is kept for
+        seconds, not pulled to the new clip's within a few frames; 0: both over ``blend`` frames
+    prosody : str or None, the speech features matched: ``"f0e"`` (Praat F0, energy and voicing,
+        read over the whole file), ``"f0e-live"`` (YIN F0, energy and voicing computed frame by frame:
+        the system then streams — with ``live``, 39 ms behind the audio; otherwise with the lookahead
+        its decisions read — and a long file is synthesised block by block); None: ``"f0e-live"``
+        when ``live``, else ``"f0e"``
     seed : int, default synthesis seed
 
     The defaults were chosen on held-out speakers (docs/decisions/motion-matching.md).
@@ -136,8 +157,10 @@ class MotionMatch(Synthesizer):
                  pose_weight: float = 1.0, velocity_weight: float = 1.0, switch_cost: float = 3.0,
                  top_k: int = 8, temperature: float = 0.3, blend: int = 8, mirror: bool = True,
                  target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, goal_path: bool = True,
-                 pause_switch: float = 0.0, pause_speed: bool = True, live: bool = False, seed: int = 0):
+                 pause_switch: float = 0.0, pause_speed: bool = True, live: bool = False, lowpass: float = 0.0,
+                 posture_s: float = 0.0, prosody: str | None = None, seed: int = 0):
         self.hop, self.context, self.lookahead, self.goal_path = hop, context, lookahead, goal_path
+        self.lowpass, self.posture_s, self.prosody = lowpass, posture_s, prosody
         self.pause_switch, self.pause_speed = pause_switch, pause_speed
         self.target_weight, self.ridge, self.pause_weight = target_weight, ridge, pause_weight
         self.speech_weight, self.pose_weight, self.velocity_weight = speech_weight, pose_weight, velocity_weight
@@ -146,10 +169,17 @@ class MotionMatch(Synthesizer):
 
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]
-        """Causal (streams, and the stream equals ``predict``) when ``live``."""
+        """Causal when ``live``, streaming with lookahead on the f0e-live prosody; either way the
+        stream equals ``predict``."""
         live = isinstance(self.live, (bool, np.bool_)) and bool(self.live)  # not a truthy "yes"
-        return frozenset({CAUSAL}) if live else frozenset()
+        if live:
+            return frozenset({CAUSAL})
+        return frozenset({STREAMING}) if self.prosody == "f0e-live" else frozenset()
 
+    @property
+    def _live_prosody(self) -> bool:
+        """The prosody is f0e-live (computed frame by frame), not the whole-file f0e."""
+        return bool(self.live) or self.prosody == "f0e-live"
     # -- parameters ------------------------------------------------------------------------------
     def _validate_params(self) -> None:
         for name, lo in (("hop", 1), ("context", 0), ("lookahead", 0), ("top_k", 1), ("blend", 1), ("seed", 0)):
@@ -157,10 +187,16 @@ class MotionMatch(Synthesizer):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ParameterError(f"{self.name}: {name} must be a whole number >= {lo}; got {v!r}")
         for name in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "temperature",
-                     "target_weight", "ridge", "pause_weight", "pause_switch"):
+                     "target_weight", "ridge", "pause_weight", "pause_switch", "lowpass", "posture_s"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
                 raise ParameterError(f"{self.name}: {name} must be a number >= 0; got {v!r}")
+        if self.prosody not in (None, "f0e", "f0e-live"):
+            raise ParameterError(f"{self.name}: prosody must be 'f0e' or 'f0e-live'; got {self.prosody!r}")
+        if self.live and self.prosody == "f0e":
+            raise ParameterError(f"{self.name}: live needs prosody 'f0e-live' (Praat's f0e reads the whole file)")
+        if self.lowpass and not 0.5 <= self.lowpass < FPS / 2:
+            raise ParameterError(f"{self.name}: lowpass must be 0 (off) or in [0.5, {FPS / 2:g}) Hz; got {self.lowpass!r}")
         if self.temperature == 0:
             raise ParameterError(f"{self.name}: temperature must be > 0; got {self.temperature!r}")
         for name in ("mirror", "goal_path", "pause_speed", "live"):
@@ -186,8 +222,16 @@ class MotionMatch(Synthesizer):
         return max(int(-self._taps.min()) + SMOOTH, int(self.hop))
 
     @property
+    def _reach(self) -> tuple[int, int]:
+        """Frames of prosody a decision at frame t reads: from t − back to t + ahead (``live``:
+        ahead 0; else the descriptors over the hop, their taps and smoothing)."""
+        if self.live:
+            return self._live_back, 0
+        return int(self.context) + SMOOTH, int(self.hop) + int(self.lookahead) + SMOOTH // 2
+
+    @property
     def _voicing(self) -> int:
-        return len(LIVE_COLUMNS) - 1 if self.live else VOICING
+        return len(LIVE_COLUMNS) - 1 if self._live_prosody else VOICING
 
     # -- fitting ---------------------------------------------------------------------------------
     def fit(self, corpus, *, progress=None) -> "MotionMatch":
@@ -217,8 +261,8 @@ class MotionMatch(Synthesizer):
         self.lib_feats_ = ((allf - self.feat_mean_) / self.feat_std_).astype(np.float32)
         self.lib_lengths_ = np.array([len(m) for m in motions], dtype=np.int64)
         self.mean_pose_ = mean_pose_of([r.motion.rotvec for r in recs])
-        # live: the features analyse (and the stream takes) audio at the analysis rate
-        self.sample_rate_ = ANALYSIS_RATE if self.live else int(recs[0].audio.sample_rate)
+        # f0e-live: the features analyse (and the stream takes) audio at the analysis rate
+        self.sample_rate_ = ANALYSIS_RATE if self._live_prosody else int(recs[0].audio.sample_rate)
         self.fps_ = FPS
         self.corpus_summary_ = corpus.summary() if hasattr(corpus, "summary") else None
         self.fit_warnings_ = []
@@ -239,6 +283,8 @@ class MotionMatch(Synthesizer):
             d = speech_descriptors(self.lib_feats_[start:start + n], self._taps, causal=bool(self.live))
             cuts = np.flatnonzero(np.abs(np.diff(m, axis=0)).max(axis=1) > MAX_STEP_DEG) + 1
             bounds = np.r_[0, cuts, n]
+            if self.lowpass:
+                m = np.vstack([lowpass_clip(m[a:b], float(self.lowpass)) for a, b in zip(bounds[:-1], bounds[1:])])
             clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends
             good = np.arange(n) + H + 1 < clip_end
             ahead = np.clip(np.arange(n)[:, None] + self._goal_steps[None, :], 0, n - 1)
@@ -352,6 +398,13 @@ class MotionMatch(Synthesizer):
             for t in range(0, T, H):
                 out[t:t + H] = walk.hop(*self.live_inputs(feats[max(0, t + 1 - back):t + 1]), H)[:T - t]
             return out
+        if self._live_prosody:  # every decision from a window of the speech around it, as the stream makes it
+            back, ahead = self._reach
+            for t in range(0, T, H):
+                lo = max(0, t - back)
+                n = min(H, T - t)
+                out[t:t + n] = walk.hop(*self.window_inputs(feats[lo:t + ahead + 1], t - lo), n)
+            return out
         desc = speech_descriptors(feats, self._taps)
         goals = self.goals(desc) if self.target_weight > 0 else None
         voiced = np.clip(feats[:, VOICING] * self.feat_std_[VOICING] + self.feat_mean_[VOICING], 0.0, 1.0)
@@ -361,6 +414,18 @@ class MotionMatch(Synthesizer):
             n = min(H, T - t)
             out[t:t + n] = walk.hop(desc[t], goal, speaking, n)
         return out
+
+    def window_inputs(self, window: np.ndarray, at: int) -> tuple[np.ndarray, np.ndarray | None, float]:
+        """A decision's speech descriptor, goal path and pause test from the standardised prosody
+        ``window`` around it (row ``at`` is the decision's frame; the rows reach :attr:`_reach`
+        frames back and ahead, or to the file's start or end): as :meth:`generate` computes them
+        from the whole file, with the edges of the window taken as the file's."""
+        desc = speech_descriptors(window, self._taps)
+        last = len(window) - 1
+        goal = self.goals(desc[np.minimum(at + self._goal_steps, last)]) if self.target_weight > 0 else None
+        v = self._voicing
+        voiced = np.clip(window[at:at + int(self.hop), v] * self.feat_std_[v] + self.feat_mean_[v], 0.0, 1.0)
+        return desc[at], goal, float(voiced.mean() >= 0.2)
 
     def live_inputs(self, past: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, float]:
         """``live``: a decision's speech descriptor, goal and pause test from the standardised
@@ -376,8 +441,8 @@ class MotionMatch(Synthesizer):
         return desc, goal, float(voiced.mean() >= 0.2)
 
     def _prosody(self, audio: Audio, n: int) -> np.ndarray:
-        """The raw prosody columns matched, ``(n, 6)`` at 25 fps (``live``: ``(n, 5)`` of f0e-live)."""
-        if self.live:  # resampled to the analysis rate, the rate the stream is pushed at
+        """The raw prosody columns matched, ``(n, 6)`` at 25 fps (f0e-live: ``(n, 5)``)."""
+        if self._live_prosody:  # resampled to the analysis rate, the rate the stream is pushed at
             from ..features import extract
 
             return np.asarray(extract("f0e-live", audio, fps=FPS, n_frames=n, **LIVE_FEATURES).values,
@@ -397,8 +462,8 @@ class MotionMatch(Synthesizer):
         with inference_threads(1):  # the search is matrix-vector products: fastest on one BLAS thread
             return self._degrees_to_motion(self.generate(f, seed))
 
-    def _stream(self, *, seed: int | None) -> "MotionMatchStream":
-        return MotionMatchStream(self, seed=int(seed))
+    def _stream(self, *, seed: int | None) -> "MotionMatchStream | WindowStream":
+        return MotionMatchStream(self, seed=int(seed)) if self.live else WindowStream(self, seed=int(seed))
 
     # -- persistence -----------------------------------------------------------------------------
     def _get_state(self):
@@ -435,6 +500,8 @@ class _Walk:
         self.x0, self.v0 = np.zeros(3), np.zeros(3)
         self.last = np.zeros((0, 3))
         self.lam = 4.0 / float(model.blend)
+        #: > 0: the rate (per frame) at which a join's pose offset settles (``posture_s``)
+        self.settle = 1.0 / (float(model.posture_s) * FPS) if model.posture_s else 0.0
 
     def hop(self, desc: np.ndarray, goal: np.ndarray | None, speaking: float, n: int) -> np.ndarray:
         """The next ``n`` frames (degrees): one decision for the speech descriptor ``desc``, the
@@ -455,7 +522,11 @@ class _Walk:
             self.v0 = vel - m._V[j]
             self.age = 0
         a = np.arange(self.age, self.age + n, dtype=np.float64)[:, None]
-        frames = m._P[j:j + n] + (self.x0 + (self.v0 + self.lam * self.x0) * a) * np.exp(-self.lam * a)
+        if self.settle:  # the pose offset settles slowly, the velocity offset over the blend
+            off = self.x0 * np.exp(-self.settle * a) + self.v0 * a * np.exp(-self.lam * a)
+        else:  # both settle as one critically damped spring
+            off = (self.x0 + (self.v0 + self.lam * self.x0) * a) * np.exp(-self.lam * a)
+        frames = m._P[j:j + n] + off
         self.age += n
         self.pos = j + n
         self.t += n
@@ -512,4 +583,69 @@ class MotionMatchStream:
         return self._frames(fit_length(np.concatenate([self.raw_last[None], raw]), n + 1)[1:])
 
 
-__all__ = ["MotionMatch", "MotionMatchStream", "PROSODY", "speech_descriptors"]
+class WindowStream:
+    """:meth:`MotionMatch.stream` for models on the f0e-live prosody that read ahead (not ``live``):
+    push float samples at the model's ``sample_rate``; a decision is made once the prosody of its
+    window (:attr:`MotionMatch._reach`) is final, and its hop of frames is emitted then, so a frame
+    comes ``latency_ms`` after its start (the features' 39 ms and the window's reach ahead, about
+    1.1 s by default).  The frames equal ``predict``'s: the same windows, the same decisions.
+    State: the feature extractor, the prosody rows a decision can still read, the take's walk."""
+
+    def __init__(self, model: MotionMatch, *, seed: int):
+        from ..features.streaming import StreamingF0e
+
+        self.m = model
+        self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **LIVE_FEATURES)
+        self.back, self.ahead = model._reach
+        self.latency_ms = self.ex.latency_ms + 1000.0 * self.ahead / FPS
+        self.walk = _Walk(model, seed)
+        self.rows = np.zeros((0, len(LIVE_COLUMNS)), np.float32)  # standardised prosody from frame row0
+        self.row0 = 0
+        self.t = 0            # the next decision's frame
+        self.samples = 0      # samples pushed
+        self.raw_last = None  # the last raw feature row (repeated if the file ends before its frames)
+
+    def _add(self, raw: np.ndarray) -> None:
+        if len(raw):
+            m = self.m
+            f = ((np.asarray(raw)[:, LIVE_COLUMNS] - m.feat_mean_) / m.feat_std_).astype(np.float32)
+            self.rows = np.concatenate([self.rows, f])
+            self.raw_last = raw[-1]
+
+    def _decide(self, total: int | None) -> Motion:
+        """Every decision whose window is final: all rows to ``t + ahead`` are known and will be
+        in the file (fewer than the frames of the samples pushed), or ``total`` (the file's frames) is known."""
+        H, out = int(self.m.hop), []
+        known = self.row0 + len(self.rows)
+        while self.t < (total if total is not None else 0) or (
+                total is None and self.t + self.ahead < min(known, _n_frames(self.samples, int(self.m.sample_rate_), FPS))):
+            lo = max(0, self.t - self.back)
+            window = self.rows[lo - self.row0:self.t + self.ahead + 1 - self.row0]
+            n = H if total is None else min(H, total - self.t)
+            out.append(self.walk.hop(*self.m.window_inputs(window, self.t - lo), n))
+            self.t += H
+        keep = max(0, self.t - self.back) - self.row0  # rows no later decision reads
+        if keep > 0:
+            self.rows, self.row0 = self.rows[keep:], self.row0 + keep
+        return self.m._degrees_to_motion(np.vstack(out) if out else np.zeros((0, 3)))
+
+    def push(self, samples: np.ndarray) -> Motion:
+        x = np.asarray(samples, dtype=np.float64).reshape(-1)
+        self.samples += len(x)
+        self._add(self.ex.push(x))
+        return self._decide(None)
+
+    def flush(self) -> Motion:
+        """The remaining frames: as many in all as ``predict`` gives for the audio pushed."""
+        raw = np.asarray(self.ex.flush()).reshape(-1, len(self.ex.names))
+        total = _n_frames(self.samples, int(self.m.sample_rate_), FPS)
+        have = self.row0 + len(self.rows)
+        if self.raw_last is None:  # as predict's features: fit to the length of the audio
+            self._add(fit_length(raw, total))
+        else:
+            self._add(fit_length(np.concatenate([self.raw_last[None], raw]), max(total - have, 0) + 1)[1:])
+        self.rows = self.rows[:max(total - self.row0, 0)]
+        return self._decide(total)
+
+
+__all__ = ["MotionMatch", "MotionMatchStream", "WindowStream", "PROSODY", "speech_descriptors"]
