@@ -92,7 +92,30 @@ def _segments(buf, segment: int):
     from ...models import nets
 
     seg = nets.motion_segments([p.y for p in buf], segment=segment, hop=max(1, segment // 10))
-    return torch.from_numpy(np.ascontiguousarray(seg.reshape(len(seg), -1)))
+    return torch.from_numpy(np.ascontiguousarray(seg.reshape(len(seg), segment * seg.shape[2])))  # (0, ·) when none
+
+
+def _segment_count(frames: int, segment: int) -> int:
+    """How many segments :func:`headmotion.models.nets.motion_segments` cuts from ``frames`` frames."""
+    return max(0, (frames - segment) // max(1, segment // 10) + 1) if frames >= segment else 0
+
+
+def fallback_valid_segments(data, segment: int):
+    """The post-filter's validation segments when no validation piece holds a whole segment (short
+    validation recordings): every ``k``-th training segment in corpus order, about 200 of them —
+    the set the in-memory path takes (:func:`.training.fit_postfilter`).  Early stopping then
+    watches (noisy) training segments; the regressor still stops on the validation frames."""
+    import torch
+
+    counts = [_segment_count(p.frames, segment) for p in data.train]
+    step = max(1, sum(counts) // 200)
+    out, off = [], 0
+    for p, n in zip(data.train, counts):
+        first = (-off) % step
+        if n and first < n:
+            out.append(_segments([data.load(p)], segment)[first::step])
+        off += n
+    return torch.cat(out) if out else torch.zeros((0, segment * 3))
 
 
 def _pretrain(dae, data, segment: int, epochs: int, batch_size: int, lr: float, device) -> list[float]:
@@ -121,16 +144,26 @@ def _pretrain(dae, data, segment: int, epochs: int, batch_size: int, lr: float, 
     return losses
 
 
-def _postfilter_valid_loss(dae, data, segment: int, noise: float, device) -> tuple[float, int]:
-    """``(sum of squared errors / dims, segments)`` on the validation pieces, each piece's noise
-    drawn from its own fixed seed."""
+def _valid_segment_sets(data, segment: int, fallback):
+    """``(k, segments)`` per validation piece (pieces shorter than a segment give none), or
+    ``(0, fallback)`` when there is a fallback set."""
+    if fallback is not None:
+        yield 0, fallback
+        return
+    for k, piece in enumerate(data.valid):
+        if piece.frames >= segment:
+            yield k, _segments([data.load(piece, all_speaking=True)], segment)
+
+
+def _postfilter_valid_loss(dae, data, segment: int, noise: float, device, fallback=None) -> tuple[float, int]:
+    """``(sum of squared errors, values)`` on the validation pieces, each piece's noise drawn from
+    its own fixed seed (or on ``fallback``, :func:`fallback_valid_segments`, with one seed)."""
     import torch
 
     dae.eval()
     sse, n = 0.0, 0
     with torch.no_grad():
-        for k, piece in enumerate(data.valid):
-            xv = _segments([data.load(piece, all_speaking=True)], segment)
+        for k, xv in _valid_segment_sets(data, segment, fallback):
             if not len(xv):
                 continue
             g = torch.Generator().manual_seed(VALID_NOISE_SEED + k)
@@ -142,7 +175,10 @@ def _postfilter_valid_loss(dae, data, segment: int, noise: float, device) -> tup
 
 def train_postfilter(system, data, device: str, tick) -> tuple:
     """The denoising post-filter from streamed buffers of segments (as
-    :func:`headmotion.models.nets.train_postfilter`).  Returns ``(post-filter on the CPU, history)``."""
+    :func:`headmotion.models.nets.train_postfilter`).  Recordings shorter than a segment add no
+    segment; when no validation piece holds one, early stopping watches
+    :func:`fallback_valid_segments` (``history["valid_from_training"]`` is True).  Returns
+    ``(post-filter on the CPU, history)``."""
     import torch
 
     from ...models import nets
@@ -154,7 +190,9 @@ def train_postfilter(system, data, device: str, tick) -> tuple:
     dae = nets.make_postfilter(segment=seg, dims=3, hidden=tuple(system.postfilter_hidden),
                                code_dim=int(system.postfilter_code)).to(device)
     lr, epochs = float(system.learning_rate), int(system.max_epochs)
-    hist: dict = {"pretrain": _pretrain(dae, data, seg, 2, bs, lr, device), "train": [], "valid": []}
+    fallback = None if any(p.frames >= seg for p in data.valid) else fallback_valid_segments(data, seg)
+    hist: dict = {"pretrain": _pretrain(dae, data, seg, 2, bs, lr, device), "train": [], "valid": [],
+                  "valid_from_training": fallback is not None}
     opt = torch.optim.Adam(dae.parameters(), lr=lr)
     stopper = nets._EarlyStopping(dae, int(system.patience))
     for epoch in range(epochs):
@@ -170,11 +208,11 @@ def train_postfilter(system, data, device: str, tick) -> tuple:
                 cnt += len(idx)
             done += len(buf)
             tick((epoch + done / max(len(data.train), 1)) / epochs, f"post-filter: epoch {epoch + 1}/{epochs}")
-        sse, n = _postfilter_valid_loss(dae, data, seg, noise, device)
-        if stopper.end_epoch(hist, epoch, epochs, tot / max(cnt, 1), sse / n if n else tot / max(cnt, 1)):
+        sse, n = _postfilter_valid_loss(dae, data, seg, noise, device, fallback)
+        if stopper.end_epoch(hist, epoch, epochs, tot / max(cnt, 1), sse / max(n, 1)):
             break
     hist = stopper.finish(hist)
     return dae.cpu(), hist
 
 
-__all__ = ["train_regressor", "train_postfilter", "VALID_NOISE_SEED"]
+__all__ = ["train_regressor", "train_postfilter", "fallback_valid_segments", "VALID_NOISE_SEED"]
