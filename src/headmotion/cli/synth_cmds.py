@@ -60,6 +60,9 @@ def train(
     device: Optional[str] = typer.Option(None, "--device", help="Where the networks train, for systems with a "
                                          "device parameter (motion-flow, the DNN systems): auto (CUDA when torch "
                                          "sees one), cpu or cuda."),
+    train_path: Optional[str] = typer.Option(None, "--train-path", help="How the DNN systems read their "
+                                             "training data: auto (streamed from disk for a corpus with over "
+                                             "an hour of training speech, else in memory), memory or streamed."),
 ):
     """Train a synthesis system on a corpus and save it."""
     from ..corpus import Corpus
@@ -70,12 +73,12 @@ def train(
     model = create(name, **set_params)
     system = name
     params = model.get_params()
-    given = {"features": features, "random_state": seed, "fps": fps, "device": device}
+    given = {"features": features, "random_state": seed, "fps": fps, "device": device, "train_path": train_path}
     for k, v in given.items():
         if v is None:
             continue
         if k not in params:
-            raise ParameterError(f"--{k.replace('random_state', 'seed')} is not a parameter of {system}")
+            raise ParameterError(f"--{k.replace('random_state', 'seed').replace('_', '-')} is not a parameter of {system}")
         model.set_params(**{k: v})
     c = Corpus.load(corpus)
     if speaker is not None:

@@ -207,7 +207,8 @@ class _EarlyStopping:
 def pretrain_layerwise(ae: StackedAutoencoder, x: torch.Tensor, *, epochs: int = 3,
                        batch_size: int = 256, lr: float = LEARNING_RATE) -> list[float]:
     """Greedy layer-wise pre-training (§4.2): layer ``i`` is trained as a shallow autoencoder on
-    the (fixed) output of layers ``0 … i−1``.  Returns the final training loss of each step."""
+    the (fixed) output of layers ``0 … i−1``; on the device of ``x`` (``ae`` already there).
+    Returns the final training loss of each step."""
     losses = []
     for i in range(ae.n_layers):
         with torch.no_grad():
@@ -218,7 +219,7 @@ def pretrain_layerwise(ae: StackedAutoencoder, x: torch.Tensor, *, epochs: int =
         for _ in range(int(epochs)):
             tot, cnt = 0.0, 0
             for idx in _batches(len(h_all), batch_size):
-                h = h_all[idx]
+                h = h_all[idx.to(h_all.device)]
                 loss = torch.mean((ae._shallow(i, h) - h) ** 2)
                 tot += descend(opt, loss) * len(idx)
                 cnt += len(idx)
@@ -254,6 +255,9 @@ def train_autoencoder(ae: StackedAutoencoder, x_train: torch.Tensor, y_train: to
     alpha : float — weight of the CCA term (0 = plain autoencoder)
     batch_size : int — frames per mini-batch (also the CCA batch)
 
+    The tensors and ``ae`` are on one device (the CPU or a GPU); batches are drawn with the CPU
+    generator whichever it is.
+
     Returns
     -------
     dict with ``pretrain`` losses, per-epoch ``train``/``valid`` objective, ``valid_rec``,
@@ -268,6 +272,7 @@ def train_autoencoder(ae: StackedAutoencoder, x_train: torch.Tensor, y_train: to
         ae.train()
         tot, cnt = 0.0, 0
         for idx in _batches(len(x_train), batch_size):
+            idx = idx.to(x_train.device)
             obj, _, _ = cccae_loss(ae, x_train[idx], y_train[idx] if use_cca else None, alpha, reg=reg)
             tot += descend(opt, obj) * len(idx)
             cnt += len(idx)
@@ -336,8 +341,9 @@ class PaddedSequences:
 
 
 def gather_windows(data: torch.Tensor, starts: torch.Tensor, width: int) -> torch.Tensor:
-    """``(B, width·D)`` rows ``data[s : s + width]`` flattened, for each start ``s``."""
-    idx = starts[:, None] + torch.arange(width)[None, :]
+    """``(B, width·D)`` rows ``data[s : s + width]`` flattened, for each start ``s`` (``data`` and
+    ``starts`` on one device)."""
+    idx = starts[:, None] + torch.arange(width, device=starts.device)[None, :]
     return data[idx].reshape(len(starts), -1)
 
 
@@ -355,16 +361,19 @@ def predict_regressor(net: ContextRegressor, features: np.ndarray, *, chunk: int
 def train_regressor(net: ContextRegressor, train: PaddedSequences, train_starts: np.ndarray,
                     train_targets: np.ndarray, valid: PaddedSequences, valid_starts: np.ndarray,
                     valid_targets: np.ndarray, *, batch_size: int = 256, lr: float = LEARNING_RATE,
-                    max_epochs: int = 30, patience: int = 4, progress: Progress = None) -> dict:
+                    max_epochs: int = 30, patience: int = 4, progress: Progress = None,
+                    device: str = "cpu") -> dict:
     """MSE training of the regressor with early stopping on the validation frames.
 
     ``*_starts`` are window start rows (:meth:`PaddedSequences.starts`) of the frames used, and
-    ``*_targets`` their z-scored rotation ``(N, 3)``."""
+    ``*_targets`` their z-scored rotation ``(N, 3)``.  ``device``: where the sequences, the
+    windows and ``net`` (moved there by the caller) live; batches are drawn with the CPU generator."""
     width = 2 * net.context + 1
-    ts = torch.from_numpy(np.asarray(train_starts, dtype=np.int64))
-    ty = torch.from_numpy(np.asarray(train_targets, dtype=np.float32))
-    vs = torch.from_numpy(np.asarray(valid_starts, dtype=np.int64))
-    vy = torch.from_numpy(np.asarray(valid_targets, dtype=np.float32))
+    ts = torch.from_numpy(np.asarray(train_starts, dtype=np.int64)).to(device)
+    ty = torch.from_numpy(np.asarray(train_targets, dtype=np.float32)).to(device)
+    vs = torch.from_numpy(np.asarray(valid_starts, dtype=np.int64)).to(device)
+    vy = torch.from_numpy(np.asarray(valid_targets, dtype=np.float32)).to(device)
+    tdata, vdata = train.data.to(device), valid.data.to(device)
     opt = torch.optim.Adam(net.parameters(), lr=lr)
     stopper = _EarlyStopping(net, patience)
     hist: dict = {"train": [], "valid": []}
@@ -372,7 +381,8 @@ def train_regressor(net: ContextRegressor, train: PaddedSequences, train_starts:
         net.train()
         tot, cnt = 0.0, 0
         for idx in _batches(len(ts), batch_size):
-            pred = net(gather_windows(train.data, ts[idx], width))
+            idx = idx.to(device)
+            pred = net(gather_windows(tdata, ts[idx], width))
             loss = torch.mean((pred - ty[idx]) ** 2)
             tot += descend(opt, loss) * len(idx)
             cnt += len(idx)
@@ -380,7 +390,7 @@ def train_regressor(net: ContextRegressor, train: PaddedSequences, train_starts:
         with torch.no_grad():
             vl, vc = 0.0, 0
             for s in range(0, len(vs), 4096):
-                p = net(gather_windows(valid.data, vs[s:s + 4096], width))
+                p = net(gather_windows(vdata, vs[s:s + 4096], width))
                 vl += float(torch.sum((p - vy[s:s + 4096]) ** 2)) / vy.shape[1]
                 vc += len(p)
             v = vl / max(vc, 1)
@@ -417,18 +427,21 @@ def motion_segments(sequences: Sequence[np.ndarray], *, segment: int = DEFAULT_S
 def train_postfilter(dae: StackedAutoencoder, train_segments: np.ndarray, valid_segments: np.ndarray, *,
                      noise: float = 0.3, batch_size: int = 256, lr: float = LEARNING_RATE,
                      max_epochs: int = 30, patience: int = 4, pretrain_epochs: int = 2,
-                     progress: Progress = None) -> dict:
+                     progress: Progress = None, device: str = "cpu") -> dict:
     """Train the post-filter to map ``clean + noise`` back to ``clean`` (z-scored motion).
 
     The noise is white and Gaussian with a standard deviation drawn per segment uniformly from
     ``[0, 2·noise]``, so the filter sees both nearly clean and very jittery inputs; the validation
     noise is fixed once (same draw every epoch) so that early stopping compares like with like.
+    ``device``: where the segments and ``dae`` (moved there by the caller) live; the noise is drawn
+    with the CPU generator whichever it is, so a GPU sees the noise the CPU would.
     """
     n_seg, seg, dims = train_segments.shape if len(train_segments) else (0, 0, 0)
     x = torch.from_numpy(np.ascontiguousarray(train_segments.reshape(len(train_segments), -1)))
     xv = torch.from_numpy(np.ascontiguousarray(valid_segments.reshape(len(valid_segments), -1)))
     sd_v = torch.rand(len(xv), 1) * 2 * noise
-    xv_noisy = xv + sd_v * torch.randn_like(xv)
+    xv_noisy = (xv + sd_v * torch.randn_like(xv)).to(device)
+    x, xv = x.to(device), xv.to(device)
     hist: dict = {"pretrain": pretrain_layerwise(dae, x, epochs=pretrain_epochs, lr=lr),
                   "train": [], "valid": []}
     opt = torch.optim.Adam(dae.parameters(), lr=lr)
@@ -437,9 +450,9 @@ def train_postfilter(dae: StackedAutoencoder, train_segments: np.ndarray, valid_
         dae.train()
         tot, cnt = 0.0, 0
         for idx in _batches(len(x), batch_size):
-            clean = x[idx]
+            clean = x[idx.to(device)]
             sd = torch.rand(len(idx), 1) * 2 * noise
-            loss = torch.mean((dae(clean + sd * torch.randn_like(clean)) - clean) ** 2)
+            loss = torch.mean((dae(clean + (sd * torch.randn(clean.shape)).to(device)) - clean) ** 2)
             tot += descend(opt, loss) * len(idx)
             cnt += len(idx)
         dae.eval()

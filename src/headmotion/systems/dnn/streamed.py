@@ -1,9 +1,9 @@
 """The DNN systems' training data streamed from disk, so that memory does not grow with the corpus
 (``docs/decisions/bounded-training.md``).
 
-Used instead of the in-memory path of :mod:`.data` for a corpus on disk with more than
-:data:`STREAM_MIN_SECONDS` of training speech, and for training on a GPU
-(:func:`uses_stream`).  One pass over the recordings (:func:`build`) reads each one's model-rate
+Used instead of the in-memory path of :mod:`.data` when the system's ``train_path`` is
+"streamed", or "auto" and the corpus is on disk with more than :data:`STREAM_MIN_SECONDS` of
+training speech (:func:`uses_stream`); on the CPU or a GPU, for a corpus on disk or in memory.  One pass over the recordings (:func:`build`) reads each one's model-rate
 features (from the corpus's feature cache), motion and speaking flags, writes them to a scratch
 folder (one file per recording, removed after training) and accumulates:
 
@@ -151,15 +151,29 @@ class StreamedData:
             yield buf
 
 
-def uses_stream(system, corpus, train_idx) -> bool:
-    """Whether ``system`` trains from streamed batches: on a GPU, or on a corpus on disk with more
-    than :data:`STREAM_MIN_SECONDS` of training speech (never the autoencoder systems)."""
-    from ...devices import resolve_device
+#: the values of the DNN systems' ``train_path`` parameter
+TRAIN_PATHS = ("auto", "memory", "streamed")
 
-    if resolve_device(system.device) == "cuda":
-        if system.uses_embedding:
-            raise ParameterError(f"{system.name} trains its autoencoder on the CPU only; use device='cpu'")
-        return True
+
+def check_train_path(system) -> None:
+    """Raise ParameterError unless ``system.train_path`` is one of :data:`TRAIN_PATHS` (and not
+    "streamed" for a system with an embedding)."""
+    path = system.train_path
+    if path not in TRAIN_PATHS:
+        raise ParameterError(f"the 'train_path' parameter of {system.name} must be one of {list(TRAIN_PATHS)}; "
+                             f"got {path!r}")
+    if path == "streamed" and system.uses_embedding:
+        raise ParameterError(f"{system.name} trains in memory only (its CCA loss wants the whole training set "
+                             f"at hand); use train_path='memory' or 'auto'")
+
+
+def uses_stream(system, corpus, train_idx) -> bool:
+    """Whether ``system`` trains from streamed batches: ``train_path`` "streamed", or "auto" on a
+    corpus on disk with more than :data:`STREAM_MIN_SECONDS` of training speech (never the
+    autoencoder systems).  The device does not decide it: each path runs on the CPU or a GPU."""
+    check_train_path(system)
+    if system.train_path != "auto":
+        return system.train_path == "streamed"
     if system.uses_embedding or getattr(corpus, "root", None) is None:
         return False
     return sum(recording_seconds(corpus, i) for i in train_idx) > STREAM_MIN_SECONDS
@@ -242,5 +256,5 @@ def calibration_pieces(system, data: StreamedData, corpus) -> tuple[list[Prepare
     return train, valid
 
 
-__all__ = ["STREAM_MIN_SECONDS", "BUFFER_FRAMES", "CALIBRATION_SECONDS", "Moments", "Piece", "StreamedData",
-           "uses_stream", "build", "calibration_pieces"]
+__all__ = ["STREAM_MIN_SECONDS", "BUFFER_FRAMES", "CALIBRATION_SECONDS", "TRAIN_PATHS", "Moments", "Piece",
+           "StreamedData", "check_train_path", "uses_stream", "build", "calibration_pieces"]

@@ -3,11 +3,13 @@
 networks, :mod:`.synthesis` for the post-processing chain), streaming (:mod:`.streaming`) and model
 files (:mod:`.persistence`).  The registered systems are in :mod:`.registered`.
 
-A corpus on disk with more than an hour of training speech, or training on a GPU (``device``:
-"cpu" by default, "auto" = CUDA when torch sees one, "cuda"), takes the streamed path of
-:mod:`.stream_fit` (memory bounded, the model close to the in-memory one); otherwise the networks
-train in memory exactly as before.  Synthesis runs the numpy networks on the CPU whatever
-``device`` says.  See ``docs/decisions/bounded-training.md``."""
+Which data path a fit takes is ``train_path``: "memory" (every recording's features in memory,
+:mod:`.training`), "streamed" (read from disk a buffer at a time, memory bounded,
+:mod:`.stream_fit`; not for cccae / ae-dnn, whose CCA loss wants their whole training set at
+hand) or "auto" (the default: streamed for a corpus on disk with more than an hour of training
+speech, :data:`.streamed.STREAM_MIN_SECONDS`, else in memory).  Both paths train on ``device``
+("cpu" by default, "auto" = CUDA when torch sees one, "cuda").  Synthesis runs the numpy networks
+on the CPU whatever ``device`` says.  See ``docs/decisions/bounded-training.md``."""
 
 from __future__ import annotations
 
@@ -74,7 +76,7 @@ class DnnSystem(Synthesizer):
                  drift_share: float = DEFAULT_DRIFT_SHARE, drift_tau_s: float = DEFAULT_DRIFT_TAU_S,
                  slow_band_gain: float = DEFAULT_SLOW_BAND_GAIN, speed_shaping: bool = True, idle: float | None = DNN_IDLE,
                  range_limit: bool = True, cross_fit: bool | None = None, speed_max_gain: float | None = None,
-                 seed: int | None = 0, device: str = "cpu"):
+                 seed: int | None = 0, device: str = "cpu", train_path: str = "auto"):
         self.features = features
         self.feature_params = feature_params
         self.alpha = alpha
@@ -114,6 +116,7 @@ class DnnSystem(Synthesizer):
         self.speed_max_gain = speed_max_gain
         self.seed = seed
         self.device = device
+        self.train_path = train_path
 
     # -- parameters ---------------------------------------------------------------------------
     @property
@@ -132,6 +135,7 @@ class DnnSystem(Synthesizer):
         check_network_params(self)
         check_post_params(self)
         check_device(self.device, self.name)
+        streamed.check_train_path(self)
 
     @property
     def feature_name(self) -> str:
@@ -164,6 +168,8 @@ class DnnSystem(Synthesizer):
         ----------
         corpus : Corpus — one speaker's recordings (speaker-dependent models, paper §4.1)
         progress : callable ``progress(done, total, description)`` or None
+
+        The data path is ``train_path`` (module docstring); the networks train on ``device``.
         """
         self._validate_params()
         t0 = time.perf_counter()
@@ -180,12 +186,18 @@ class DnnSystem(Synthesizer):
         valid_recs = [r for r in corpus if split[r.id] == "valid"]
         if not train_recs:
             raise ParameterError(f"no training recordings in the corpus (splits: {split})")
+        from ...devices import resolve_device
+
+        device = resolve_device(self.device)
         n_stages = (1 if self.uses_embedding else 0) + 1 + (1 if self.postfilter else 0)
         if progress is not None:
             progress(0, n_stages, f"{self.name}: extracting {self.feature_name} features")
         train, valid = data.training_data(self, train_recs, valid_recs, config)
         feat_norm, mot_norm = data.normalise(train, valid)
-        ae, emb_norm, reg, pf, history = training.fit_networks(self, train, valid, _StageProgress(progress, n_stages))
+        ae, emb_norm, reg, pf, history = training.fit_networks(self, train, valid, _StageProgress(progress, n_stages),
+                                                               device)
+        if device != "cpu":
+            history["device"] = device
         self.motion_sd_, self.gv_, self.band_gains_, hraw, hy = calibration.restoration_tables(self, train, valid, reg, pf)
         self.feature_config_ = config
         self.input_dim_ = int(train[0].feats.shape[1])

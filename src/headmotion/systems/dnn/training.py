@@ -1,5 +1,7 @@
-"""Training the DNN systems' networks (paper §3.1–3.3): the CCCAE / AE embedding, the ±context
-regressor and the denoising post-filter, with seeded, deterministic torch."""
+"""Training the DNN systems' networks (paper §3.1–3.3) in memory: the CCCAE / AE embedding, the
+±context regressor and the denoising post-filter, with seeded, deterministic torch, on the CPU or a
+GPU (``device``; the networks come back on the CPU).  Batches and noise are drawn with the CPU
+generator on either device, so the CPU models are those of the CPU-only code, bit for bit."""
 
 from __future__ import annotations
 
@@ -51,24 +53,23 @@ def torch_context(seed: int, n_threads: int | None, *, deterministic: bool = Tru
                 torch.set_num_threads(prev_threads)
 
 
-def fit_embedding(system, train, valid, progress):
-    """The CCCAE / AE (paper §3.1); sets ``p.z`` and ``p.r`` (the normalised embedding)."""
+def fit_embedding(system, train, valid, progress, device: str = "cpu"):
+    """The CCCAE / AE (paper §3.1) on ``device``; sets ``p.z`` and ``p.r`` (the normalised embedding)."""
     import torch
 
     from ...features import Normalizer
     from ...models import nets
 
     ae = nets.StackedAutoencoder(train[0].x.shape[1], hidden=tuple(system.ae_hidden),
-                                 code_dim=int(system.embedding_dim), activation=str(system.ae_activation))
-    xt = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in train]))
-    yt = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in train]))
-    xv = torch.from_numpy(np.concatenate([p.x[p.speaking] for p in valid]))
-    yv = torch.from_numpy(np.concatenate([p.y[p.speaking] for p in valid]))
+                                 code_dim=int(system.embedding_dim), activation=str(system.ae_activation)).to(device)
+    xt, yt, xv, yv = (torch.from_numpy(np.concatenate([getattr(p, a)[p.speaking] for p in ps])).to(device)
+                      for ps, a in ((train, "x"), (train, "y"), (valid, "x"), (valid, "y")))
     hist = nets.train_autoencoder(
         ae, xt, yt, x_valid=xv, y_valid=yv, alpha=float(system.alpha_value),
         batch_size=int(system.cca_batch_size), lr=float(system.learning_rate),
         max_epochs=int(system.ae_max_epochs), patience=int(system.patience),
         pretrain_epochs=int(system.pretrain_epochs), reg=float(system.cca_reg), progress=progress)
+    ae = ae.cpu()
     with torch.no_grad():
         for p in train + valid:
             p.z = ae.encode(torch.from_numpy(p.x)).numpy()
@@ -78,12 +79,12 @@ def fit_embedding(system, train, valid, progress):
     return ae, emb_norm, hist
 
 
-def fit_regressor(system, train, valid, progress):
-    """The ±context frame regressor (paper §3.2) from ``p.r`` to ``p.y`` on speaking frames."""
+def fit_regressor(system, train, valid, progress, device: str = "cpu"):
+    """The ±context frame regressor (paper §3.2) from ``p.r`` to ``p.y`` on speaking frames, on ``device``."""
     from ...models import nets
 
     reg = nets.ContextRegressor(train[0].r.shape[1], context=int(system.context),
-                                hidden=tuple(system.regressor_hidden), dropout=float(system.dropout))
+                                hidden=tuple(system.regressor_hidden), dropout=float(system.dropout)).to(device)
     tr_seq = nets.PaddedSequences([p.r for p in train], int(system.context))
     va_seq = nets.PaddedSequences([p.r for p in valid], int(system.context))
     tr_starts = np.concatenate([tr_seq.starts(i, np.flatnonzero(p.speaking)) for i, p in enumerate(train)])
@@ -92,17 +93,19 @@ def fit_regressor(system, train, valid, progress):
         reg, tr_seq, tr_starts, np.concatenate([p.y[p.speaking] for p in train]),
         va_seq, va_starts, np.concatenate([p.y[p.speaking] for p in valid]),
         batch_size=int(system.batch_size), lr=float(system.learning_rate), max_epochs=int(system.max_epochs),
-        patience=int(system.patience), progress=progress)
-    return reg, hist
+        patience=int(system.patience), progress=progress, device=device)
+    return reg.cpu(), hist
 
 
-def fit_postfilter(system, train, valid, progress):
-    """The denoising motion autoencoder on ``segment``-frame windows (paper §3.3)."""
+def fit_postfilter(system, train, valid, progress, device: str = "cpu"):
+    """The denoising motion autoencoder on ``segment``-frame windows (paper §3.3), on ``device``;
+    when no validation recording holds a whole segment, every ``k``-th training segment (about
+    200) is the validation set."""
     from ...models import nets
 
     seg = int(system.segment)
     pf = nets.make_postfilter(segment=seg, dims=3, hidden=tuple(system.postfilter_hidden),
-                              code_dim=int(system.postfilter_code))
+                              code_dim=int(system.postfilter_code)).to(device)
     tr_seg = nets.motion_segments([p.y for p in train], segment=seg, hop=max(1, seg // 10))
     va_seg = nets.motion_segments([p.y for p in valid], segment=seg, hop=max(1, seg // 10))
     if len(tr_seg) == 0:
@@ -113,29 +116,29 @@ def fit_postfilter(system, train, valid, progress):
     hist = nets.train_postfilter(
         pf, tr_seg, va_seg, noise=float(system.postfilter_noise), batch_size=int(system.batch_size),
         lr=float(system.learning_rate), max_epochs=int(system.max_epochs), patience=int(system.patience),
-        progress=progress)
-    return pf, hist
+        progress=progress, device=device)
+    return pf.cpu(), hist
 
 
-def fit_networks(system, train, valid, report) -> tuple:
+def fit_networks(system, train, valid, report, device: str = "cpu") -> tuple:
     """``(autoencoder or None, embedding normaliser or None, regressor, post-filter or None,
-    history)`` trained in order under :func:`torch_context` seeded with ``random_state``; without
+    history)`` trained in order on ``device`` under :func:`torch_context` seeded with ``random_state``; without
     an embedding the regressor reads the normalised features (``p.r = p.x``).  ``report(desc)``
     gives a per-stage progress callback; ``report.next()`` moves to the next stage."""
     history: dict = {}
     with torch_context(int(system.random_state), system.n_threads):
         ae, emb_norm = None, None
         if system.uses_embedding:
-            ae, emb_norm, history["autoencoder"] = fit_embedding(system, train, valid, report("autoencoder"))
+            ae, emb_norm, history["autoencoder"] = fit_embedding(system, train, valid, report("autoencoder"), device)
             report.next()
         else:
             for p in train + valid:
                 p.r = p.x
-        reg, history["regressor"] = fit_regressor(system, train, valid, report("regressor"))
+        reg, history["regressor"] = fit_regressor(system, train, valid, report("regressor"), device)
         report.next()
         pf = None
         if system.postfilter:
-            pf, history["postfilter"] = fit_postfilter(system, train, valid, report("post-filter"))
+            pf, history["postfilter"] = fit_postfilter(system, train, valid, report("post-filter"), device)
             report.next()
     return ae, emb_norm, reg, pf, history
 
