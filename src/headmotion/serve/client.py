@@ -15,6 +15,7 @@ docs/serve.md describes the protocol the client speaks.
 
 from __future__ import annotations
 
+import collections
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,17 +23,25 @@ from typing import AsyncIterable, AsyncIterator, Iterable
 
 import numpy as np
 
-from ..errors import HeadMotionError
+from ..errors import HeadMotionError, ParameterError
 
 _TYPES = {".wav": "audio/wav", ".flac": "audio/flac", ".ogg": "audio/ogg", ".mp3": "audio/mpeg"}
 
 
-class ServerError(HeadMotionError):
-    """The server refused a request or closed a stream with an error: ``kind`` and its sentence."""
+#: a 2-D chunk is ``(samples, channels)`` (as soundfile reads a file) with at most this many channels
+MAX_CHANNELS = 8
+#: waits (s) before each reconnection after the server restarts (close 1012)
+RECONNECT_WAITS = (0.5, 1.0, 2.0, 4.0)
 
-    def __init__(self, kind: str, detail: str, status: int | None = None):
+
+class ServerError(HeadMotionError):
+    """The server refused a request or closed a stream with an error: ``kind`` and its sentence,
+    the HTTP ``status`` (offline calls) and ``retry_after`` seconds when the server said when to
+    try again (``rate_limited``, ``busy``)."""
+
+    def __init__(self, kind: str, detail: str, status: int | None = None, retry_after: float | None = None):
         super().__init__(f"{kind}: {detail}")
-        self.kind, self.detail, self.status = kind, detail, status
+        self.kind, self.detail, self.status, self.retry_after = kind, detail, status, retry_after
 
 
 @dataclass(frozen=True)
@@ -52,10 +61,24 @@ class Frames:
         return (self.first + np.arange(len(self.rotvec))) / self.fps
 
 
+def mono(chunk) -> np.ndarray:
+    """A chunk of samples as mono float32: 1-D as it is; 2-D ``(samples, channels)`` — what
+    ``soundfile.read`` gives for a stereo file — mixed down to the mean of its channels (never
+    interleaved into a mono stream of twice the length).  Anything else is refused
+    (:class:`~headmotion.errors.ParameterError`), a channels-first array too."""
+    x = np.asarray(chunk, dtype=np.float32)
+    if x.ndim <= 1:
+        return x.reshape(-1)
+    if x.ndim == 2 and 1 <= x.shape[1] <= MAX_CHANNELS:
+        return x.mean(axis=1, dtype=np.float32) if x.shape[1] > 1 else x[:, 0]
+    raise ParameterError(f"audio chunks must be 1-D samples or 2-D (samples, channels) with at most "
+                         f"{MAX_CHANNELS} channels; got shape {x.shape} (transpose a channels-first array)")
+
+
 def _pcm(chunk, encoding: str) -> bytes:
     if isinstance(chunk, (bytes, bytearray, memoryview)):
         return bytes(chunk)
-    x = np.asarray(chunk, dtype=np.float32).reshape(-1)
+    x = mono(chunk)
     if encoding == "s16le":
         return (np.clip(x, -1, 1) * 32767).astype("<i2").tobytes()
     return x.astype("<f4").tobytes()
@@ -72,11 +95,13 @@ class Client:
 
     def _check(self, r):
         if r.status_code >= 400:
+            retry = r.headers.get("retry-after")
+            retry = float(retry) if retry is not None and retry.isdigit() else None
             try:
                 d = r.json()
-                raise ServerError(d.get("error", "error"), d.get("detail", r.text), r.status_code)
             except ValueError:
-                raise ServerError("http", f"{r.status_code}: {r.text[:200]}", r.status_code) from None
+                raise ServerError("http", f"{r.status_code}: {r.text[:200]}", r.status_code, retry) from None
+            raise ServerError(d.get("error", "error"), d.get("detail", r.text), r.status_code, retry)
         return r
 
     def models(self) -> list[dict]:
@@ -120,9 +145,52 @@ class Client:
             return load_motion(p)
 
     async def stream(self, chunks: AsyncIterable | Iterable, *, sample_rate: int = 16000, encoding: str = "f32le",
-                     model: str | None = None, seed: int = 0, frames: str = "binary", **controls) -> AsyncIterator[Frames]:
-        """Stream ``chunks`` (float32 arrays or PCM bytes, any size) and yield :class:`Frames` as
-        the server makes them final; the tail after the last chunk.  Raises ServerError on an error."""
+                     model: str | None = None, seed: int = 0, frames: str = "binary", reconnect: int = 3,
+                     **controls) -> AsyncIterator[Frames]:
+        """Stream ``chunks`` and yield :class:`Frames` as the server makes them final; the tail
+        after the last chunk.
+
+        Parameters
+        ----------
+        chunks : (async) iterable of float arrays or PCM bytes, any size
+            Float chunks are 1-D mono or 2-D ``(samples, channels)``, mixed down to mono
+            (:func:`mono`); bytes are sent as they are (mono PCM in ``encoding``).
+        reconnect : int
+            When the server restarts (close 1012), reconnect up to this many times (waiting
+            :data:`RECONNECT_WAITS`) and go on on a new stream from the first chunk the server
+            had not confirmed (each frames message says how much audio it had).  Frames are
+            numbered on in the whole stream; those of the last ~lookahead of audio before the
+            restart are missing (the new stream starts without that context).
+        **controls
+            Fields of the start message: ``gain``, ``offset``, ``still``, ``resample``.
+
+        Raises :class:`ServerError` on an error (its ``retry_after`` set when the server gave one)."""
+        import asyncio
+
+        source: asyncio.Queue = asyncio.Queue(maxsize=16)  # the chunks, read once for every reconnection
+        pump = asyncio.create_task(_pump(chunks, source))
+        # samples sent so far; the chunks the server has not confirmed (start sample, bytes), sent
+        # again on a new stream; whether the source is done; the next frame number to yield
+        state = {"sent": 0, "unconfirmed": collections.deque(), "ended": False, "next": 0}
+        attempt = 0
+        try:
+            while True:
+                try:
+                    async for f in self._one_stream(source, state, sample_rate=sample_rate, encoding=encoding,
+                                                    model=model, seed=seed, frames=frames, **controls):
+                        yield f
+                    return
+                except _Restart:
+                    if attempt >= reconnect:
+                        raise ServerError("server_restart", f"the server restarted (close 1012) {attempt + 1} "
+                                                            f"times; gave up") from None
+                    await asyncio.sleep(RECONNECT_WAITS[min(attempt, len(RECONNECT_WAITS) - 1)])
+                    attempt += 1
+        finally:
+            pump.cancel()
+            await asyncio.gather(pump, return_exceptions=True)
+
+    async def _one_stream(self, source, state, *, sample_rate, encoding, model, seed, frames, **controls):
         import asyncio
 
         import websockets
@@ -132,41 +200,117 @@ class Client:
         url = self.base_url.replace("http://", "ws://", 1).replace("https://", "wss://", 1) + "/v1/stream"
         start = {"type": "start", "sample_rate": sample_rate, "encoding": encoding, "seed": seed, "frames": frames,
                  **({"model": model} if model else {}), **{k: v for k, v in controls.items() if v is not None}}
-        async with websockets.connect(url, additional_headers=self._headers(), max_size=None) as ws:
+        resumed = state["sent"] > 0
+        try:
+            ws = await websockets.connect(url, additional_headers=self._headers(), max_size=None)
+        except OSError:
+            if resumed:  # the server is coming back up
+                raise _Restart() from None
+            raise
+        unconfirmed = state["unconfirmed"]
+        origin = unconfirmed[0][0] if unconfirmed else state["sent"]  # this stream's sample 0
+        width = 2 if encoding == "s16le" else 4
+        try:
             await ws.send(json.dumps(start))
             ready = json.loads(await ws.recv())
             if ready.get("type") == "error":
-                raise ServerError(ready["error"], ready["detail"])
+                raise _error(ready)
+            base = int(round(origin / sample_rate * ready["fps"]))  # this stream's frame 0 in the whole stream
 
             async def feed():
-                if hasattr(chunks, "__aiter__"):
-                    async for c in chunks:
-                        await ws.send(_pcm(c, encoding))
-                else:
-                    for c in chunks:
-                        await ws.send(_pcm(c, encoding))
-                await ws.send(json.dumps({"type": "end"}))
+                try:
+                    for _, data in list(unconfirmed):  # what the last stream may not have had
+                        await ws.send(data)
+                    while not state["ended"]:
+                        c = await source.get()
+                        if c is _END:
+                            state["ended"] = True
+                            break
+                        if isinstance(c, BaseException):
+                            raise c
+                        data = _pcm(c, encoding)
+                        unconfirmed.append((state["sent"], data))
+                        state["sent"] += len(data) // width
+                        await ws.send(data)
+                    await ws.send(json.dumps({"type": "end"}))
+                except websockets.ConnectionClosed:
+                    pass  # the reader sees why
+                except Exception as exc:  # noqa: BLE001 - a bad chunk or a failing source: told to the caller
+                    state["error"] = exc
+                    await ws.close()
+
+            def batch(first, fps, t, rv, pyr):
+                """The frames not yielded yet, numbered in the whole stream; the audio confirmed."""
+                confirmed = origin + int(round(t * sample_rate))
+                while unconfirmed and unconfirmed[0][0] + len(unconfirmed[0][1]) // width <= confirmed:
+                    unconfirmed.popleft()
+                first += base
+                skip = max(0, state["next"] - first)
+                if skip >= len(rv):
+                    return None
+                state["next"] = first + len(rv)
+                return Frames(first + skip, fps, t + origin / sample_rate, rv[skip:], pyr[skip:])
 
             sender = asyncio.create_task(feed())
             try:
                 async for msg in ws:
                     if isinstance(msg, bytes):
                         first, fps, t, a = parse_binary_frames(msg)
-                        yield Frames(first, fps, t, a[:, :3].astype(np.float64), a[:, 3:].astype(np.float64))
-                        continue
-                    d = json.loads(msg)
-                    if d["type"] == "frames":
-                        rv = np.array([f["rotvec"] for f in d["frames"]], dtype=np.float64)
-                        pyr = np.array([f["pitch_yaw_roll_deg"] for f in d["frames"]], dtype=np.float64)
-                        yield Frames(d["first"], d["fps"], d["audio_time"], rv, pyr)
-                    elif d["type"] == "error":
-                        raise ServerError(d["error"], d["detail"])
-                    elif d["type"] == "end":
-                        break
+                        f = batch(first, fps, t, a[:, :3].astype(np.float64), a[:, 3:].astype(np.float64))
+                    else:
+                        d = json.loads(msg)
+                        if d["type"] == "error":
+                            raise _error(d)
+                        if d["type"] == "end":
+                            return
+                        if d["type"] != "frames":
+                            continue
+                        f = batch(d["first"], d["fps"], d["audio_time"],
+                                  np.array([r["rotvec"] for r in d["frames"]], dtype=np.float64),
+                                  np.array([r["pitch_yaw_roll_deg"] for r in d["frames"]], dtype=np.float64))
+                    if f is not None:
+                        yield f
             finally:
                 if not sender.done():
                     sender.cancel()
-                await asyncio.gather(sender, return_exceptions=True)  # a refused send shows as the error above
+                await asyncio.gather(sender, return_exceptions=True)
+            if "error" in state:
+                raise state.pop("error")
+        except websockets.ConnectionClosedError as exc:
+            if exc.rcvd is not None and exc.rcvd.code == 1012:
+                raise _Restart() from None
+            if "error" in state:
+                raise state.pop("error") from None
+            raise ServerError("closed", f"the connection closed ({exc})") from None
+        finally:
+            await ws.close()
 
 
-__all__ = ["Client", "Frames", "ServerError"]
+_END = object()
+
+
+async def _pump(chunks, queue) -> None:
+    """Every chunk of ``chunks`` (sync or async) into ``queue``, then :data:`_END` (or the
+    exception the source raised)."""
+    try:
+        if hasattr(chunks, "__aiter__"):
+            async for c in chunks:
+                await queue.put(c)
+        else:
+            for c in chunks:
+                await queue.put(c)
+    except Exception as exc:  # noqa: BLE001 - handed to the stream, which raises it
+        await queue.put(exc)
+        return
+    await queue.put(_END)
+
+
+class _Restart(Exception):
+    """The server closed the stream with 1012 (restart)."""
+
+
+def _error(d: dict) -> ServerError:
+    return ServerError(d.get("error", "error"), d.get("detail", ""), retry_after=d.get("retry_after"))
+
+
+__all__ = ["Client", "Frames", "ServerError", "mono", "MAX_CHANNELS", "RECONNECT_WAITS"]
