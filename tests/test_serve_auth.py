@@ -142,3 +142,26 @@ def test_cli_refuses_and_makes_keys(tmp_path, capsys):
     k = KeyStore(load_keys(kf)).identify(f"Bearer {key}")
     assert (k.name, k.streams) == ("dave", 3)
     assert key not in kf.read_text()
+
+
+def test_keys_reloaded_when_the_file_changes(tmp_path):
+    """A key removed from the key file is refused on the next request (after the check interval),
+    a key added is accepted, without a restart; a broken file keeps the keys in force."""
+    import os
+
+    with client(tmp_path, keys=[("old-key", "old", 2, 600)]) as cl:
+        store = cl.app.state.serve.keys
+        store.check_every = 0.0
+        kf = store.path
+        assert _post(cl, {"authorization": "Bearer old-key"}).status_code == 200
+        kf.write_text(key_line("new-key", name="new") + "\n")
+        st = kf.stat()
+        os.utime(kf, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))  # a visible change whatever the clock's grain
+        assert _post(cl, {"authorization": "Bearer old-key"}).status_code == 401
+        assert _post(cl, {"authorization": "Bearer new-key"}).status_code == 200
+        with cl.websocket_connect(WS, headers={"authorization": "Bearer old-key"}) as ws:
+            out = read_until_close(ws)
+        assert json.loads(out[0]["text"])["error"] == "unauthorized"
+        kf.write_text("not a key line\n")
+        os.utime(kf, ns=(st.st_atime_ns, st.st_mtime_ns + 2 * 10**9))
+        assert _post(cl, {"authorization": "Bearer new-key"}).status_code == 200  # kept

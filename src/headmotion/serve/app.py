@@ -103,7 +103,8 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
     from .stream import no_such_stream, stream_endpoint
 
     config = config or ServeConfig()
-    keys = KeyStore(None if config.api_keys is None else load_keys(config.api_keys))
+    keys = (KeyStore(None) if config.api_keys is None else
+            KeyStore(load_keys(config.api_keys), path=config.api_keys))  # read again when the file changes
     reg = registry or Registry(engine.model_files(None if config.models_dir is None else Path(config.models_dir)))
     st = ServeState(config, reg, keys, RateLimiter(), Slots(), Metrics(), time.time())
 

@@ -109,20 +109,58 @@ def load_keys(path) -> dict[str, Key]:
 
 
 class KeyStore:
-    """Who a request is: :meth:`identify` maps an ``Authorization`` header to a :class:`Key`."""
+    """Who a request is: :meth:`identify` maps an ``Authorization`` header to a :class:`Key`.
 
-    def __init__(self, keys: dict[str, Key] | None):
+    With ``path`` (the key file), the file is read again when it changes (checked at most every
+    ``check_every`` seconds, on the next request): a key added or removed there is honoured
+    without a restart.  A file that no longer reads keeps the keys in force and logs why."""
+
+    def __init__(self, keys: dict[str, Key] | None, *, path=None, check_every: float = 1.0, clock=time.monotonic):
         self.keys = keys  # None: no keys, the local developer's server
+        self.path = None if path is None else Path(path)
+        self.check_every, self.clock = check_every, clock
+        self._checked = clock()
+        self._seen = self._signature()
+        self._lock = threading.Lock()
 
     @property
     def required(self) -> bool:
         return self.keys is not None
+
+    def _signature(self):
+        try:
+            st = self.path.stat()
+        except (OSError, AttributeError):
+            return None
+        return (st.st_mtime_ns, st.st_size, st.st_ino)
+
+    def reload_if_changed(self) -> bool:
+        """Read the key file again if it changed since it was last read; True when keys changed."""
+        if self.path is None or self.clock() - self._checked < self.check_every:
+            return False
+        with self._lock:
+            self._checked = self.clock()
+            sig = self._signature()
+            if sig is None or sig == self._seen:
+                return False
+            self._seen = sig
+            from .metrics import log_event
+
+            try:
+                keys = load_keys(self.path)
+            except FormatError as exc:
+                log_event("keys_reload_failed", error=str(exc), kept=len(self.keys or {}))
+                return False
+            self.keys = keys
+            log_event("keys_reloaded", keys=len(keys))
+            return True
 
     def identify(self, authorization: str | None) -> Key | None:
         """The key of ``Authorization: Bearer KEY``, :data:`LOCAL` when no keys are configured,
         None when the header is missing, malformed or names no key."""
         if self.keys is None:
             return LOCAL
+        self.reload_if_changed()
         if not authorization:
             return None
         scheme, _, token = authorization.strip().partition(" ")
