@@ -119,8 +119,10 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
 
     app = FastAPI(title="headmotion serve", version=_version(), lifespan=lifespan, redoc_url=None,
                   description="Natural head motion (pitch, yaw, roll) from speech: offline (POST /v1/motion) "
-                              "and streaming (WebSocket /v1/stream; protocol in docs/serve.md). "
-                              "Send `Authorization: Bearer KEY` when the server has API keys.")
+                              "and streaming (WebSocket `/v1/stream`, listed below under *stream*; its messages "
+                              "in [/asyncapi.json](/asyncapi.json), AsyncAPI 3.0). Send `Authorization: Bearer "
+                              "KEY` when the server has API keys. Errors are `{\"error\": KIND, \"detail\": "
+                              "SENTENCE}`.")
     app.state.serve = st
 
     @app.exception_handler(ApiError)
@@ -176,6 +178,22 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
         reg.check_ready()
         return {"models": [reg.cards[n] for n in sorted(reg.cards)],
                 "default_offline": engine.DEFAULT_OFFLINE, "default_stream": engine.DEFAULT_STREAM}
+
+    @app.get("/asyncapi.json", tags=["stream"], summary="The stream protocol (AsyncAPI 3.0)")
+    def asyncapi():
+        from .asyncapi import document
+
+        return document(_version())
+
+    @app.get("/v1/stream", tags=["stream"], status_code=426, summary="WebSocket: speech in, frames out",
+             description="A WebSocket route: connect with `ws://HOST/v1/stream` (`wss://` behind TLS). The "
+                         "messages are described in [/asyncapi.json](/asyncapi.json) and docs/serve.md. A plain "
+                         "HTTP request here answers 426.",
+             responses={426: {"description": "Not a WebSocket handshake"}})
+    def stream_over_http():
+        return JSONResponse({"error": "upgrade_required", "detail": "/v1/stream is a WebSocket: connect with "
+                             "ws:// (or wss://); the protocol is described at /asyncapi.json"}, status_code=426,
+                            headers={"upgrade": "websocket"})
 
     @app.get("/v1/example", include_in_schema=False)
     def example():
