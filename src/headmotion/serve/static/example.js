@@ -60,7 +60,8 @@ async function start() {
   ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/v1/stream`);
   ws.binaryType = "arraybuffer";
   ws.onopen = () => {
-    const first = { type: "start", sample_rate: sr, encoding: "s16le", frames: "json" };
+    // a live microphone: the low-delay resampling (frames need not equal an offline answer)
+    const first = { type: "start", sample_rate: sr, encoding: "s16le", frames: "json", resample: "fast" };
     if ($("key").value) first.api_key = $("key").value;  // a browser cannot set the Authorization header here
     ws.send(JSON.stringify(first));
   };
