@@ -1,7 +1,8 @@
 """``headmotion serve``: head motion as a service (:mod:`headmotion.serve`; docs/serve.md).
 
 * ``serve [--models DIR] [--host H] [--port P] [--workers N] [--api-keys FILE] [--allowed-host NAME]
-  [--allowed-origin URL]`` — the HTTP/WebSocket server; without ``--api-keys`` on localhost only;
+  [--allowed-origin URL] [--max-streams N]`` — the HTTP/WebSocket server; without ``--api-keys`` on
+  localhost only;
 * ``serve hash-key [--name NAME] [--streams N] [--rate N] [--key-file FILE]`` — a new API key
   (shown once) and its line for the key file (the key itself is never stored).
 """
@@ -35,16 +36,20 @@ def serve(
                                                      "answer (the name clients use; repeatable)."),
     allowed_origin: Optional[List[str]] = typer.Option(None, "--allowed-origin", help="A web page origin "
                                                        "allowed to call the API, e.g. https://app.example.com."),
+    max_streams: int = typer.Option(64, "--max-streams", min=1, max=100_000, help="Open streams per worker; "
+                                    "more are refused with 'busy'. Set it to what the machine holds in real "
+                                    "time (benchmarks/run.py --only serve measures it)."),
 ):
     """Serve head motion over HTTP (POST /v1/motion) and WebSocket (/v1/stream)."""
     if ctx.invoked_subcommand is not None:
         return
-    from ..serve.config import ServeConfig
+    from ..serve.config import Limits, ServeConfig
     from ..serve.runner import run
 
     config = ServeConfig(host=host, port=port, models_dir=None if models is None else str(models),
                          api_keys=None if api_keys is None else str(api_keys),
-                         allowed_hosts=tuple(allowed_host or ()), allowed_origins=tuple(allowed_origin or ()))
+                         allowed_hosts=tuple(allowed_host or ()), allowed_origins=tuple(allowed_origin or ()),
+                         limits=Limits(max_streams=max_streams))
     run(config, workers=workers, announce=lambda s: console.print(s, markup=False, highlight=False, soft_wrap=True))
 
 
