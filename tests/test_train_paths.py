@@ -123,3 +123,32 @@ def test_streamed_and_memory_models_agree_on_real_recordings(shared_data):
     for j in range(3):
         assert np.corrcoef(a[:, j], b[:, j])[0, 1] > 0.9
         assert 0.8 < b[:, j].std() / a[:, j].std() < 1.25
+
+
+def test_prefetch_keeps_the_order_and_raises_the_readers_error():
+    clock = stream_training.EpochClock()
+    for depth in (0, 1, 2):
+        assert list(stream_training._ahead(iter(range(7)), depth, clock)) == list(range(7))
+
+    def broken():
+        yield 1
+        raise OSError("scratch file gone")
+
+    with pytest.raises(OSError, match="scratch file gone"):
+        list(stream_training._ahead(broken(), 2, clock))
+
+
+def test_streamed_epochs_are_timed_by_part_and_the_post_filter_reads_motion_only(short_valid):
+    model = create("mfcc-dnn", **SMALL, train_path="streamed", cross_fit=False).fit(short_valid)
+    for stage in ("regressor", "postfilter"):
+        sec = model.history_[stage]["seconds"]
+        assert sec["epochs"] == 2 and set(stream_training.CLOCK_PARTS) <= set(sec)
+        assert sec["compute"] > 0 and sec["transfer"] == 0.0  # the CPU: nothing to copy
+        assert sum(sec[k] for k in ("transfer", "compute", "wait", "valid")) <= sec["total"] * 1.01 + 0.01
+    system = create("mfcc-dnn")
+    train = [i for i, r in enumerate(short_valid) if r.split == "train"]
+    with streamed.build(system, short_valid, train, [], system._feature_config()) as data:
+        full, motion = data.load(data.train[0]), data.load(data.train[0], features=False)
+        assert motion.feats is None and motion.x is None
+        np.testing.assert_array_equal(motion.y, full.y)
+        np.testing.assert_array_equal(motion.speaking, full.speaking)

@@ -3,6 +3,8 @@ systems (``"auto"``: CUDA when torch sees one, else the CPU)."""
 
 from __future__ import annotations
 
+import os
+
 from .errors import ParameterError
 
 DEVICES = ("auto", "cpu", "cuda")
@@ -20,9 +22,11 @@ def resolve_device(device: str) -> str:
     import torch
 
     if device == "auto":
-        return "cuda" if torch.cuda.is_available() else "cpu"
+        device = "cuda" if torch.cuda.is_available() else "cpu"
     if device == "cuda" and not torch.cuda.is_available():
         raise ParameterError("device='cuda' but torch sees no CUDA device; use device='cpu' or 'auto'")
+    if device == "cuda":  # cuBLAS's deterministic mode, for training under deterministic algorithms
+        os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
     return device
 
 

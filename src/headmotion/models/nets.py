@@ -145,12 +145,13 @@ class StackedAutoencoder(nn.Module):
         return out
 
 
-def descend(opt, loss: torch.Tensor) -> float:
-    """One optimiser step on ``loss`` (zero the gradients, back-propagate, step); its value."""
+def descend(opt, loss: torch.Tensor, *, value: bool = True):
+    """One optimiser step on ``loss`` (zero the gradients, back-propagate, step); its value (a
+    float, or with ``value`` False the detached tensor, which does not wait for a GPU to finish)."""
     opt.zero_grad()
     loss.backward()
     opt.step()
-    return float(loss.detach())
+    return float(loss.detach()) if value else loss.detach()
 
 
 def _batches(n: int, batch_size: int, *, shuffle: bool = True, drop_small: bool = True):

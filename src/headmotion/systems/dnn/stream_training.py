@@ -10,16 +10,140 @@ validation frames and the post-filter's layer-wise pre-training are those of
 :mod:`headmotion.models.nets`; the validation pieces are read the same way in their own order,
 the post-filter's validation noise drawn once per piece from a fixed seed (the same draw every
 epoch, as in memory).  Only the order of the batches differs from the in-memory path, so the
-models are close to, not equal to, its models (``tests/test_scale_path.py``).
+models are close to, not equal to, its models (``tests/test_scale_training.py``,
+``tests/test_train_paths.py``).
+
+The data pipeline: a background thread reads and batches the next buffers while the loop trains
+(:data:`PREFETCH` ahead per device); a buffer's padded features (or the post-filter's segments)
+are copied to the device once, from pinned memory on a GPU, and each batch's windows gathered
+there; the post-filter reads the motion only; on a GPU the epoch's loss is summed on the device
+(no wait per batch) and validation runs in chunks of :data:`VALID_CHUNK`.  Batches and noise are
+drawn with the CPU generator on any device, so on the CPU the models are those of the plain loop,
+bit for bit.  :class:`EpochClock` records where a stage's time goes.
 """
 
 from __future__ import annotations
+
+import queue
+import threading
+import time
 
 import numpy as np
 
 from ...errors import ParameterError
 
 VALID_NOISE_SEED = 777
+#: buffers read and batched ahead of the training loop, in a background thread, per device
+PREFETCH = {"cpu": 1, "cuda": 2}
+#: validation frames per forward pass, per device (no gradients: as large as memory allows)
+VALID_CHUNK = {"cpu": 4096, "cuda": 65536}
+#: the parts of :class:`EpochClock`
+CLOCK_PARTS = ("read", "batches", "transfer", "compute", "wait", "valid")
+
+
+class EpochClock:
+    """Seconds of one streamed training stage by part (``history[stage]["seconds"]``): ``read``
+    (recordings from the scratch folder, normalised), ``batches`` (a buffer's padded windows or
+    segments, each batch's windows), ``transfer`` (to the device), ``compute`` (forward, backward,
+    step), ``wait`` (the loop idle until the next buffer is ready: reading and batching run ahead
+    in a background thread, so ``read`` and ``batches`` overlap the loop's parts) and ``valid``
+    (the validation passes).  A GPU runs copies and kernels asynchronously: their time lands where
+    the loop next waits on a result (the epoch's loss, under ``compute``)."""
+
+    def __init__(self):
+        self.seconds = dict.fromkeys(CLOCK_PARTS, 0.0)
+        self.started = time.perf_counter()
+
+    def add(self, part: str, since: float) -> float:
+        """Add the time since ``since`` (a :func:`time.perf_counter` value) to ``part``; now."""
+        now = time.perf_counter()
+        self.seconds[part] += now - since
+        return now
+
+    def summary(self, epochs: int) -> dict:
+        """``{"epochs", "total" (the stage's wall time), one entry per part}`` in seconds."""
+        return {"epochs": int(epochs), "total": round(time.perf_counter() - self.started, 4),
+                **{k: round(v, 4) for k, v in self.seconds.items()}}
+
+
+class _LossSum:
+    """Σ loss × batch size over an epoch.  On a GPU the sum stays there, so that the loop does not
+    wait for each batch's result; on the CPU it is summed as floats, as the in-memory path does."""
+
+    def __init__(self, device: str):
+        self.lazy, self.total, self.count = device != "cpu", 0.0, 0
+
+    def step(self, opt, loss, n: int) -> None:
+        from ...models import nets
+
+        if self.lazy:
+            self.total = self.total + nets.descend(opt, loss, value=False).double() * n
+        else:
+            self.total += nets.descend(opt, loss) * n
+        self.count += n
+
+    def mean(self) -> float:
+        return float(self.total) / max(self.count, 1)
+
+
+def _ahead(items, depth: int, clock: EpochClock):
+    """Iterate ``items`` (a generator) in a background thread, up to ``depth`` items ahead (0: in
+    this thread); the time spent waiting for an item is the clock's ``wait``."""
+    if depth <= 0:
+        t = time.perf_counter()
+        for item in items:
+            t = clock.add("wait", t)
+            yield item
+            t = time.perf_counter()
+        return
+    q: queue.Queue = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+
+    def put(msg) -> bool:
+        while not stop.is_set():
+            try:
+                q.put(msg, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def run() -> None:
+        try:
+            for item in items:
+                if not put(("item", item)):
+                    return
+            put(("end", None))
+        except BaseException as exc:  # handed to the training loop, which raises it
+            put(("end", exc))
+
+    worker = threading.Thread(target=run, name="headmotion-prefetch", daemon=True)
+    worker.start()
+    try:
+        while True:
+            t = time.perf_counter()
+            kind, item = q.get()
+            clock.add("wait", t)
+            if kind == "end":
+                if item is not None:
+                    raise item
+                return
+            yield item
+    finally:
+        stop.set()
+        worker.join()
+
+
+def _timed_buffers(data, pieces, order, clock: EpochClock, **kw):
+    """:meth:`.streamed.StreamedData.buffers`, the time to read each one added to ``read``."""
+    it = data.buffers(pieces, order, **kw)
+    while True:
+        t = time.perf_counter()
+        buf = next(it, None)
+        clock.add("read", t)
+        if buf is None:
+            return
+        yield buf
 
 
 def _windows(buf, context: int):
@@ -32,27 +156,60 @@ def _windows(buf, context: int):
     return seq, starts, targets
 
 
-def _regressor_valid_loss(net, data, width: int, device) -> float:
+def _to_device(tensors, device: str, clock: EpochClock):
+    """``tensors`` on ``device`` (from pinned memory, without blocking, on a GPU); as they are on the CPU."""
+    if device == "cpu":
+        return tensors
+    t = time.perf_counter()
+    out = [a.to(device, non_blocking=True) for a in tensors]
+    clock.add("transfer", t)
+    return out
+
+
+def _regressor_buffers(data, pieces, order, context: int, device: str, clock: EpochClock, *, valid: bool = False):
+    """``(padded features, window starts, targets, pieces)`` per buffer, on ``device``: read and
+    batched ahead (:data:`PREFETCH`), the padded features copied once per buffer — a batch's
+    windows are then gathered where they are used."""
+    import torch
+
+    def prepared():
+        for buf in _timed_buffers(data, pieces, order, clock, valid=valid):
+            t = time.perf_counter()
+            seq, starts, targets = _windows(buf, context)
+            out = [seq.data, torch.from_numpy(starts), torch.from_numpy(targets)]
+            if device == "cuda":
+                out = [a.pin_memory() for a in out]
+            clock.add("batches", t)
+            yield out, len(buf)
+
+    for arrays, n in _ahead(prepared(), PREFETCH.get(device, 1), clock):
+        yield (*_to_device(arrays, device, clock), n)
+
+
+def _regressor_valid_loss(net, data, width: int, device, clock: EpochClock) -> float:
     import torch
 
     from ...models import nets
 
+    t0 = time.perf_counter()
+    before = dict(clock.seconds)
     net.eval()
-    vl, vc = 0.0, 0
+    vl, vc, chunk = 0.0, 0, VALID_CHUNK.get(device, 4096)
     with torch.no_grad():
-        for buf in data.buffers(data.valid, valid=True):
-            seq, vs, vy = _windows(buf, net.context)
-            vs, vy = torch.from_numpy(vs), torch.from_numpy(vy)
-            for s in range(0, len(vs), 4096):
-                p = net(nets.gather_windows(seq.data, vs[s:s + 4096], width).to(device))
-                vl += float(torch.sum((p - vy[s:s + 4096].to(device)) ** 2)) / vy.shape[1]
+        for x, vs, vy, _ in _regressor_buffers(data, data.valid, None, net.context, device, clock, valid=True):
+            for s in range(0, len(vs), chunk):
+                p = net(nets.gather_windows(x, vs[s:s + chunk], width))
+                vl += float(torch.sum((p - vy[s:s + chunk]) ** 2)) / vy.shape[1]
                 vc += len(p)
+    clock.seconds = before  # the whole validation pass counts as ``valid``
+    clock.add("valid", t0)
     return vl / max(vc, 1)
 
 
 def train_regressor(system, data, device: str, tick) -> tuple:
     """The ±context regressor from streamed batches; ``tick(fraction, description)`` reports
-    progress within the stage.  Returns ``(regressor on the CPU, history)``."""
+    progress within the stage.  Returns ``(regressor on the CPU, history)``; the history's
+    ``seconds`` is the stage's :class:`EpochClock`."""
     import torch
 
     from ...models import nets
@@ -65,23 +222,31 @@ def train_regressor(system, data, device: str, tick) -> tuple:
     stopper = nets._EarlyStopping(net, int(system.patience))
     hist: dict = {"train": [], "valid": []}
     epochs, n_train = int(system.max_epochs), len(data.train)
+    clock, ran = EpochClock(), 0
     for epoch in range(epochs):
         net.train()
-        tot, cnt, done = 0.0, 0, 0
-        for buf in data.buffers(data.train, torch.randperm(n_train).tolist()):
-            seq, ts, ty = _windows(buf, context)
-            ts, ty = torch.from_numpy(ts), torch.from_numpy(ty)
+        acc, done = _LossSum(device), 0
+        order = torch.randperm(n_train).tolist()
+        for x, ts, ty, n in _regressor_buffers(data, data.train, order, context, device, clock):
             for idx in nets._batches(len(ts), int(system.batch_size)):
-                pred = net(nets.gather_windows(seq.data, ts[idx], width).to(device))
-                loss = torch.mean((pred - ty[idx].to(device)) ** 2)
-                tot += nets.descend(opt, loss) * len(idx)
-                cnt += len(idx)
-            done += len(buf)
+                t = time.perf_counter()
+                idx = idx.to(device)
+                xb = nets.gather_windows(x, ts[idx], width)
+                t = clock.add("batches", t)
+                loss = torch.mean((net(xb) - ty[idx]) ** 2)
+                acc.step(opt, loss, len(idx))
+                clock.add("compute", t)
+            done += n
             tick((epoch + done / max(n_train, 1)) / epochs, f"regressor: epoch {epoch + 1}/{epochs}")
-        v = _regressor_valid_loss(net, data, width, device)
-        if stopper.end_epoch(hist, epoch, epochs, tot / max(cnt, 1), v):
+        t = time.perf_counter()
+        train_loss = acc.mean()
+        clock.add("compute", t)
+        v = _regressor_valid_loss(net, data, width, device, clock)
+        ran = epoch + 1
+        if stopper.end_epoch(hist, epoch, epochs, train_loss, v):
             break
     hist = stopper.finish(hist)
+    hist["seconds"] = clock.summary(ran)
     return net.cpu(), hist
 
 
@@ -93,6 +258,22 @@ def _segments(buf, segment: int):
 
     seg = nets.motion_segments([p.y for p in buf], segment=segment, hop=max(1, segment // 10))
     return torch.from_numpy(np.ascontiguousarray(seg.reshape(len(seg), segment * seg.shape[2])))  # (0, ·) when none
+
+
+def _segment_buffers(data, order, segment: int, device: str, clock: EpochClock):
+    """``(segments, pieces)`` per buffer of training motion (features not read), on ``device``,
+    read and cut ahead (:data:`PREFETCH`)."""
+    def prepared():
+        for buf in _timed_buffers(data, data.train, order, clock, features=False):
+            t = time.perf_counter()
+            x = _segments(buf, segment)
+            if device == "cuda":
+                x = x.pin_memory()
+            clock.add("batches", t)
+            yield x, len(buf)
+
+    for x, n in _ahead(prepared(), PREFETCH.get(device, 1), clock):
+        yield _to_device([x], device, clock)[0], n
 
 
 def _segment_count(frames: int, segment: int) -> int:
@@ -113,12 +294,13 @@ def fallback_valid_segments(data, segment: int):
     for p, n in zip(data.train, counts):
         first = (-off) % step
         if n and first < n:
-            out.append(_segments([data.load(p)], segment)[first::step])
+            out.append(_segments([data.load(p, features=False)], segment)[first::step])
         off += n
     return torch.cat(out) if out else torch.zeros((0, segment * 3))
 
 
-def _pretrain(dae, data, segment: int, epochs: int, batch_size: int, lr: float, device) -> list[float]:
+def _pretrain(dae, data, segment: int, epochs: int, batch_size: int, lr: float, device,
+              clock: EpochClock) -> list[float]:
     """:func:`headmotion.models.nets.pretrain_layerwise` over streamed buffers of segments."""
     import torch
 
@@ -130,16 +312,17 @@ def _pretrain(dae, data, segment: int, epochs: int, batch_size: int, lr: float, 
         opt = torch.optim.Adam(params, lr=lr)
         last = float("nan")
         for _ in range(int(epochs)):
-            tot, cnt = 0.0, 0
-            for buf in data.buffers(data.train, torch.randperm(len(data.train)).tolist()):
+            acc = _LossSum(device)
+            for x, _n in _segment_buffers(data, torch.randperm(len(data.train)).tolist(), segment, device, clock):
+                t = time.perf_counter()
                 with torch.no_grad():
-                    h_all = dae.encode(_segments(buf, segment).to(device), depth=i)
+                    h_all = dae.encode(x, depth=i)
                 for idx in nets._batches(len(h_all), batch_size):
                     h = h_all[idx.to(device)]
                     loss = torch.mean((dae._shallow(i, h) - h) ** 2)
-                    tot += nets.descend(opt, loss) * len(idx)
-                    cnt += len(idx)
-            last = tot / max(cnt, 1)
+                    acc.step(opt, loss, len(idx))
+                clock.add("compute", t)
+            last = acc.mean()
         losses.append(last)
     return losses
 
@@ -152,14 +335,16 @@ def _valid_segment_sets(data, segment: int, fallback):
         return
     for k, piece in enumerate(data.valid):
         if piece.frames >= segment:
-            yield k, _segments([data.load(piece, all_speaking=True)], segment)
+            yield k, _segments([data.load(piece, all_speaking=True, features=False)], segment)
 
 
-def _postfilter_valid_loss(dae, data, segment: int, noise: float, device, fallback=None) -> tuple[float, int]:
+def _postfilter_valid_loss(dae, data, segment: int, noise: float, device, fallback=None,
+                           clock: EpochClock | None = None) -> tuple[float, int]:
     """``(sum of squared errors, values)`` on the validation pieces, each piece's noise drawn from
     its own fixed seed (or on ``fallback``, :func:`fallback_valid_segments`, with one seed)."""
     import torch
 
+    t0 = time.perf_counter()
     dae.eval()
     sse, n = 0.0, 0
     with torch.no_grad():
@@ -170,6 +355,8 @@ def _postfilter_valid_loss(dae, data, segment: int, noise: float, device, fallba
             noisy = xv + torch.rand(len(xv), 1, generator=g) * 2 * noise * torch.randn(xv.shape, generator=g)
             sse += float(torch.sum((dae(noisy.to(device)) - xv.to(device)) ** 2))
             n += xv.numel()
+    if clock is not None:
+        clock.add("valid", t0)
     return sse, n
 
 
@@ -178,7 +365,8 @@ def train_postfilter(system, data, device: str, tick) -> tuple:
     :func:`headmotion.models.nets.train_postfilter`).  Recordings shorter than a segment add no
     segment; when no validation piece holds one, early stopping watches
     :func:`fallback_valid_segments` (``history["valid_from_training"]`` is True).  Returns
-    ``(post-filter on the CPU, history)``."""
+    ``(post-filter on the CPU, history)``; the history's ``seconds`` is the stage's
+    :class:`EpochClock` (pre-training included)."""
     import torch
 
     from ...models import nets
@@ -191,28 +379,36 @@ def train_postfilter(system, data, device: str, tick) -> tuple:
                                code_dim=int(system.postfilter_code)).to(device)
     lr, epochs = float(system.learning_rate), int(system.max_epochs)
     fallback = None if any(p.frames >= seg for p in data.valid) else fallback_valid_segments(data, seg)
-    hist: dict = {"pretrain": _pretrain(dae, data, seg, 2, bs, lr, device), "train": [], "valid": [],
+    clock, ran = EpochClock(), 0
+    hist: dict = {"pretrain": _pretrain(dae, data, seg, 2, bs, lr, device, clock), "train": [], "valid": [],
                   "valid_from_training": fallback is not None}
     opt = torch.optim.Adam(dae.parameters(), lr=lr)
     stopper = nets._EarlyStopping(dae, int(system.patience))
     for epoch in range(epochs):
         dae.train()
-        tot, cnt, done = 0.0, 0, 0
-        for buf in data.buffers(data.train, torch.randperm(len(data.train)).tolist()):
-            x = _segments(buf, seg)
+        acc, done = _LossSum(device), 0
+        for x, n in _segment_buffers(data, torch.randperm(len(data.train)).tolist(), seg, device, clock):
+            t = time.perf_counter()
             for idx in nets._batches(len(x), bs):
-                clean = x[idx].to(device)
+                clean = x[idx.to(device)]
+                # the noise is drawn on the CPU on every device: the CPU generator's stream, as in memory
                 sd = (torch.rand(len(idx), 1) * 2 * noise).to(device)
                 loss = torch.mean((dae(clean + sd * torch.randn(clean.shape).to(device)) - clean) ** 2)
-                tot += nets.descend(opt, loss) * len(idx)
-                cnt += len(idx)
-            done += len(buf)
+                acc.step(opt, loss, len(idx))
+            clock.add("compute", t)
+            done += n
             tick((epoch + done / max(len(data.train), 1)) / epochs, f"post-filter: epoch {epoch + 1}/{epochs}")
-        sse, n = _postfilter_valid_loss(dae, data, seg, noise, device, fallback)
-        if stopper.end_epoch(hist, epoch, epochs, tot / max(cnt, 1), sse / max(n, 1)):
+        t = time.perf_counter()
+        train_loss = acc.mean()
+        clock.add("compute", t)
+        sse, n = _postfilter_valid_loss(dae, data, seg, noise, device, fallback, clock)
+        ran = epoch + 1
+        if stopper.end_epoch(hist, epoch, epochs, train_loss, sse / max(n, 1)):
             break
     hist = stopper.finish(hist)
+    hist["seconds"] = clock.summary(ran)
     return dae.cpu(), hist
 
 
-__all__ = ["train_regressor", "train_postfilter", "fallback_valid_segments", "VALID_NOISE_SEED"]
+__all__ = ["train_regressor", "train_postfilter", "fallback_valid_segments", "EpochClock", "CLOCK_PARTS",
+           "PREFETCH", "VALID_CHUNK", "VALID_NOISE_SEED"]

@@ -122,28 +122,32 @@ class StreamedData:
             np.savez(fh, feats=p.feats, motion=p.motion, speaking=p.speaking)
         return key
 
-    def load(self, piece: Piece, *, all_speaking: bool = False) -> Prepared:
+    def load(self, piece: Piece, *, all_speaking: bool = False, features: bool = True) -> Prepared:
         """The piece with ``x``, ``y`` (normalised, float32) and ``r = x`` set; ``all_speaking``:
-        every frame counts when none speaks (validation pieces, as the in-memory path)."""
+        every frame counts when none speaks (validation pieces, as the in-memory path);
+        ``features`` False: the motion and speaking flags only (``feats``, ``x``, ``r`` None), for
+        the post-filter, which never reads the features."""
+        keys = ("feats", "motion", "speaking") if features else ("motion", "speaking")
         with np.load(self.folder / f"{piece.key}.npz") as z:
-            feats, motion, speaking = (z[k][piece.lo:piece.hi] for k in ("feats", "motion", "speaking"))
-        p = Prepared(piece.id, feats, motion, speaking)
+            got = {k: z[k][piece.lo:piece.hi] for k in keys}
+        p = Prepared(piece.id, got.get("feats"), got["motion"], got["speaking"])
         if all_speaking and not p.speaking.any():
             p.speaking = np.ones_like(p.speaking)
-        p.x = np.asarray(self.feat_norm.transform(feats), dtype=np.float32)
-        p.y = np.asarray(self.mot_norm.transform(motion), dtype=np.float32)
+        p.x = np.asarray(self.feat_norm.transform(p.feats), dtype=np.float32) if features else None
+        p.y = np.asarray(self.mot_norm.transform(p.motion), dtype=np.float32)
         p.r = p.x
         return p
 
-    def buffers(self, pieces: list[Piece], order=None, *, limit: int = BUFFER_FRAMES, valid: bool = False):
+    def buffers(self, pieces: list[Piece], order=None, *, limit: int = BUFFER_FRAMES, valid: bool = False,
+                features: bool = True):
         """Lists of loaded pieces in ``order`` (indices into ``pieces``; default: as given), each
-        list holding pieces until it reaches ``limit`` frames."""
+        list holding pieces until it reaches ``limit`` frames (``features`` as :meth:`load`)."""
         order = range(len(pieces)) if order is None else order
         buf, n = [], 0
         for k in order:
-            p = self.load(pieces[int(k)], all_speaking=valid)
+            p = self.load(pieces[int(k)], all_speaking=valid, features=features)
             buf.append(p)
-            n += len(p.feats)
+            n += len(p.motion)
             if n >= limit:
                 yield buf
                 buf, n = [], 0
