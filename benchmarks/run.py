@@ -16,7 +16,9 @@ Groups: startup (whole commands in fresh processes: ``--help``, ``synth``, ``str
 features, synth, stream, train, memory, render, video, evaluate, server (the listening-test
 server under simulated participants; skipped by a bare ``--quick``), serve (``headmotion serve``
 under load; serve_bench.py), scale (corpora of 1, 4, 16 hours in BEAT2's layout, import to
-training; only with ``--only scale``; ``HEADMOTION_SCALE_HOURS=1,4``).
+training; only with ``--only scale``; ``HEADMOTION_SCALE_HOURS=1,4``), epoch (one streamed mfcc-dnn
+epoch split into reading, batches, transfer, compute, on the CPU and CUDA; only with ``--only epoch``;
+``HEADMOTION_EPOCH_HOURS=1,4,16``).
 ``--quick`` runs a reduced set (short corpora, fewer repeats) in under 3 minutes.
 """
 
@@ -561,8 +563,14 @@ def bench_scale(res: Results, quick: bool):
     scale(res, quick, speech_dir=speech_dir())
 
 
+def bench_epoch(res: Results, quick: bool):
+    from scale_bench import bench_epoch as epoch  # one streamed epoch by part: see benchmarks/scale_bench.py
+
+    epoch(res, quick, speech_dir=speech_dir())
+
+
 GROUPS = ("startup", "features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server",
-          "serve", "scale")
+          "serve", "scale", "epoch")
 
 
 def main(argv=None) -> int:
@@ -588,7 +596,7 @@ def main(argv=None) -> int:
             continue
         if args.quick and g in ("server", "serve") and not args.only:  # minutes: only when asked
             continue
-        if g == "scale" and not args.only:  # hours of corpus: only when asked
+        if g in ("scale", "epoch") and not args.only:  # hours of corpus: only when asked
             continue
         fn = globals()[f"bench_{g}"]
         kwargs = {"cache": cache} if g in ("synth", "stream") else {}

@@ -23,6 +23,15 @@ tws-basic and shaped-noise) with joblib 2 jobs and with a Dask ``LocalCluster`` 
 the two metric tables are compared value by value.  ``HEADMOTION_SCALE_EVAL_HOURS`` picks another of
 the sizes for that comparison, ``HEADMOTION_SCALE_DIR`` a folder that keeps the corpora (else a
 temporary one).
+
+The ``epoch`` group (:func:`bench_epoch`, only with ``--only epoch``) times one epoch of mfcc-dnn
+on the streamed path at each size in ``HEADMOTION_EPOCH_HOURS`` (default ``1,4,16``; ``--quick``
+``0.25``) on the CPU (2 torch threads) and, when torch sees one, on CUDA, each in a fresh process,
+and splits it by part (:class:`headmotion.systems.dnn.stream_training.EpochClock`): reading the
+recordings, feature batches, transfer to the device, compute, the loop's wait for data and the
+validation pass — for the regressor and for the post-filter (its two pre-training passes
+included).  The corpora are the scale group's (``HEADMOTION_SCALE_DIR``; written, and their MFCCs
+cached, when absent).
 """
 
 from __future__ import annotations
@@ -77,6 +86,82 @@ def _stage(root: Path, code: str) -> tuple[float, float]:
     rss, out = peak_rss_of(body)
     seconds = float(next(line for line in out.splitlines() if line.startswith("__T__")).split()[1])
     return seconds, rss
+
+
+EPOCH_CODE = (
+    "import json\n"
+    "from headmotion.corpus import Corpus\n"
+    "from headmotion.systems import create\n"
+    "m = create('mfcc-dnn', max_epochs=1, patience=1, cross_fit=False, train_path='streamed', device=DEVICE,\n"
+    "           n_threads=2).fit(Corpus.load(ROOT / 'corpus'))\n"
+    "h = m.history_\n"
+    "print('__EPOCH__', json.dumps({'fit': m.fit_seconds_, 'regressor': h['regressor']['seconds'],\n"
+    "                               'postfilter': h['postfilter']['seconds']}))\n"
+)
+
+
+def epoch_hours(quick: bool) -> tuple[float, ...]:
+    text = os.environ.get("HEADMOTION_EPOCH_HOURS") or ("0.25" if quick else "1,4,16")
+    return tuple(float(h) for h in text.split(",") if h.strip())
+
+
+def epoch_breakdown(root: Path, device: str) -> tuple[dict, float]:
+    """(the fit's seconds and its two stages' ``EpochClock`` summaries, peak RSS in MB) of one
+    streamed mfcc-dnn epoch on ``device``, in a fresh process."""
+    import json
+
+    body = f"from pathlib import Path\nROOT = Path({str(root)!r})\nDEVICE = {device!r}\n" + EPOCH_CODE
+    rss, out = peak_rss_of(body)
+    line = next(x for x in out.splitlines() if x.startswith("__EPOCH__"))
+    return json.loads(line.split(" ", 1)[1]), rss
+
+
+def planted_with_mfcc(root: Path, hours: float, speech_dir=None) -> Path:
+    """A planted corpus of ``hours`` in BEAT2's layout under ``root``, imported, its MFCCs cached
+    (each step skipped when done); the corpus folder."""
+    from headmotion.corpus import Corpus
+    from headmotion.datasets import import_dataset
+    from headmotion.datasets.planted import write_planted_beat2
+    from headmotion.feature_cache import build_feature_cache
+    from headmotion.features import FeatureConfig
+
+    if not (root / "beat2" / "train_test_split.csv").is_file():
+        write_planted_beat2(root / "beat2", hours=hours, take_minutes=1.0, speakers=4, seed=1, speech_dir=speech_dir)
+    if not (root / "corpus" / "corpus.csv").is_file():
+        import_dataset("beat2", root / "beat2", root / "corpus", jobs=1)
+    build_feature_cache(Corpus.load(root / "corpus"), [FeatureConfig("mfcc", fps=100.0)], n_jobs=2)
+    return root / "corpus"
+
+
+def bench_epoch(res: Results, quick: bool, *, speech_dir=None) -> None:
+    import torch
+
+    from headmotion.systems.dnn.stream_training import CLOCK_PARTS
+
+    devices = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
+    if len(devices) == 1:
+        res.add(Row("12 epoch", "cuda", None, "", "-", None, "torch sees no CUDA device: CPU rows only"))
+    keep = os.environ.get("HEADMOTION_SCALE_DIR")
+    with (contextlib.nullcontext(keep) if keep else tempfile.TemporaryDirectory(prefix="hm-epoch-")) as tmp:
+        for h in epoch_hours(quick):
+            root = Path(tmp) / f"{h:g}h"
+            planted_with_mfcc(root, h, speech_dir)
+            seen = {}
+            for device in devices:
+                got, rss = epoch_breakdown(root, device)
+                for stage in ("regressor", "postfilter"):
+                    sec = got[stage]
+                    parts = ", ".join(f"{k} {sec[k]:.2f}" for k in CLOCK_PARTS)
+                    res.add(Row("12 epoch", f"mfcc-dnn {stage}, 1 epoch, {h:g} h, {device}", sec["total"], "s", "-",
+                                None, f"{parts} s (read, batches: ahead in a thread)"))
+                seen[device] = got
+                res.add(Row("12 epoch", f"mfcc-dnn fit, 1 epoch, {h:g} h, {device}", got["fit"], "s", "-", None,
+                            f"reading pass, both networks, tables; peak RSS {rss:,.0f} MB"))
+            if "cuda" in seen:
+                speed = seen["cpu"]["regressor"]["total"] / seen["cuda"]["regressor"]["total"]
+                res.add(Row("12 epoch", f"regressor epoch, cuda against 2 CPU threads, {h:g} h", speed, "x",
+                            ">= 10 at 16 h", speed >= 10 if h >= 16 else None,
+                            f"whole fit {seen['cpu']['fit'] / seen['cuda']['fit']:.1f}x"))
 
 
 def _slope(hours, times) -> float:
