@@ -22,8 +22,8 @@ ERROR_KINDS = {
 
 def _number_or_triple(lo: float, hi: float, unit: str) -> dict:
     one = {"type": "number", "minimum": lo, "maximum": hi}
-    return {"oneOf": [one, {"type": "array", "items": one, "minItems": 3, "maxItems": 3}],
-            "description": f"One value or [pitch, yaw, roll], each {lo:g} to {hi:g}{unit}."}
+    return {"oneOf": [one, {"type": "array", "items": one, "minItems": 3, "maxItems": 3}, {"type": "null"}],
+            "description": f"One value or [pitch, yaw, roll], each {lo:g} to {hi:g}{unit}; null: the default."}
 
 
 def start_schema() -> dict:
@@ -34,8 +34,8 @@ def start_schema() -> dict:
         "type": "object", "additionalProperties": False, "required": ["type"],
         "properties": {
             "type": {"const": "start"},
-            "model": {"type": "string", "description": "A name from GET /v1/models (default: stream)."},
-            "sample_rate": {"type": "integer", "minimum": 8000, "maximum": 192000,
+            "model": {"type": ["string", "null"], "description": "A name from GET /v1/models (default: stream)."},
+            "sample_rate": {"type": ["integer", "null"], "minimum": 8000, "maximum": 192000,
                             "description": "Rate of the audio sent (default: the model's)."},
             "encoding": {"enum": sorted(ENCODINGS), "default": "s16le"},
             "seed": {"type": "integer", "minimum": 0, "maximum": SEED_MAX, "default": 0},
@@ -46,7 +46,7 @@ def start_schema() -> dict:
             "resample": {"enum": sorted(RESAMPLE), "default": "exact",
                          "description": "exact: resampled as POST /v1/motion does, the same frames; fast: "
                                         "~10 ms less delay, frames that may differ by a few degrees."},
-            "api_key": {"type": "string", "description": "For browsers, which cannot set headers on a WebSocket; "
+            "api_key": {"type": ["string", "null"], "description": "For browsers, which cannot set headers on a WebSocket; "
                                                          "programs send Authorization: Bearer KEY."},
         },
     }

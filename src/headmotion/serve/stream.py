@@ -91,13 +91,13 @@ def parse_start(text: str | None) -> Start:
     model = obj.get("model")
     if model is not None and not isinstance(model, str):
         raise bad(f"model must be a name (text); got {model!r:.40}")
-    sr = obj.get("sample_rate")
+    sr = _whole(obj.get("sample_rate"))
     if sr is not None and (isinstance(sr, bool) or not isinstance(sr, int) or not 8000 <= sr <= 192000):
         raise bad(f"sample_rate must be a whole number of Hz between 8000 and 192000; got {sr!r:.40}")
     enc = obj.get("encoding", "s16le")
     if not isinstance(enc, str) or enc not in ENCODINGS:
         raise bad(f"encoding must be one of {sorted(ENCODINGS)}; got {enc!r:.40}")
-    seed = obj.get("seed", 0)
+    seed = _whole(obj.get("seed", 0))
     try:
         engine.check_seed(seed)
     except HeadMotionError as exc:
@@ -128,6 +128,12 @@ def _number_or_triple(v, what):
     if v is not None and not all(math.isfinite(x) for x in (v if isinstance(v, list) else [v])):
         raise ProtocolError("bad_start", f"{what} must be finite; got {v!r:.40}")
     return v
+
+
+def _whole(v):
+    """A JSON number without a fraction as an int (``16000.0`` is the integer 16000, as JSON Schema
+    counts it); anything else as it is."""
+    return int(v) if isinstance(v, float) and v.is_integer() and abs(v) < 2 ** 63 else v
 
 
 def _flag(v):
