@@ -134,7 +134,10 @@ async def paced_stream(url: str, pcm: np.ndarray, *, key: str | None = None, chu
     lat = []
     async with websockets.connect(url.replace("http", "ws") + "/v1/stream", additional_headers=hdr,
                                   max_size=None) as ws:
-        await ws.send(json.dumps({"type": "start", "encoding": "s16le", "frames": "binary", "sample_rate": sr}))
+        try:
+            await ws.send(json.dumps({"type": "start", "encoding": "s16le", "frames": "binary", "sample_rate": sr}))
+        except websockets.ConnectionClosed:
+            pass  # refused at once (busy): its error message is still to be read
         ready = json.loads(await ws.recv())
         if ready["type"] == "error":
             raise Refused(ready["error"])

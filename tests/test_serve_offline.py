@@ -137,7 +137,8 @@ def test_example_page_and_its_files(c):
     page = c.get("/v1/example")
     assert page.status_code == 200 and "/v1/example/static/example.js" in page.text
     assert "<script>" not in page.text  # no inline script: the page runs under the CSP
-    for path in ("/v1/example/static/example.js", "/v1/example/static/example-worklet.js",
+    for path in ("/v1/example/static/example.js", "/v1/example/static/client/index.js",
+                 "/v1/example/static/client/capture-worklet.js",
                  "/v1/example/viewer/viewer.js", "/v1/example/viewer/head_mesh.bin"):
         assert c.get(path).status_code == 200, path
 

@@ -1,9 +1,0 @@
-// Audio thread: hands each 128-sample block of the first input channel to the page.
-class Tap extends AudioWorkletProcessor {
-  process(inputs) {
-    const x = inputs[0] && inputs[0][0];
-    if (x) this.port.postMessage(x.slice(0));
-    return true;
-  }
-}
-registerProcessor("hm-tap", Tap);
