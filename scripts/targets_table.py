@@ -3,7 +3,7 @@
 One row per (evaluation, condition): the realism medians of :func:`headmotion.evaluation.report.
 realism_summary` with the targets of :func:`~headmotion.evaluation.report.realism_targets` marked
 (✓ met, ✗ not; the spectral L1 and the speed Hellinger are shown per recording (median) and
-pooled over the test set (and over all K samples of a stochastic system), the targets use the pooled ones), the pooled FCCA excess with its Stouffer p, and the number of targets met.  With
+pooled over the test set (and over all K samples of a stochastic system), the targets use the pooled ones), the pooled FCCA excess with its Stouffer p, the cross-speaker coupling and the beat alignment (excess, Stouffer p), the detectability beside the floor (other speakers' recorded heads) at 6 Hz and at 3 Hz, the direction reversals per frame, and the number of targets met.  With
 several evaluations of the same corpus (seeds), ``--mean-over`` adds one row per condition with the
 mean over them (p: Stouffer of the per-run pooled p-values is *not* valid for overlapping data, so
 the row shows the largest p).  Usage::
@@ -69,6 +69,25 @@ def _detect_cell(d: dict) -> str:
     return f"{v:.2f} ({d.get('detect_ba_stats', np.nan):.2f} / {d.get('detect_ba_cnn', np.nan):.2f})"
 
 
+def _floor_cell(d: dict, key: str = "detect") -> str:
+    """A detectability beside the floor's (other speakers' recorded heads): "value (+above floor)"."""
+    v, above = d.get(key, np.nan), d.get(f"{key}_above_floor", np.nan)
+    if not np.isfinite(v):
+        return "–"
+    return f"{v:.2f}" + ("" if not np.isfinite(above) else f" ({above:+.2f})")
+
+
+def _test_cell(d: dict, m: str) -> str:
+    """Pooled excess and Stouffer p of a shift-tested score."""
+    ex = d.get(f"{m}_excess_pooled", np.nan)
+    return "–" if not np.isfinite(ex) else f"{ex:+.3f} ({fmt_p(d.get(f'{m}_p_pooled', np.nan))})"
+
+
+def _reversal_cell(d: dict) -> str:
+    v = [d.get(f"reversals_{a}", np.nan) for a in ("pitch", "yaw", "roll")]
+    return "–" if not np.any(np.isfinite(v)) else "/".join("–" if not np.isfinite(x) else f"{x:.2f}" for x in v)
+
+
 def rows_for(label: str, summ: dict, targets: dict) -> list[str]:
     gt = summ.get("ground-truth", {})
     out = []
@@ -87,12 +106,16 @@ def rows_for(label: str, summ: dict, targets: dict) -> list[str]:
             f"{mark(100 * d.get('saturation', np.nan), t['sat'], 1)} | "
             f"{_pause_cell(d, t['pause'])} ({gt.get('pause_ratio', np.nan):.2f}) | "
             f"{mark(d.get('diversity', np.nan), None)} | {d.get('fcca_excess_pooled', np.nan):+.3f} | "
-            f"{fmt_p(d.get('fcca_p_pooled', np.nan))} | {_detect_cell(d)} | {met}/{n} |")
+            f"{fmt_p(d.get('fcca_p_pooled', np.nan))} | {_test_cell(d, 'xcca')} | {_test_cell(d, 'bc')} | "
+            f"{_detect_cell(d)} | {mark(d.get('detect_floor', np.nan), None)} | {_floor_cell(d)} | "
+            f"{_floor_cell(d, 'detect_3hz')} | {_reversal_cell(d)} | {met}/{n} |")
     return out
 
 
 HEADER = ("| set | condition | 1.5–4 Hz (gt) | L1 per recording / pooled | SD ratio p/y/r | H speed per rec. / pooled / pooled K samples | LC (gt) | sat % | pause first / K samples (gt) | "
-          "diversity | FCCA excess | p | detectability (stats / CNN) | targets |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "diversity | FCCA excess | p | cross-speaker coupling excess (p) | BC excess (p) | detectability (stats / CNN) | "
+          "floor | detectability (above floor) | 3 Hz (above floor) | reversals p/y/r | targets |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 
 
 def main(argv=None) -> int:

@@ -48,6 +48,31 @@ def test_shaped_noise_spectrum_and_smoothness(corpus):
     assert x.shape == (0, 3)
 
 
+def test_floor_gives_other_speakers_heads_never_twice(corpus):
+    """Known answer: every held-out recording gets a contiguous stretch of another speaker's recorded
+    head, of its own length, and no frame of the training heads is given out twice."""
+    train = corpus.filter(speaker="b")
+    held = list(corpus.filter(speaker="a"))
+    fl = create_anchor("floor", random_state=3).fit(train)
+    src = {r.id: np.asarray(r.motion.rotvec) for r in train}
+    used = {rid: np.zeros(len(x), bool) for rid, x in src.items()}
+    for rec in held:
+        m = fl.motion_for(rec, seed=0)
+        assert len(m) == len(rec.motion) and m.fps == rec.motion.fps
+        hits = [(rid, s) for rid, x in src.items() for s in range(len(x) - len(m) + 1)
+                if np.array_equal(x[s], m.rotvec[0]) and np.array_equal(x[s:s + len(m)], m.rotvec)]
+        assert len(hits) == 1
+        rid, s = hits[0]
+        assert not used[rid][s:s + len(m)].any()
+        used[rid][s:s + len(m)] = True
+        np.testing.assert_array_equal(fl.motion_for(rec).rotvec, m.rotvec)  # asked again: the same stretch
+    # the same seed deals the same stretches; the held-out speaker's own heads never
+    again = create_anchor("floor", random_state=3).fit(train)
+    np.testing.assert_array_equal(again.motion_for(held[0]).rotvec, fl.motion_for(held[0]).rotvec)
+    with pytest.raises(ParameterError, match="another speaker"):
+        create_anchor("floor").fit(corpus.filter(speaker="a")).motion_for(held[0])
+
+
 def test_anchor_errors(corpus):
     one_speaker = corpus.filter(speaker="a")
     with pytest.raises(ParameterError, match="another speaker"):
@@ -57,8 +82,8 @@ def test_anchor_errors(corpus):
 
 
 def test_anchors_are_evaluation_conditions_not_systems(corpus):
-    assert sorted(ANCHORS) == ["desync", "ground-truth", "other-speaker", "shaped-noise", "shifted", "still"]
-    assert [n for n, c in ANCHORS.items() if c.needs_other_speakers] == ["other-speaker"]
+    assert sorted(ANCHORS) == ["desync", "floor", "ground-truth", "other-speaker", "shaped-noise", "shifted", "still"]
+    assert [n for n, c in ANCHORS.items() if c.needs_other_speakers] == ["other-speaker", "floor"]
     with pytest.raises(ParameterError, match="unknown system 'desync'"):
         create("desync")
     with pytest.raises(ParameterError, match="unknown anchor"):

@@ -139,3 +139,96 @@ def test_reversal_rate_ignores_jitter_above_the_low_pass():
     white = np.random.default_rng(0).normal(size=(500, 3))
     assert np.all(reversal_rate(white, fps=FPS) > 0.3)
     assert np.all(reversal_rate(white, fps=FPS, cutoff_hz=3.0) < reversal_rate(white, fps=FPS))
+
+
+# -- in headmotion evaluate -------------------------------------------------------------------------
+def test_floor_rows_put_every_detectability_beside_the_floor():
+    from headmotion.evaluation.detectability import floor_rows
+
+    rows = [{"system": s, "recording": "ALL", "metric": m, "value": v} for s, m, v in
+            (("floor", "detect", 0.6), ("floor", "detect_3hz", 0.55), ("mine", "detect", 0.9),
+             ("mine", "detect_3hz", 0.8), ("other", "detect", 0.7), ("mine", "fcca", 0.3))]
+    out = {(r["system"], r["metric"]): r["value"] for r in floor_rows(rows)}
+    assert out[("mine", "detect_floor")] == 0.6 and out[("mine", "detect_above_floor")] == pytest.approx(0.3)
+    assert out[("mine", "detect_3hz_floor")] == 0.55 and out[("mine", "detect_3hz_above_floor")] == pytest.approx(0.25)
+    assert out[("other", "detect_above_floor")] == pytest.approx(0.1) and ("other", "detect_3hz_floor") not in out
+    assert out[("floor", "detect_above_floor")] == 0.0
+    assert floor_rows([r for r in rows if r["system"] != "floor"]) == []  # no floor, no columns
+
+
+def test_reversal_rows_pool_frames_over_recordings():
+    from headmotion.evaluation.detectability import reversal_rows
+
+    t = np.arange(0, 20, 1 / FPS)
+    one = np.radians(np.stack([5 * np.sin(2 * np.pi * t), 5 * np.sin(np.pi * t), 0 * t], 1))
+    rows = reversal_rows({"gt": {"a": one, "b": one}, "still": {"a": 0 * one}}, FPS)
+    v = {(r["system"], r["metric"]): r["value"] for r in rows}
+    np.testing.assert_allclose([v[("gt", f"reversals_{ax}")] for ax in ("pitch", "yaw", "roll")],
+                               reversal_rate(one, fps=FPS))
+    assert v[("still", "reversals_yaw")] == 0.0
+
+
+def test_low_pass_at_3_hz_removes_tremor_and_keeps_slow_motion():
+    from headmotion.evaluation.detectability import prepare
+
+    t = np.arange(0, 20, 1 / FPS)
+    slow = np.radians(np.stack([5 * np.sin(2 * np.pi * 1.0 * t)] * 3, 1))
+    tremor = np.radians(np.stack([1 * np.sin(2 * np.pi * 6.0 * t)] * 3, 1))
+    mid = slice(50, -50)
+    assert np.ptp(prepare(tremor, FPS, cutoff_hz=3.0)[mid]) < np.ptp(np.degrees(tremor)) / 20
+    np.testing.assert_allclose(np.ptp(prepare(slow, FPS, cutoff_hz=3.0)[mid], axis=0), 10.0, rtol=0.02)
+    # at the default 6 Hz the tremor stays (half its amplitude at the cut-off, twice filtered)
+    assert np.ptp(prepare(tremor, FPS)[mid]) > np.ptp(np.degrees(tremor)) / 5
+    with pytest.raises(ParameterError, match="cutoff_hz"):
+        prepare(slow, FPS, cutoff_hz=0)
+
+
+def test_low_pass_detectability_rows():
+    """Sines against white noise stay told apart at 3 Hz (the noise below 3 Hz is no sine); the rows
+    carry the prefix ``detect_3hz`` and no per-statistic AUCs."""
+    from headmotion.evaluation.detectability import low_pass_rows
+
+    rng = np.random.default_rng(0)
+    t = np.arange(250) / FPS
+    sines = {f"r{i}": np.radians(5 * np.sin(2 * np.pi * (0.3 + 0.05 * i) * t))[:, None] * np.ones(3)
+             for i in range(10)}
+    noise = {f"r{i}": np.radians(rng.normal(size=(250, 3))) for i in range(10)}
+    rows = {r["metric"]: r["value"] for r in low_pass_rows(sines, {"noise": noise}, FPS, seed=0, n_boot=20,
+                                                              classifiers=("stats",))}
+    assert rows["detect_3hz"] > 0.9 and "detect_3hz_ba_stats_lo" in rows
+    assert not any("stat_auc" in k for k in rows)
+
+
+def test_cross_speaker_and_beat_alignment_measures_of_a_recording():
+    """The per-recording measures ``headmotion evaluate`` runs: the planted coupled head is tied to
+    the speech across speakers, its half-length shift is not; both get a beat-alignment test."""
+    from types import SimpleNamespace
+
+    from headmotion.evaluation import scoring as S
+
+    rng = np.random.default_rng(5)
+    train = [_recording(rng) for _ in range(8)]
+    model = X.CrossSpeakerCCA().fit([m for m, _ in train], [f for _, f in train], fps=FPS)
+    head, f = _recording(rng)
+    rec = SimpleNamespace(id="r0", motion=Motion(head, FPS))
+    cond = SimpleNamespace(name="c")
+    onsets = np.arange(0.5, 29.0, 0.7)
+
+    def scoring(pred):
+        return S.RecordingScoring(condition=cond, recording=rec, pred=pred, features=FeatureTrack(
+            f.astype(np.float32), FPS, tuple("abcdef")), seed=0, base_seed=0, window_s=3.0, n_shifts=100,
+            context={"onsets": onsets}, coupling_model=model)
+
+    ok = S.cross_speaker_coupling(scoring(head))
+    assert ok["xcca_p"] < 0.05 and ok["xcca_excess"] > 0.3
+    shifted = S.cross_speaker_coupling(scoring(np.roll(head, len(head) // 2, axis=0)))
+    assert shifted["xcca_p"] > 0.05
+    bc = S.beat_alignment(scoring(head))
+    assert set(bc) == {"bc_null_mean", "bc_null_p95", "bc_p", "bc_excess"} and 0 < bc["bc_p"] <= 1
+    assert S.cross_speaker_coupling(S.RecordingScoring(condition=cond, recording=rec, pred=head, features=f, seed=0,
+                                                       base_seed=0, window_s=3.0, n_shifts=10)) == {}
+    rows = [{"system": "c", "recording": f"r{i}", "metric": k, "value": v} for i in range(3)
+            for k, v in {**ok, **bc}.items()]
+    pooled = {r["metric"]: r["value"] for r in S.pooled_rows(rows, ["c"], n_shifts=100)}
+    assert pooled["xcca_n_pooled"] == 3 and pooled["xcca_p_pooled"] < 0.01
+    assert pooled["bc_excess_pooled"] == pytest.approx(bc["bc_excess"])

@@ -24,6 +24,16 @@ Definitions:
   head motion, inverted back to the time domain, then smoothed with a 5-point Gaussian (thesis
   §4.2.4); scaled to the reference motion's per-axis standard deviation about its mean.
 * ``still`` — the mean pose held constant.
+* ``floor`` — recorded heads of *other* speakers (the training folds' under ``--protocol
+  speakers``), a different stretch for every held-out recording: the held-out recordings take
+  turns at the training recordings in a seeded order, each a contiguous stretch of its length
+  never given to another held-out recording (only when no training recording has that many frames
+  left is a stretch reused, and a shorter one looped with mirroring).  Its detectability is what
+  the data allows — the level at which recorded heads of other people are told from these
+  people's — and ``evaluate`` adds it beside every condition's (docs/decisions/detectability.md).
+  Unlike ``other-speaker``, which copies the start of one drawn recording, possibly the same one
+  for several held-out recordings, no frame of the training heads appears twice, so a classifier
+  cannot win by recognising a copied stretch across its folds.
 
 Library considered: numpy.fft / scipy.ndimage (no library has these evaluation conditions).
 """
@@ -158,6 +168,54 @@ class Still(Anchor):
         return np.tile(self.mean_, (len(recording.motion), 1))
 
 
+class Floor(Anchor):
+    """Stretches of other speakers' recorded heads, none used twice (module docstring)."""
+
+    name = "floor"
+    needs_other_speakers = True
+
+    def __init__(self, random_state: int | None = None):
+        self.random_state = random_state
+
+    def _after_fit(self):
+        order = np.random.default_rng(self.random_state).permutation(len(self.refs_))
+        self.order_ = [int(i) for i in order]
+        self.used_ = [0] * len(self.refs_)  # frames already given out, per training recording
+        self.given_: dict[str, np.ndarray] = {}
+        self.turn_ = 0
+
+    def motion_for(self, recording, *, seed: int | None = None) -> Motion:
+        if not getattr(self, "fitted_", False):
+            raise NotFittedError(f"anchor {self.name!r} is not fitted: call fit(corpus)")
+        fps = float(recording.motion.fps)
+        rv = self._rotvec_for(recording, seed)
+        return Motion(rv, self.fps_, meta={"system": self.name}).resample(fps) if abs(fps - self.fps_) > 1e-9 else \
+            Motion(rv, fps, meta={"system": self.name})
+
+    def _rotvec_for(self, recording, seed):  # noqa: ARG002  (the order is drawn at fit)
+        if recording.id in self.given_:  # asked again: the same stretch
+            return self.given_[recording.id]
+        fps = float(recording.motion.fps)
+        T = int(np.ceil(len(recording.motion) * self.fps_ / fps)) + (0 if abs(fps - self.fps_) < 1e-9 else 1)
+        cands = [i for i in self.order_ if self.refs_[i][1] != recording.speaker]
+        if not cands:
+            raise ParameterError(f"anchor {self.name!r}: no recording of another speaker than {recording.id!r}'s "
+                                 f"({recording.speaker!r}) in the corpus")
+        k = len(cands)
+        turn = [cands[(self.turn_ + j) % k] for j in range(k)]
+        free = [i for i in turn if len(self.refs_[i][2]) - self.used_[i] >= T]
+        if free:
+            i = free[0]
+            out = self.refs_[i][2][self.used_[i]:self.used_[i] + T]
+            self.used_[i] += T
+        else:  # no training recording has T frames left: the longest one again (looped when shorter)
+            i = max(turn, key=lambda j: len(self.refs_[j][2]))
+            out = loop_to_length(self.refs_[i][2], T)
+        self.turn_ = (cands.index(i) + 1) % k
+        self.given_[recording.id] = np.asarray(out)
+        return self.given_[recording.id]
+
+
 def shaped_noise(n_frames: int, magnitude: np.ndarray, *, rng: np.random.Generator, fps: float,
                  sd: np.ndarray, mean: np.ndarray) -> np.ndarray:
     """White noise filtered by ``magnitude`` (F, 3) (rfft bins of some length), inverse FFT,
@@ -208,15 +266,16 @@ class ShapedNoise(Anchor):
 
 #: anchor name → class (the names ``headmotion evaluate --systems`` accepts besides systems)
 ANCHORS: dict[str, type[Anchor]] = {c.name: c for c in (GroundTruth, Desync, Shifted, OtherSpeaker, ShapedNoise,
-                                                          Still)}
+                                                          Still, Floor)}
 
 
-def create_anchor(name: str) -> Anchor:
-    """A new anchor by name; ParameterError naming the anchors for an unknown one."""
+def create_anchor(name: str, random_state: int | None = None) -> Anchor:
+    """A new anchor by name (``random_state``: the seed of an anchor that draws at fit, ``floor``);
+    ParameterError naming the anchors for an unknown one."""
     if name not in ANCHORS:
         raise ParameterError(f"unknown anchor {name!r}; expected one of {sorted(ANCHORS)}")
-    return ANCHORS[name]()
+    return ANCHORS[name](random_state) if ANCHORS[name] is Floor else ANCHORS[name]()
 
 
-__all__ = ["Anchor", "ANCHORS", "create_anchor", "GroundTruth", "Desync", "Shifted", "OtherSpeaker", "ShapedNoise", "Still",
+__all__ = ["Anchor", "ANCHORS", "create_anchor", "GroundTruth", "Desync", "Shifted", "OtherSpeaker", "ShapedNoise", "Still", "Floor",
            "shaped_noise", "loop_to_length"]

@@ -50,7 +50,7 @@ class ConditionSpec:
         from .conditions import ModelFileCondition, SystemCondition
 
         makers = {
-            "anchor": lambda: create_anchor(self.target),
+            "anchor": lambda: create_anchor(self.target, random_state),
             "system": lambda: SystemCondition(self.name, self.target, random_state),
             "model": lambda: ModelFileCondition(self.name, self.target),
         }

@@ -40,6 +40,8 @@ from ..types import Motion
 #: common frame rate (Hz), low-pass cut-off (Hz), window and hop (s)
 FPS = 25.0
 CUTOFF_HZ = 6.0
+#: the low-pass of the test where a tracker's jitter decides nothing (:func:`low_pass_rows`)
+LOW_CUTOFF_HZ = 3.0
 WINDOW_S = 4.0
 HOP_S = 2.0
 STILL_DEG_S = 2.0
@@ -283,7 +285,7 @@ def _self_copies(real: Mapping, generated: Mapping, *, share: float = 0.2) -> se
 
 
 def _windows_of(motions: Mapping, fps, chunk_s: float | None, groups: Mapping[str, str] | None = None,
-                whole: set[str] = frozenset()) -> tuple[list[np.ndarray], list[str]]:
+                whole: set[str] = frozenset(), cutoff_hz: float = CUTOFF_HZ) -> tuple[list[np.ndarray], list[str]]:
     Ws, gs = [], []
     merged = set(whole)
     if groups:
@@ -293,7 +295,8 @@ def _windows_of(motions: Mapping, fps, chunk_s: float | None, groups: Mapping[st
         ms = m if isinstance(m, (list, tuple)) else [m]
         grp = groups.get(rid, rid) if groups else rid
         for one in ms:
-            x = prepare(one, None if isinstance(one, Motion) else (fps[rid] if isinstance(fps, Mapping) else fps))
+            x = prepare(one, None if isinstance(one, Motion) else (fps[rid] if isinstance(fps, Mapping) else fps),
+                        cutoff_hz=cutoff_hz)
             chunked = chunk_s and rid not in merged  # a merged recording stays whole
             step = len(x) if not chunked else max(int(round(chunk_s * FPS)), int(round(WINDOW_S * FPS)))
             starts = list(range(0, max(len(x), 1), max(step, 1)))
@@ -308,7 +311,8 @@ def _windows_of(motions: Mapping, fps, chunk_s: float | None, groups: Mapping[st
     return Ws, gs
 
 
-def make_samples(real: Mapping, generated: Mapping, *, fps=None, chunk_s: float | None = None) -> Samples:
+def make_samples(real: Mapping, generated: Mapping, *, fps=None, chunk_s: float | None = None,
+                 cutoff_hz: float = CUTOFF_HZ) -> Samples:
     """Windows of the recorded motions (``{recording: Motion or array}``) and the generated ones
     (``{recording: Motion, array or list of them}``); a generated motion's group is its recording,
     so it never sits on the other side of a split from the recording it was made for.  A generated
@@ -325,8 +329,8 @@ def make_samples(real: Mapping, generated: Mapping, *, fps=None, chunk_s: float 
     elif copied:
         groups = copy_groups(real, generated)
     whole = _self_copies(real, generated) if chunk_s else set()
-    Wr, gr = _windows_of(real, fps, chunk_s, groups, whole)
-    Wg, gg = _windows_of(generated, fps, chunk_s, groups, whole)
+    Wr, gr = _windows_of(real, fps, chunk_s, groups, whole, cutoff_hz)
+    Wg, gg = _windows_of(generated, fps, chunk_s, groups, whole, cutoff_hz)
     if not Wr or not Wg:
         raise ParameterError(f"detectability needs motions of at least {WINDOW_S:g} s on both sides; "
                              f"got {sum(len(w) for w in Wr)} recorded and {sum(len(w) for w in Wg)} generated windows")
@@ -427,16 +431,18 @@ def statistic_aucs(F: np.ndarray, y: np.ndarray) -> dict[str, float]:
     return {n: _auc(y, F[:, j]) for j, n in enumerate(statistic_names())}
 
 
-def _samples_within(real: Mapping, generated: Mapping, within: Mapping | None, *, fps, chunk_s):
+def _samples_within(real: Mapping, generated: Mapping, within: Mapping | None, *, fps, chunk_s,
+                    cutoff_hz: float = CUTOFF_HZ):
     """:func:`make_samples` of each evaluation fold (``within``: recording → fold; copies are looked
     for inside a fold), concatenated, and the window indices of each fold."""
     if not within:
-        s = make_samples(real, generated, fps=fps, chunk_s=chunk_s)
+        s = make_samples(real, generated, fps=fps, chunk_s=chunk_s, cutoff_hz=cutoff_hz)
         return s, [np.arange(len(s.y))]
     parts, blocks, n = [], [], 0
     for f in dict.fromkeys(within[r] for r in real if r in within):
         rk = {r: m for r, m in real.items() if within.get(r) == f}
-        s = make_samples(rk, {r: m for r, m in generated.items() if r in rk}, fps=fps, chunk_s=chunk_s)
+        s = make_samples(rk, {r: m for r, m in generated.items() if r in rk}, fps=fps, chunk_s=chunk_s,
+                         cutoff_hz=cutoff_hz)
         parts.append(s)
         blocks.append(np.arange(n, n + len(s.y)))
         n += len(s.y)
@@ -446,7 +452,8 @@ def _samples_within(real: Mapping, generated: Mapping, within: Mapping | None, *
 
 def detectability(real: Mapping, generated: Mapping, *, fps=None, seed: int = 0, n_splits: int = 5,
                   n_boot: int = 1000, classifiers: Sequence[str] = CLASSIFIERS,
-                  chunk_s: float | None = None, within: Mapping | None = None) -> DetectabilityResult:
+                  chunk_s: float | None = None, within: Mapping | None = None,
+                  cutoff_hz: float = CUTOFF_HZ) -> DetectabilityResult:
     """Classifier two-sample test of recorded against generated motion (see the module docstring).
 
     Parameters
@@ -465,6 +472,8 @@ def detectability(real: Mapping, generated: Mapping, *, fps=None, seed: int = 0,
         condition that replays other recordings' motion (retrieval, ``other-speaker``) made its
         motion from the *other* folds' recordings, which a pooled classifier would also see
         labelled "recorded"
+    cutoff_hz : float — both sides' low-pass (:func:`prepare`; 3 Hz: where a tracker's jitter
+        decides nothing)
 
     Returns
     -------
@@ -473,7 +482,7 @@ def detectability(real: Mapping, generated: Mapping, *, fps=None, seed: int = 0,
     bad = [c for c in classifiers if c not in CLASSIFIERS]
     if bad or not classifiers:
         raise ParameterError(f"classifiers must be a non-empty subset of {CLASSIFIERS}; got {list(classifiers)}")
-    s, blocks = _samples_within(real, generated, within, fps=fps, chunk_s=chunk_s)
+    s, blocks = _samples_within(real, generated, within, fps=fps, chunk_s=chunk_s, cutoff_hz=cutoff_hz)
     F = window_statistics(s.X)
     folds = [(b[tr], b[te]) for b in blocks for tr, te in _folds(s.y[b], s.groups[b], n_splits, seed)]
     scores = {}
@@ -609,6 +618,70 @@ def detectability_rows(real_by_rec: Mapping, generated_by_condition: Mapping[str
     return rows
 
 
-__all__ = ["FPS", "CUTOFF_HZ", "WINDOW_S", "prepare", "reversal_rate", "cut_windows", "statistic_names", "window_statistics",
+def low_pass_rows(real_by_rec: Mapping, generated_by_condition: Mapping[str, Mapping], fps=None, *, seed: int = 0,
+                  cutoff_hz: float = LOW_CUTOFF_HZ, n_boot: int = 1000, classifiers: Sequence[str] = CLASSIFIERS,
+                  chunk_s: float | None = None, within: Mapping | None = None) -> list[dict]:
+    """The same test as :func:`detectability_rows` with both sides low-passed at ``cutoff_hz``
+    (3 Hz: a tracker's jitter, which lives above it, decides nothing), within folds where the folds
+    allow, else over all folds; rows ``detect_3hz``, ``detect_3hz_ba_stats``, … (prefix
+    ``detect_<cutoff>hz``; no per-statistic AUCs, no ruler)."""
+    prefix = f"detect_{cutoff_hz:g}hz".replace(".", "_")
+    real = dict(real_by_rec)
+    within = within if within and len(set(within.values())) > 1 else None
+    rows: list[dict] = []
+    for cond, gen in generated_by_condition.items():
+        g = {r: m for r, m in gen.items() if r in real}
+        if len(g) < 2:
+            continue
+        kw = {"fps": fps, "seed": seed, "n_boot": n_boot, "classifiers": classifiers, "chunk_s": chunk_s,
+              "cutoff_hz": cutoff_hz}
+        res = None
+        for w in ((within, None) if within else (None,)):
+            try:
+                res = detectability({r: real[r] for r in g}, g, **kw, within=w)
+                break
+            except ParameterError:
+                continue
+        if res is not None:
+            rows += [r for r in result_rows(cond, res, prefix=prefix) if "_stat_auc[" not in r["metric"]]
+    return rows
+
+
+def floor_rows(rows: Sequence[Mapping], *, floor: str = "floor",
+               prefixes: Sequence[str] = ("detect", "detect_3hz")) -> list[dict]:
+    """Every condition's detectability beside the floor's (the ``floor`` condition: other speakers'
+    recorded heads against the held-out ones, :class:`~.anchors.Floor`): rows ``<prefix>_floor``
+    (the floor's value) and ``<prefix>_above_floor`` (the condition's minus the floor's) for each
+    prefix the floor has a value of; none without a floor."""
+    val = {(r["system"], r["metric"]): float(r["value"]) for r in rows if r["recording"] == "ALL"}
+    out = []
+    for prefix in prefixes:
+        f = val.get((floor, prefix))
+        if f is None or not np.isfinite(f):
+            continue
+        for (cond, metric), v in val.items():
+            if metric == prefix:
+                out += [{"system": cond, "recording": "ALL", "metric": f"{prefix}_floor", "value": f},
+                        {"system": cond, "recording": "ALL", "metric": f"{prefix}_above_floor", "value": v - f}]
+    return out
+
+
+def reversal_rows(motions_by_condition: Mapping[str, Mapping], fps) -> list[dict]:
+    """Direction reversals per frame and axis of every condition, pooled over its recordings
+    (reversals over frames, :func:`reversal_rate`): rows ``reversals_pitch|yaw|roll``, recording ``ALL``."""
+    out = []
+    for cond, d in motions_by_condition.items():
+        n, rev = 0, np.zeros(3)
+        for rid, m in d.items():
+            x = prepare(m, None if isinstance(m, Motion) else (fps[rid] if isinstance(fps, Mapping) else fps))
+            k, r = _reversals(x)
+            n, rev = n + k, rev + r
+        if n:
+            out += [{"system": cond, "recording": "ALL", "metric": f"reversals_{ax}", "value": float(v / n)}
+                    for ax, v in zip(AXES, rev)]
+    return out
+
+
+__all__ = ["FPS", "CUTOFF_HZ", "LOW_CUTOFF_HZ", "low_pass_rows", "floor_rows", "reversal_rows", "WINDOW_S", "prepare", "reversal_rate", "cut_windows", "statistic_names", "window_statistics",
            "copy_groups", "make_samples", "Samples", "ClassifierScore", "DetectabilityResult", "detectability", "statistic_aucs",
            "phase_randomised", "ruler_motions", "result_rows", "detectability_rows"]

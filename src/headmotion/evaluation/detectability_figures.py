@@ -122,20 +122,40 @@ def detectability_section(rows: Sequence[Mapping], systems: Sequence[str], *, to
              "over recordings). Detectability = the larger BA: 0.5 cannot be told apart, 1 always is. Where the "
              "folds allow, the classifiers are trained and tested within each evaluation fold (a system replaying "
              "recorded motion made one fold's motion from the other folds' recordings); *over all folds* is the "
-             "statistics classifier's BA on every fold's windows at once.", "",
-             "| condition | detectability | BA statistics | AUC statistics | BA CNN | AUC CNN | over all folds | "
-             "gives it away (AUC) |",
-             "|---|---|---|---|---|---|---|---|"]
+             "statistics classifier's BA on every fold's windows at once. *Floor*: the detectability of the "
+             "`floor` condition — other speakers' recorded heads (the training folds') against the held-out ones, "
+             "the level the data allows; *above floor* = detectability − floor. *3 Hz*: the same test with both "
+             "sides low-passed at 3 Hz, where a tracker's jitter decides nothing. *Reversals*: share of 25 fps "
+             "frames where the angular velocity changes sign (6 Hz low-pass), pitch / yaw / roll; the "
+             "ground truth's are the recorded heads'.", "",
+             "| condition | detectability | floor | above floor | 3 Hz | 3 Hz above floor | reversals p / y / r | "
+             "BA statistics | AUC statistics | BA CNN | AUC CNN | over all folds | gives it away (AUC) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    rev = {}
+    for r in rows:
+        if r["recording"] == "ALL" and str(r["metric"]).startswith("reversals_"):
+            rev.setdefault(r["system"], {})[r["metric"]] = float(r["value"])
+
+    def num(d, key, fmt="{:.2f}"):
+        v = d.get(key, np.nan)
+        return "–" if not np.isfinite(v) else fmt.format(v)
+
     for s in systems:
-        d = per.get(s)
-        if not d or "detect" not in d:
+        d = per.get(s, {})
+        rv = rev.get(s, {})
+        revs = " / ".join(num(rv, f"reversals_{ax}") for ax in D.AXES) if rv else "–"
+        if "detect" not in d:
+            if s == GROUND_TRUTH and rv:
+                lines.append(f"| {s} | – | – | – | – | – | {revs} | – | – | – | – | – | – |")
             continue
         stats = sorted(((k[len("detect_stat_auc["):-1], v) for k, v in d.items() if k.startswith("detect_stat_auc[")),
                        key=lambda kv: -abs(kv[1] - 0.5))[:top]
         give = ", ".join(f"{n} {v:.2f}" for n, v in stats)
         within = d.get("detect_within_folds", 0.0) == 1.0
         pooled = f"{d['detect_pooled']:.2f}" if "detect_pooled" in d else "–"
-        lines.append(f"| {s} | {d['detect']:.2f} | {_cell(d, 'detect_ba_stats')} | {_cell(d, 'detect_auc_stats')} | "
+        lines.append(f"| {s} | {d['detect']:.2f} | {num(d, 'detect_floor')} | {num(d, 'detect_above_floor', '{:+.2f}')} | "
+                     f"{num(d, 'detect_3hz')} | {num(d, 'detect_3hz_above_floor', '{:+.2f}')} | {revs} | "
+                     f"{_cell(d, 'detect_ba_stats')} | {_cell(d, 'detect_auc_stats')} | "
                      f"{_cell(d, 'detect_ba_cnn')} | {_cell(d, 'detect_auc_cnn')} | {pooled if within else '–'} | "
                      f"{give} |")
     ruler = per.get(GROUND_TRUTH, {})

@@ -92,7 +92,7 @@ from .folds import longest_held_out, make_folds, speaker_groups
 from .parallel import dask_client, run_map
 from .results import EvaluationResult, assemble
 from .running import FoldTask, run_fold
-from .scoring import (DEFAULT_WINDOW_S, FIG48_WINDOWS_S, pooled_histogram_rows, pooled_rows,
+from .scoring import (DEFAULT_WINDOW_S, FIG48_WINDOWS_S, FLOOR, pooled_histogram_rows, pooled_rows,
                       score_recording)
 
 
@@ -161,7 +161,11 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         < 2 = no diversity).
     realism : bool — compute the realism measures and keep the motions for their figures.
     detectability : bool — with ``realism``, the classifier two-sample test of every condition
-        against the recorded motion (:func:`.detectability.detectability_rows`, recording ``ALL``).
+        against the recorded motion (:func:`.detectability.detectability_rows`, recording ``ALL``),
+        also with both sides low-passed at 3 Hz (:func:`.detectability.low_pass_rows`); when every
+        fold has other speakers, the ``floor`` condition (:class:`.anchors.Floor`: their recorded
+        heads) is added after the ground truth and every condition's detectability is reported
+        beside it (``detect_floor``, ``detect_above_floor``, ``detect_3hz_floor``, …).
 
     Returns
     -------
@@ -177,6 +181,11 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     conditions = [GROUND_TRUTH] + [s.name for s in specs]
     feature_sets = _feature_sets(feature_sets)
     folds = make_folds(corpus, protocol, seed=seed, speaker_folds=speaker_folds)
+    if (detectability and realism and FLOOR not in names
+            and all(ot is not None and len(ot) for _, _, _, ot in folds)):
+        # the floor of every detectability: other speakers' recorded heads against the held-out ones
+        specs.insert(0, condition_spec(FLOOR))
+        conditions.insert(1, FLOOR)
     if trajectory_recording is None:  # the longest held-out recording shows the most
         trajectory_recording = longest_held_out(folds)
     tasks = [FoldTask(fold=name, train=tr, test=te, others=ot, systems=tuple(specs), features=features, seed=int(seed),

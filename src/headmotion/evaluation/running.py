@@ -76,9 +76,48 @@ def run_fold(task: FoldTask) -> dict:
     for rec in tests:
         out["gt"][rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats[rec.id])[0], dtype=np.float32),
                              rec.speaker, float(rec.motion.fps))
+    t0 = time.perf_counter()
+    coupling = fit_cross_coupling(task, out["warnings"])
+    out["timings"]["cross-speaker projections"] = time.perf_counter() - t0
     for spec in (GROUND_TRUTH_SPEC,) + tuple(task.systems):
-        run_condition(task, spec, tests, feats, contexts, out)
+        run_condition(task, spec, tests, feats, contexts, out, coupling)
     return out
+
+
+#: speech features of training recordings, kept for the folds run by this process
+#: ({(recording, feature set, fps, frames): FeatureTrack}; a recording trains several folds)
+_TRAIN_FEATURES: dict = {}
+
+
+def _features_of(task: FoldTask, rec):
+    key = (rec.id, task.features, float(rec.motion.fps), len(rec.motion)) if isinstance(task.features, str) else None
+    if key is not None and key in _TRAIN_FEATURES:
+        return _TRAIN_FEATURES[key]
+    f = extract_one(task.features, rec.audio, fps=float(rec.motion.fps), n_frames=len(rec.motion))
+    if key is not None:
+        if len(_TRAIN_FEATURES) > 2000:
+            _TRAIN_FEATURES.clear()
+        _TRAIN_FEATURES[key] = f
+    return f
+
+
+def fit_cross_coupling(task: FoldTask, warns: list[str]):
+    """The fold's speech ↔ motion projections (:class:`~.cross_coupling.CrossSpeakerCCA`) fitted
+    on the recorded heads and speech of the speakers the fold does not hold out (``task.others``:
+    the training folds' recordings under ``--protocol speakers``), or None (no other speaker; a
+    failure leaves a warning)."""
+    from .cross_coupling import CrossSpeakerCCA
+
+    if task.others is None or not len(task.others):
+        return None
+    try:
+        recs = list(task.others)
+        return CrossSpeakerCCA().fit([r.motion for r in recs], [_features_of(task, r) for r in recs])
+    except Exception as exc:
+        if task.strict:
+            raise
+        warns.append(f"cross-speaker coupling could not be fitted for fold {task.fold}: {type(exc).__name__}: {exc}")
+        return None
 
 
 def fit_condition(task: FoldTask, spec: ConditionSpec, out: dict):
@@ -143,8 +182,10 @@ def _measure(task: FoldTask, scoring: RecordingScoring, vals: dict, out: dict) -
                                    f"{type(exc).__name__}: {exc}")
 
 
-def run_condition(task: FoldTask, spec: ConditionSpec, tests, feats: dict, contexts: dict, out: dict) -> None:
-    """Fit one condition, make and score its motion for every held-out recording."""
+def run_condition(task: FoldTask, spec: ConditionSpec, tests, feats: dict, contexts: dict, out: dict,
+                  coupling=None) -> None:
+    """Fit one condition, make and score its motion for every held-out recording (``coupling``: the
+    fold's cross-speaker projections, :func:`fit_cross_coupling`)."""
     condition = fit_condition(task, spec, out)
     if condition is None:
         return
@@ -170,7 +211,7 @@ def run_condition(task: FoldTask, spec: ConditionSpec, tests, feats: dict, conte
         scoring = RecordingScoring(condition=condition, recording=rec, pred=pred, features=feats[rec.id], seed=rseed,
                                    base_seed=task.seed, window_s=task.window_s, n_shifts=task.n_shifts,
                                    others=task.others, context=contexts.get(rec.id),
-                                   samples=samples)
+                                   samples=samples, coupling_model=coupling)
         vals: dict[str, float] = {}
         _measure(task, scoring, vals, out)
         if task.realism:
@@ -184,4 +225,5 @@ def run_condition(task: FoldTask, spec: ConditionSpec, tests, feats: dict, conte
     out["timings"][key] = out["timings"].get(key, 0.0) + time.perf_counter() - t0
 
 
-__all__ = ["FoldTask", "run_fold", "fit_condition", "run_condition", "draw_samples", "GROUND_TRUTH_SPEC"]
+__all__ = ["FoldTask", "run_fold", "fit_condition", "run_condition", "draw_samples", "fit_cross_coupling",
+           "GROUND_TRUTH_SPEC"]

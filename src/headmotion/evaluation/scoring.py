@@ -141,6 +141,9 @@ class RecordingScoring:
     context: dict | None = None
     #: the condition's samples for the recording (the scored one first), or None
     samples: list | None = None
+    #: the fold's speech ↔ motion projections fitted on other speakers' recorded heads
+    #: (:class:`~.cross_coupling.CrossSpeakerCCA`), or None
+    coupling_model: Any = None
 
     @property
     def window(self) -> int:
@@ -187,6 +190,40 @@ def realism_measures(s: RecordingScoring) -> dict[str, float]:
     return {k: float(v) for k, v in row.items() if k not in _REALISM_SKIP and np.isfinite(v)}
 
 
+def cross_speaker_coupling(s: RecordingScoring) -> dict[str, float]:
+    """Cross-speaker coupling (:mod:`.cross_coupling`): the condition's motion scored with the
+    fold's projections fitted on other speakers' recorded heads and speech, against the bridge
+    shift null (``xcca``, ``xcca_null_mean``, ``xcca_null_p95``, ``xcca_p``, ``xcca_excess``)."""
+    from .parallel import sub_seed
+
+    if s.coupling_model is None:
+        return {}
+    rec = s.recording
+    r = s.coupling_model.test(np.asarray(s.pred, dtype=float), s.features, fps=float(rec.motion.fps),
+                              n_shifts=s.n_shifts, seed=sub_seed(s.base_seed, rec.id, s.condition.name, "xcca"))
+    return {"xcca": r.score, **r.as_dict("xcca_")}
+
+
+def beat_alignment(s: RecordingScoring) -> dict[str, float]:
+    """Beat consistency (BC of BEAT / EMAGE: head angular-speed minima against the speech onsets,
+    :func:`~.realism.beat_consistency`) against the same bridge shift null as the coupling scores
+    (``bc_null_mean``, ``bc_null_p95``, ``bc_p``, ``bc_excess``; the score itself is ``bc``)."""
+    from . import realism as R
+    from .parallel import sub_seed
+
+    onsets = None if s.context is None else s.context.get("onsets")
+    if onsets is None or len(onsets) == 0:
+        return {}
+    rec = s.recording
+    fps = float(rec.motion.fps)
+    p = np.asarray(s.pred, dtype=float)
+    if len(p) < 4:
+        return {}
+    r = C.shift_null(lambda a: R.beat_consistency(R.motion_beats(a, fps=fps), onsets), p, n_shifts=s.n_shifts,
+                     seed=sub_seed(s.base_seed, rec.id, s.condition.name, "bc"))
+    return r.as_dict("bc_")
+
+
 def embedding_scores(s: RecordingScoring) -> dict[str, float]:
     """Local CCA of a condition's learned speech embedding with the recorded motion (paper Table 1
     Wav_AE / Wav_CCCAE rows)."""
@@ -220,6 +257,8 @@ RECORDING_MEASURES: tuple[Measure, ...] = (
     Measure("accuracy and coupling", accuracy_and_coupling, guarded=False),
     Measure("paper chance", paper_chance, guarded=False),
     Measure("realism measures", realism_measures),
+    Measure("cross-speaker coupling", cross_speaker_coupling),
+    Measure("beat alignment", beat_alignment),
     Measure("embedding", embedding_scores),
 )
 
@@ -310,14 +349,16 @@ def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references:
 
 
 def pooled_rows(rows: list[dict], systems: Sequence[str], *, n_shifts: int | None = None) -> list[dict]:
-    """Per system, recording ``ALL``: mean FCCA / local-FCCA excess over the held-out recordings and
-    the Stouffer-combined p-value of their circular-shift tests (their mid-p values with
-    ``n_shifts``, :func:`~headmotion.evaluation.realism.stouffer`)."""
+    """Per system, recording ``ALL``: mean FCCA / local-FCCA / cross-speaker coupling / beat
+    alignment excess over the held-out recordings and the Stouffer-combined p-value of their
+    circular-shift tests (their mid-p values with ``n_shifts``,
+    :func:`~headmotion.evaluation.realism.stouffer`): ``<m>_excess_pooled``, ``<m>_p_pooled``,
+    ``<m>_n_pooled`` for ``m`` in ``fcca``, ``fcca_local``, ``xcca``, ``bc``."""
     from .realism import stouffer
 
     out = []
     for s in systems:
-        for m in ("fcca", "fcca_local"):
+        for m in POOLED_TESTS:
             ex = [r["value"] for r in rows if r["system"] == s and r["metric"] == f"{m}_excess"
                   and r["recording"] != "ALL"]
             ps = [r["value"] for r in rows if r["system"] == s and r["metric"] == f"{m}_p" and r["recording"] != "ALL"]
@@ -357,6 +398,10 @@ def fig48_rows(gt: dict, windows_s=FIG48_WINDOWS_S) -> list[dict]:
 
 
 
+#: the shift-tested scores pooled over recordings by :func:`pooled_rows`
+POOLED_TESTS = ("fcca", "fcca_local", "xcca", "bc")
+
+
 def _pooled_coupling(p: PooledScoring) -> list[dict]:
     return pooled_rows(p.rows, p.conditions, n_shifts=p.n_shifts)
 
@@ -384,17 +429,36 @@ def _pooled_detectability(p: PooledScoring) -> list[dict]:
     (:mod:`.detectability`), with the ruler's anchors under the ground truth's name."""
     if not p.options.get("detectability", True) or not p.motions or GROUND_TRUTH not in p.motions:
         return []
-    from .detectability import detectability_rows
+    from .detectability import detectability_rows, floor_rows, low_pass_rows
 
-    return detectability_rows(p.motions[GROUND_TRUTH], {c: d for c, d in p.motions.items() if c != GROUND_TRUTH},
-                              p.fps, seed=int(p.seed), ruler=GROUND_TRUTH, chunk_s=DETECT_CHUNK_S, within=p.folds)
+    real = p.motions[GROUND_TRUTH]
+    gen = {c: d for c, d in p.motions.items() if c != GROUND_TRUTH}
+    rows = detectability_rows(real, gen, p.fps, seed=int(p.seed), ruler=GROUND_TRUTH, chunk_s=DETECT_CHUNK_S,
+                              within=p.folds)
+    if p.options.get("low_pass_detectability", True):
+        rows += low_pass_rows(real, gen, p.fps, seed=int(p.seed), chunk_s=DETECT_CHUNK_S, within=p.folds)
+    return rows + floor_rows(rows, floor=FLOOR)
 
+
+def _pooled_reversals(p: PooledScoring) -> list[dict]:
+    """Direction reversals per frame and axis of every condition (the ground truth's: the recorded
+    heads'), :func:`~.detectability.reversal_rows`."""
+    if not p.motions:
+        return []
+    from .detectability import reversal_rows
+
+    return reversal_rows(p.motions, p.fps)
+
+
+#: the condition whose detectability is the floor (:class:`~.anchors.Floor`)
+FLOOR = "floor"
 
 POOLED_MEASURES: tuple[PooledMeasure, ...] = (PooledMeasure("pooled coupling", _pooled_coupling),
                                               PooledMeasure("pooled histograms", _pooled_histograms),
-                                              PooledMeasure("detectability", _pooled_detectability))
+                                              PooledMeasure("detectability", _pooled_detectability),
+                                              PooledMeasure("reversals", _pooled_reversals))
 
 
 __all__ = ["score_recording", "conform", "rows_of", "RecordingScoring", "Measure", "RECORDING_MEASURES",
-           "PooledScoring", "PooledMeasure", "POOLED_MEASURES", "pooled_rows", "pooled_histogram_rows", "fig48_rows",
+           "PooledScoring", "PooledMeasure", "POOLED_MEASURES", "POOLED_TESTS", "FLOOR", "pooled_rows", "pooled_histogram_rows", "fig48_rows",
            "realism_context", "DEFAULT_WINDOW_S", "FIG48_WINDOWS_S", "AXES"]
