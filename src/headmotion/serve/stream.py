@@ -4,11 +4,15 @@ Protocol (docs/serve.md has examples):
 
 1. The client sends one text message, ``{"type": "start", "model": "stream", "sample_rate": 16000,
    "encoding": "s16le"|"f32le", "seed": 0, "frames": "json"|"binary", "gain": G|[p,y,r],
-   "offset": D|[p,y,r] (degrees), "still": false}`` (every field but ``type`` optional; a browser,
-   which cannot set headers on a WebSocket, may add ``"api_key"``).
+   "offset": D|[p,y,r] (degrees), "still": false, "resample": "exact"|"fast"}`` (every field but
+   ``type`` optional; the controls' ranges are :mod:`headmotion.synthesis`'s; a browser, which
+   cannot set headers on a WebSocket, may add ``"api_key"`` — until it is checked the message may
+   be at most ``UNAUTHENTICATED_MESSAGE_BYTES``).
 2. The server answers ``{"type": "ready", "model", "system", "fps", "latency_ms", ...}``.
 3. The client sends binary messages of mono PCM in that encoding — any number of whole samples per
-   message.  The server resamples them to the model's rate and pushes them into the model's stream.
+   message, as fast as it likes.  The server resamples them to the model's rate (``exact``: as
+   ``POST /v1/motion`` resamples a file, so the frames are the offline answer's) and pushes them
+   into the model's stream.
 4. Frames come back as soon as they are final: JSON ``{"type": "frames", "first": i, "fps",
    "audio_time", "frames": [{"frame", "time", "rotvec", "pitch_yaw_roll_deg"}, ...]}`` (the records
    of ``headmotion stream``), or binary: a 24-byte header ``<4s I I f d`` = (``b"HMF1"``, first
@@ -18,11 +22,15 @@ Protocol (docs/serve.md has examples):
 5. ``{"type": "end"}`` flushes the tail; the server sends the last frames, ``{"type": "end",
    "frames": N, "audio_seconds": S}`` and closes (1000).
 
-Errors: one text message ``{"type": "error", "error": KIND, "detail": SENTENCE}`` then a close with
-a code (1008 policy: bad start / message / key / client too far behind; 1007 bad audio bytes; 1009
-too large or too long; 1013 no free stream slot or rate limit; 1011 internal).  Back-pressure:
-outgoing messages wait in a bounded queue (``queue_messages``); a client that lets it fill is
-closed with ``too_slow``, so a slow reader never grows the server's memory.
+Errors: one text message ``{"type": "error", "error": KIND, "detail": SENTENCE}`` (``retry_after``
+when the server knows when) then a close with a code (1008 policy: bad start / message / key /
+client that reads nothing; 1007 bad audio bytes; 1009 too large or too long; 1013 no free stream
+slot or rate limit; 1011 internal).  Back-pressure: outgoing messages wait in a bounded queue
+(``queue_messages``); while it is full no more audio is read from the client, so a client that
+sends faster than real time is slowed to the pace it reads at and gets every frame; one that lets
+nothing go out for ``send_timeout_s`` is closed with ``too_slow``, so a reader that stopped never
+grows the server's memory.  A connection counts toward the worker's stream limit from its
+handshake, before its key is known.
 """
 
 from __future__ import annotations
@@ -447,5 +455,6 @@ class Session:
             self.st.metrics.active_streams.dec()
 
 
-__all__ = ["stream_endpoint", "no_such_stream", "UNAUTHENTICATED_MESSAGE_BYTES", "RESAMPLE", "parse_start", "decode_chunk", "frames_message", "parse_binary_frames",
-           "ProtocolError", "Start", "HEADER", "MAGIC"]
+__all__ = ["stream_endpoint", "no_such_stream", "parse_start", "decode_chunk", "frames_message",
+           "parse_binary_frames", "ProtocolError", "Start", "HEADER", "MAGIC", "RESAMPLE",
+           "UNAUTHENTICATED_MESSAGE_BYTES"]
