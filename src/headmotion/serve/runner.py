@@ -34,7 +34,6 @@ def preflight(config: ServeConfig) -> dict:
         load_keys(config.api_keys)
     files = engine.model_files(None if config.models_dir is None else Path(config.models_dir))
     engine.check_loaded(files)
-    check_port(config.host, config.port)
     return files
 
 
@@ -58,6 +57,7 @@ def run(config: ServeConfig, *, workers: int = 1, announce=print) -> None:
     import uvicorn
 
     files = preflight(config)
+    check_port(config.host, config.port)  # before the banner: a port in use is one clear error
     os.environ[ENV] = config.to_json()
     metrics_dir = None
     if workers > 1 and not os.environ.get("PROMETHEUS_MULTIPROC_DIR"):
