@@ -26,7 +26,8 @@ temporary one).
 
 The ``epoch`` group (:func:`bench_epoch`, only with ``--only epoch``) times one epoch of mfcc-dnn
 on the streamed path at each size in ``HEADMOTION_EPOCH_HOURS`` (default ``1,4,16``; ``--quick``
-``0.25``) on the CPU (2 torch threads) and, when torch sees one, on CUDA, each in a fresh process,
+``0.25``) on the CPU (``HEADMOTION_EPOCH_THREADS`` torch threads, default 1, the systems'
+default) and, when torch sees one, on CUDA, each in a fresh process,
 and splits it by part (:class:`headmotion.systems.dnn.stream_training.EpochClock`): reading the
 recordings, feature batches, transfer to the device, compute, the loop's wait for data and the
 validation pass — for the regressor and for the post-filter (its two pre-training passes
@@ -93,7 +94,7 @@ EPOCH_CODE = (
     "from headmotion.corpus import Corpus\n"
     "from headmotion.systems import create\n"
     "m = create('mfcc-dnn', max_epochs=1, patience=1, cross_fit=False, train_path='streamed', device=DEVICE,\n"
-    "           n_threads=2).fit(Corpus.load(ROOT / 'corpus'))\n"
+    "           n_threads=THREADS).fit(Corpus.load(ROOT / 'corpus'))\n"
     "h = m.history_\n"
     "print('__EPOCH__', json.dumps({'fit': m.fit_seconds_, 'regressor': h['regressor']['seconds'],\n"
     "                               'postfilter': h['postfilter']['seconds']}))\n"
@@ -110,7 +111,8 @@ def epoch_breakdown(root: Path, device: str) -> tuple[dict, float]:
     streamed mfcc-dnn epoch on ``device``, in a fresh process."""
     import json
 
-    body = f"from pathlib import Path\nROOT = Path({str(root)!r})\nDEVICE = {device!r}\n" + EPOCH_CODE
+    threads = int(os.environ.get("HEADMOTION_EPOCH_THREADS") or 1)
+    body = f"from pathlib import Path\nROOT = Path({str(root)!r})\nDEVICE = {device!r}\nTHREADS = {threads}\n" + EPOCH_CODE
     rss, out = peak_rss_of(body)
     line = next(x for x in out.splitlines() if x.startswith("__EPOCH__"))
     return json.loads(line.split(" ", 1)[1]), rss
@@ -159,7 +161,7 @@ def bench_epoch(res: Results, quick: bool, *, speech_dir=None) -> None:
                             f"reading pass, both networks, tables; peak RSS {rss:,.0f} MB"))
             if "cuda" in seen:
                 speed = seen["cpu"]["regressor"]["total"] / seen["cuda"]["regressor"]["total"]
-                res.add(Row("12 epoch", f"regressor epoch, cuda against 2 CPU threads, {h:g} h", speed, "x",
+                res.add(Row("12 epoch", f"regressor epoch, cuda against the CPU, {h:g} h", speed, "x",
                             ">= 10 at 16 h", speed >= 10 if h >= 16 else None,
                             f"whole fit {seen['cpu']['fit'] / seen['cuda']['fit']:.1f}x"))
 
