@@ -28,7 +28,8 @@ import numpy as np
 
 from headmotion.align import fit_length
 from headmotion.corpus import Corpus
-from headmotion.evaluation.detectability import detectability, prepare
+from headmotion.evaluation.cross_coupling import CrossSpeakerCCA, pooled
+from headmotion.evaluation.detectability import detectability, prepare, reversal_rate
 from headmotion.evaluation.feature_table import extract_one
 from headmotion.evaluation.folds import make_folds
 from headmotion.evaluation.realism import coupling, pause_speed_ratio, pause_speed_ratio_k, speech_mask_for, stouffer
@@ -46,13 +47,6 @@ def lowpassed(rotvec: np.ndarray, fps: float, hz: float = 3.0) -> np.ndarray:
     return sosfiltfilt(butter(4, hz, fs=fps, output="sos"), x, axis=0, padlen=min(len(x) - 1, 30))
 
 
-def reversal_rate(rotvec: np.ndarray, *, fps: float) -> np.ndarray:
-    """Per axis, the share of frames (25 fps, after the detectability test's 6 Hz low-pass) at
-    which the angular velocity changes sign."""
-    v = np.diff(prepare(rotvec, fps), axis=0)
-    return (np.sign(v[1:]) * np.sign(v[:-1]) < 0).mean(axis=0)
-
-
 def held_out_corpus(path: str, exclude: str, min_seconds: float) -> Corpus:
     c = Corpus.load(path)
     c = c.subset([i for i, rid in enumerate(c.ids) if not (exclude and rid.startswith(exclude))])
@@ -60,16 +54,22 @@ def held_out_corpus(path: str, exclude: str, min_seconds: float) -> Corpus:
 
 
 def takes(corpus: Corpus, seed: int, params: dict, folds: int):
-    """recording → (recorded rotvec, [TAKES generated rotvecs], fold, f0e features, fps, speech mask)."""
+    """recording → (recorded rotvec, [TAKES generated rotvecs], fold, f0e features, fps, speech mask,
+    the fold's cross-speaker CCA fitted on its training recordings)."""
     out = {}
     for k, (_, train, test, _) in enumerate(make_folds(corpus, "speakers", seed=seed, speaker_folds=folds)):
         model = create("motion-match", **params).fit(train)
+        cca = CrossSpeakerCCA().fit(
+            [r.motion for r in train],
+            [extract_one("f0e", r.audio, fps=float(r.motion.fps), n_frames=len(r.motion)).values for r in train],
+            fps=float(train[0].motion.fps))
         for r in test:
             n = len(r.motion)
             gen = [np.asarray(fit_length(np.asarray(model.predict(r.audio, seed=s).resample(r.motion.fps).rotvec), n))
                    for s in range(TAKES)]
             feats = np.asarray(extract_one("f0e", r.audio, fps=float(r.motion.fps), n_frames=n).values)
-            out[r.id] = (np.asarray(r.motion.rotvec), gen, k, feats, float(r.motion.fps), speech_mask_for(r.audio, r.motion))
+            out[r.id] = (np.asarray(r.motion.rotvec), gen, k, feats, float(r.motion.fps), speech_mask_for(r.audio, r.motion),
+                        cca)
     return out
 
 
@@ -85,6 +85,12 @@ def scores(made: dict, shifts: int) -> dict:
         rows = [coupling(v[0], v[3], v[1][s], n_shifts=shifts, seed=0) for v in made.values()]
         p.append(stouffer([x["fcca_p"] for x in rows], n_shifts=shifts))
         excess.append(float(np.mean([x["fcca_excess"] for x in rows])))
+    cross = []
+    for s in range(TAKES):  # cross-speaker coupling: projections fitted on the fold's training speakers
+        cross.append(pooled([v[6].test(v[1][s], v[3], fps=v[4], n_shifts=shifts, seed=i)
+                             for i, v in enumerate(made.values())], n_shifts=shifts))
+    cross_rec = pooled([v[6].test(v[0], v[3], fps=v[4], n_shifts=shifts, seed=i) for i, v in enumerate(made.values())],
+                       n_shifts=shifts)
     det3 = []
     for s in range(TAKES):  # both sides low-passed at 3 Hz: the tracker's jitter decides nothing
         gen = {r: lowpassed(v[1][s], fps[r]) for r, v in made.items()}
@@ -102,7 +108,8 @@ def scores(made: dict, shifts: int) -> dict:
         if len(paths[0]) >= 50:
             corr.append([np.mean([np.corrcoef(paths[a][:, ax], paths[b][:, ax])[0, 1]
                                   for a in range(TAKES) for b in range(a + 1, TAKES)]) for ax in range(3)])
-    return {"detect": float(np.mean(det)), "detect_takes": det, "detect_3hz": float(np.mean(det3)),
+    return {"cross_p": [c["p"] for c in cross], "cross_excess": [c["excess"] for c in cross],
+            "cross_recorded": [cross_rec["excess"], cross_rec["p"]], "detect": float(np.mean(det)), "detect_takes": det, "detect_3hz": float(np.mean(det3)),
             "reversals": np.median(rev, axis=0).tolist(), "reversals_recorded": np.median(rev_rec, axis=0).tolist(), "fcca_p": p, "fcca_excess": excess,
             "p_below_05": int(sum(x < 0.05 for x in p)), "corr": np.nanmedian(corr, axis=0).tolist(),
             "sd_ratio": np.median(sdr, axis=0).tolist(), "pause": float(np.nanmedian(pause)),
@@ -125,8 +132,9 @@ def main(argv=None) -> None:
     corpus = held_out_corpus(a.corpus, a.exclude, a.min_seconds)
     results = {}
     print("| variant | seed | detectability (mean of 4 takes) | at 3 Hz | FCCA p of 4 takes | takes p < 0.05 | "
-          "take correlation p/y/r | SD ratio p/y/r | pause ratio (recorded) | reversals p/y/r (recorded) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "take correlation p/y/r | SD ratio p/y/r | pause ratio (recorded) | reversals p/y/r (recorded) | "
+          "cross-speaker excess, p of 4 takes (recorded) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for name, params in json.loads(a.variants).items():
         for seed in a.seeds:
             r = scores(takes(corpus, seed, params, a.speaker_folds), a.shifts)
@@ -135,7 +143,9 @@ def main(argv=None) -> None:
                   f"{r['p_below_05']}/{TAKES} | {'/'.join(f'{x:.2f}' for x in r['corr'])} | "
                   f"{'/'.join(f'{x:.2f}' for x in r['sd_ratio'])} | {r['pause']:.2f} ({r['pause_recorded']:.2f}) | "
                   f"{'/'.join(f'{x:.2f}' for x in r['reversals'])} "
-                  f"({'/'.join(f'{x:.2f}' for x in r['reversals_recorded'])}) |",
+                  f"({'/'.join(f'{x:.2f}' for x in r['reversals_recorded'])}) | "
+                  f"{' '.join(f'{e:+.3f},{p:.3f}' for e, p in zip(r['cross_excess'], r['cross_p']))} "
+                  f"({r['cross_recorded'][0]:+.3f},{r['cross_recorded'][1]:.3f}) |",
                   flush=True)
     (out / "choice.json").write_text(json.dumps(results, indent=1))
 

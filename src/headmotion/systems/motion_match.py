@@ -95,15 +95,29 @@ def speech_descriptors(feats: np.ndarray, taps: np.ndarray, *, causal: bool = Fa
     return s[idx].reshape(T, -1).astype(np.float32)
 
 
-def lowpass_clip(x: np.ndarray, hz: float, *, fps: float = FPS) -> np.ndarray:
-    """``x`` (``(T, 3)``, one clip) low-passed at ``hz`` with a zero-phase 2nd-order Butterworth
-    filter (``scipy.signal.sosfiltfilt``); clips too short for the filter's padding are padded less."""
+def clip_starts(motion: np.ndarray) -> np.ndarray:
+    """``(T,)`` bool: the frames of one recording's motion (degrees, 25 fps) where a clip starts —
+    the first frame, and each frame after a jump above :data:`MAX_STEP_DEG` (a tracking glitch)."""
+    starts = np.zeros(len(motion), bool)
+    starts[:1] = True
+    starts[1:] = np.abs(np.diff(motion, axis=0)).max(axis=1) > MAX_STEP_DEG
+    return starts
+
+
+def clean_clips(motion: np.ndarray, starts: np.ndarray, hz: float, *, fps: float = FPS) -> np.ndarray:
+    """One recording's motion with each clip (``starts``: :func:`clip_starts`) low-passed at ``hz``
+    by a zero-phase 4th-order Butterworth filter (``scipy.signal.sosfiltfilt``), so a face
+    tracker's frame-to-frame jitter is not replayed; clips too short for the filter's padding are
+    padded less, clips under 4 frames kept as they are."""
     from scipy.signal import butter, sosfiltfilt
 
-    if len(x) < 4:
-        return x
-    sos = butter(2, hz, fs=fps, output="sos")
-    return sosfiltfilt(sos, x, axis=0, padlen=min(len(x) - 1, 15))
+    sos = butter(4, hz, fs=fps, output="sos")
+    out = np.array(motion, dtype=np.float64)
+    bounds = np.r_[np.flatnonzero(starts), len(motion)]
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b - a >= 4:
+            out[a:b] = sosfiltfilt(sos, out[a:b], axis=0, padlen=min(b - a - 1, 15))
+    return out.astype(np.asarray(motion).dtype)
 
 
 def descriptor_of_last(past: np.ndarray, taps: np.ndarray) -> np.ndarray:
@@ -257,6 +271,10 @@ class MotionMatch(Synthesizer):
             raise ParameterError(f"{self.name}: no training recording is longer than {(int(self.hop) + 2) / FPS:.2f} s")
         allf = np.concatenate(feats).astype(np.float64)
         self.feat_mean_, self.feat_std_ = allf.mean(axis=0), np.maximum(allf.std(axis=0), 1e-6)
+        self.lib_starts_ = np.concatenate([clip_starts(m) for m in motions])
+        if self.lowpass:  # each clip low-passed once, here: loading a model needs no filter
+            motions = [clean_clips(m, s, float(self.lowpass)) for m, s in
+                       zip(motions, np.split(self.lib_starts_, np.cumsum([len(m) for m in motions])[:-1]))]
         self.lib_motion_ = np.concatenate(motions)
         self.lib_feats_ = ((allf - self.feat_mean_) / self.feat_std_).astype(np.float32)
         self.lib_lengths_ = np.array([len(m) for m in motions], dtype=np.int64)
@@ -273,18 +291,17 @@ class MotionMatch(Synthesizer):
 
     def _index(self) -> None:
         """The search tables: per library frame its speech descriptor, pose, velocity, the pose
-        change over the next ``hop`` frames, where its clip ends (the end of its recording, or a
-        jump above ``MAX_STEP_DEG``: a tracking glitch is never played) and whether a clip may
-        start there (``hop`` frames must follow before that end)."""
+        change over the next ``hop`` frames, where its clip ends (``lib_starts_``: the end of its
+        recording, or a jump above ``MAX_STEP_DEG`` in the recorded motion — a tracking glitch is
+        never played) and whether a clip may start there (``hop`` frames must follow before that end)."""
         S, P, V, ok, A, end, Q = [], [], [], [], [], [], []
         start, offset, H = 0, 0, int(self.hop)
+        starts_all = getattr(self, "lib_starts_", None)  # files written before clips were stored: found here
         for n in self.lib_lengths_:
             m = self.lib_motion_[start:start + n].astype(np.float64)
             d = speech_descriptors(self.lib_feats_[start:start + n], self._taps, causal=bool(self.live))
-            cuts = np.flatnonzero(np.abs(np.diff(m, axis=0)).max(axis=1) > MAX_STEP_DEG) + 1
-            bounds = np.r_[0, cuts, n]
-            if self.lowpass:
-                m = np.vstack([lowpass_clip(m[a:b], float(self.lowpass)) for a, b in zip(bounds[:-1], bounds[1:])])
+            starts = starts_all[start:start + n] if starts_all is not None else clip_starts(m)
+            bounds = np.r_[np.flatnonzero(starts), n]
             clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends
             good = np.arange(n) + H + 1 < clip_end
             ahead = np.clip(np.arange(n)[:, None] + self._goal_steps[None, :], 0, n - 1)
@@ -470,6 +487,8 @@ class MotionMatch(Synthesizer):
         config = {"params": self.get_params(), "sample_rate": self.sample_rate_, "fps": FPS}
         arrays = {"feat_mean": self.feat_mean_, "feat_std": self.feat_std_, "lib_motion": self.lib_motion_,
                   "lib_feats": self.lib_feats_, "lib_lengths": self.lib_lengths_}
+        if getattr(self, "lib_starts_", None) is not None:
+            arrays["lib_starts"] = self.lib_starts_
         return config, arrays
 
     def _set_state(self, config, arrays):
@@ -486,6 +505,7 @@ class MotionMatch(Synthesizer):
         self.lib_motion_ = np.asarray(arrays["lib_motion"], dtype=np.float32)
         self.lib_feats_ = np.asarray(arrays["lib_feats"], dtype=np.float32)
         self.lib_lengths_ = np.asarray(arrays["lib_lengths"], dtype=np.int64)
+        self.lib_starts_ = np.asarray(arrays["lib_starts"], dtype=bool) if "lib_starts" in arrays else None
         self.fit_warnings_ = []
         self._index()
 
