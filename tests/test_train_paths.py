@@ -84,6 +84,21 @@ def test_train_path_is_checked_and_decides_the_path(short_valid, tmp_path, capsy
     assert code != 0 and "--train-path is not a parameter of tws-basic" in said
 
 
+def test_train_path_flows_from_the_command_line(tmp_path, capsys):
+    from headmotion.datasets import import_dataset
+    from headmotion.datasets.planted import write_planted_beat2
+    from headmotion.systems import load_model
+
+    write_planted_beat2(tmp_path / "beat2", hours=0.05, take_minutes=0.5, speakers=2, seed=1)
+    assert not import_dataset("beat2", tmp_path / "beat2", tmp_path / "corpus").refused
+    out = tmp_path / "m.hmz"
+    code = main(["train", str(tmp_path / "corpus"), "-s", "mfcc-dnn[max_epochs=1;patience=1;cross_fit=false]",
+                 "-o", str(out), "--train-path", "streamed", "--device", "cpu"])
+    assert code == 0, capsys.readouterr().err
+    model = load_model(out)
+    assert model.get_params()["train_path"] == "streamed" and model.history_["streamed"] is True
+
+
 def test_cuda_without_a_gpu_is_refused_for_the_autoencoder_systems(short_valid):
     import torch
 
