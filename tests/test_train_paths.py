@@ -133,8 +133,9 @@ def test_streamed_and_memory_models_agree_on_real_recordings(shared_data):
     assert stream.history_["streamed"] is True and "streamed" not in memory.history_
     vm, vs = memory.history_["regressor"]["valid"], stream.history_["regressor"]["valid"]
     assert abs(min(vs) - min(vm)) < 0.05 * min(vm)
-    a = memory.predict(corpus[0].audio, seed=0).rotvec
-    b = stream.predict(corpus[0].audio, seed=0).rotvec
+    # the outputs on all 69 s of speech (on the first 8.6 s part alone pitch correlates 0.90, on all 0.97)
+    a = np.concatenate([memory.predict(r.audio, seed=0).rotvec for r in corpus])
+    b = np.concatenate([stream.predict(r.audio, seed=0).rotvec for r in corpus])
     for j in range(3):
         assert np.corrcoef(a[:, j], b[:, j])[0, 1] > 0.9
         assert 0.8 < b[:, j].std() / a[:, j].std() < 1.25
