@@ -66,7 +66,7 @@ def _detect_cell(d: dict) -> str:
     v = d.get("detect", np.nan)
     if not np.isfinite(v):
         return "–"
-    return f"{v:.2f} ({d.get('detect_ba_stats', np.nan):.2f} / {d.get('detect_ba_cnn', np.nan):.2f})"
+    return f"{v:.2f} ({mark(d.get('detect_ba_stats', np.nan), None)} / {mark(d.get('detect_ba_cnn', np.nan), None)})"
 
 
 def _floor_cell(d: dict, key: str = "detect") -> str:

@@ -102,7 +102,8 @@ def loo(corpus):
 
 
 def test_loo_rows_and_orderings(loo, corpus):
-    assert loo.systems == ["ground-truth", "energy", "still"]
+    # the floor (other speakers' recorded heads) comes after the ground truth when every fold has them
+    assert loo.systems == ["ground-truth", "floor", "energy", "still"]
     assert sorted(loo.recordings) == sorted(corpus.ids)
     assert loo.config["folds"] == 6
     for system in loo.systems:
@@ -122,7 +123,11 @@ def test_loo_rows_and_orderings(loo, corpus):
     # Fig 4.8 rows per speaker
     assert len(loo.values("ground-truth", "winlocal[2s]")) == 2
     # trajectories kept for one recording
-    assert set(loo.trajectories) == {"ground-truth", "energy", "still"}
+    assert set(loo.trajectories) == {"ground-truth", "floor", "energy", "still"}
+    # cross-speaker coupling and beat alignment per recording, pooled like FCCA
+    assert len(loo.values("energy", "xcca_p")) == 6 and len(loo.values("energy", "xcca_p_pooled")) == 1
+    assert len(loo.values("ground-truth", "xcca_excess")) == 6
+    assert len(loo.values("still", "reversals_yaw")) == 1 and loo.mean("still", "reversals_yaw") == 0.0
     assert loo.trajectories["still"].shape == loo.trajectories["ground-truth"].shape
 
 
@@ -160,7 +165,7 @@ def test_dask_local_cluster_equals_local_run(loo, corpus):
 def test_registered_anchors(corpus):
     res = P.evaluate(corpus, ["desync", "other-speaker", "shaped-noise", "still"], protocol="loo", features=envelope,
                      n_shifts=20, seed=1, window_s=3.0, feature_sets=[], fig48=False)
-    assert res.systems == ["ground-truth", "desync", "other-speaker", "shaped-noise", "still"]
+    assert res.systems == ["ground-truth", "floor", "desync", "other-speaker", "shaped-noise", "still"]
     for s in res.systems:
         assert len(res.values(s, "fcca")) == 6, s
     assert res.mean("still", "sd_rx") == pytest.approx(0.0, abs=1e-12)
@@ -202,7 +207,7 @@ def test_evaluate_cli_writes_report(corpus, tmp_path):
     with open(out / "metrics.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert set(rows[0]) == {"system", "recording", "metric", "value"}
-    assert {r["system"] for r in rows} == {"ground-truth", "desync", "still"}
+    assert {r["system"] for r in rows} == {"ground-truth", "floor", "desync", "still"}
     md = (out / "report.md").read_text()
     assert "paper Table 2" in md and "Tables 5.3 / 5.8" in md
     assert {p.name for p in (out / "figures").iterdir()} >= {"sd_bars.png", "fcca_per_condition.png", "trajectories.png"}

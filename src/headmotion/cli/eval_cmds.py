@@ -119,6 +119,10 @@ def evaluate_cmd(
     for s in result.systems:
         if s in summ:
             console.print("  " + coupling_line(s, summ[s])[2:].replace("**", ""), highlight=False, soft_wrap=True)
+    for s in result.systems:
+        line = detectability_line(s, result)
+        if line:
+            console.print("  " + line, highlight=False, soft_wrap=True)
     for w in result.warnings[:5]:
         console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
     if len(result.warnings) > 5:
@@ -126,6 +130,31 @@ def evaluate_cmd(
     if out["motions"]:
         console.print(f"wrote {len(out['motions'])} held-out motions under {Path(output) / 'motions'}")
     console.print(f"wrote {out['report']} and {out['metrics']}")
+
+
+def detectability_line(system: str, result) -> str:
+    """``name: detectability D (floor F, +A above); 3 Hz …; reversals p/y/r`` from the pooled rows,
+    '' when the condition has none of them."""
+    import math
+
+    def v(metric: str) -> float:
+        return result.mean(system, metric)
+
+    parts = []
+    if math.isfinite(v("detect")):
+        d = f"detectability {v('detect'):.2f}"
+        if math.isfinite(v("detect_floor")):
+            d += f" (floor {v('detect_floor'):.2f}, {v('detect_above_floor'):+.2f} above)"
+        parts.append(d)
+    if math.isfinite(v("detect_3hz")):
+        d = f"at 3 Hz {v('detect_3hz'):.2f}"
+        if math.isfinite(v("detect_3hz_floor")):
+            d += f" (floor {v('detect_3hz_floor'):.2f}, {v('detect_3hz_above_floor'):+.2f} above)"
+        parts.append(d)
+    rev = [v(f"reversals_{ax}") for ax in ("pitch", "yaw", "roll")]
+    if any(math.isfinite(x) for x in rev):
+        parts.append("reversals p/y/r " + "/".join(f"{x:.2f}" for x in rev))
+    return f"{system}: " + "; ".join(parts) if parts else ""
 
 
 @app.command("stats")
