@@ -1,6 +1,7 @@
 """DNN inference in numpy (models/numpy_nets.py): the same motion as PyTorch's layers (≤ 1e-6 rad)
-for the shipped default and for freshly trained models of every DNN system, saved and loaded; a
-model gives the same motion before and after saving; loading and synthesising imports no torch."""
+for an mfcc-dnn model with the system's own settings and for small freshly trained models of every
+DNN system, saved and loaded; a model gives the same motion before and after saving; loading and
+synthesising (a DNN model or the shipped default) imports no torch."""
 
 from __future__ import annotations
 
@@ -51,34 +52,51 @@ def _both(model, audio, seed=0):
     return got, ref
 
 
-def test_default_model_matches_torch_layers_on_bundled_speech(examples_dir):
-    from headmotion.io import load_audio
-    from headmotion.systems import load_model
+@pytest.fixture(scope="module")
+def full_dnn(tmp_path_factory):
+    """An mfcc-dnn model with the system's own settings (full-size networks, the whole post chain),
+    trained briefly, saved and loaded: as a shipped or user's model file is used."""
+    pytest.importorskip("torch")
+    import torch
 
-    m = load_model(DEFAULT_MODEL)
-    assert isinstance(m.regressor_, numpy_nets.Regressor)   # loaded as arrays, not torch modules
+    from headmotion.systems import create, load_model
+    from test_cccae import envelope_corpus
+
+    corpus = envelope_corpus(n_recordings=3, seconds=10.0, fps=25.0, seed=4, splits=["train", "train", "valid"])
+    with torch.random.fork_rng(devices=[]):
+        torch.set_num_threads(1)
+        m = create("mfcc-dnn", max_epochs=2, patience=2, n_threads=1).fit(corpus)
+    return load_model(m.save(tmp_path_factory.mktemp("dnn") / "mfcc.hmz"))
+
+
+def test_full_dnn_model_matches_torch_layers_on_bundled_speech(full_dnn, examples_dir):
+    from headmotion.io import load_audio
+
+    assert isinstance(full_dnn.regressor_, numpy_nets.Regressor)   # loaded as arrays, not torch modules
     for name in ("speech_male.wav", "speech_female.wav"):
-        got, ref = _both(m, load_audio(examples_dir / "speech" / name))
+        got, ref = _both(full_dnn, load_audio(examples_dir / "speech" / name))
         assert got.shape == ref.shape and len(got) > 500
         assert np.abs(got - ref).max() <= TOL, name
         assert np.abs(got).max() > 0.02                       # the head moves
 
 
 @pytest.mark.parametrize("name", REAL_SPEECH)
-def test_default_model_matches_torch_layers_on_real_speech(shared_data, name):
+def test_full_dnn_model_matches_torch_layers_on_real_speech(full_dnn, shared_data, name):
     from headmotion.io import load_audio
-    from headmotion.systems import load_model
 
     path = shared_data / "speech" / name
     if not path.exists():
         pytest.skip(f"{path} is not in ../shared")
-    got, ref = _both(load_model(DEFAULT_MODEL), load_audio(path))
+    got, ref = _both(full_dnn, load_audio(path))
     assert np.abs(got - ref).max() <= TOL
 
 
-def test_loading_and_synthesising_with_the_default_imports_no_torch(examples_dir):
+@pytest.mark.parametrize("which", ["default", "dnn"])
+def test_loading_and_synthesising_imports_no_torch(full_dnn, examples_dir, which, tmp_path):
+    """The shipped default, and a saved DNN model, load and synthesise without importing torch."""
+    path = DEFAULT_MODEL if which == "default" else full_dnn.save(tmp_path / "dnn.hmz")
     code = ("import sys\nfrom headmotion.systems import load_model\nfrom headmotion.io import load_audio\n"
-            f"m = load_model({str(DEFAULT_MODEL)!r})\n"
+            f"m = load_model({str(path)!r})\n"
             f"r = m.predict(load_audio({str(examples_dir / 'speech' / 'short.wav')!r})).rotvec\n"
             "assert len(r) > 10\nprint('torch' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
