@@ -6,12 +6,16 @@
   Hellinger, limit cycles, saturation, pauses, diversity, beat consistency, pooled coupling);
   :mod:`.realism_figures` draws them.
 * :mod:`.chance` — chance levels of CCA-type scores by circular shifts; the paper's chance score.
+* :mod:`.cross_coupling` — speech ↔ motion coupling with projections fitted on other speakers'
+  recorded heads (``CrossSpeakerCCA``, ``cross_speaker_coupling``); :mod:`.detectability` — the
+  classifier two-sample test against recorded heads, its floor, the 3 Hz test and
+  ``reversal_rate``.
 * :mod:`.protocols` — :func:`~.protocols.evaluate`, cross-validation of every condition: folds
   (:mod:`.folds`, :mod:`.pause_folds`), fitting and running the conditions per fold
   (:mod:`.running`), per-recording and pooled scores (:mod:`.scoring`), the result
   (:mod:`.results`).
 * :mod:`.conditions` — the one contract of what is evaluated: trained systems, model files and the
-  :mod:`.anchors` (ground truth, desync, shifted, other speaker, shaped noise, still);
+  :mod:`.anchors` (ground truth, desync, shifted, other speaker, shaped noise, still, floor);
   :mod:`.condition_specs` resolves the names ``--systems`` takes.
 * :mod:`.parallel` — runs folds and per-recording work on joblib or a Dask cluster;
   :mod:`.feature_table` — corpus features and the paper's Table 1 on it.
