@@ -23,6 +23,11 @@ _BLAS_THREADS = threadpool_limits(limits=1, user_api="blas")
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = Path(os.environ.get("HEADMOTION_SHARED_DATA", ROOT.parent / "shared" / "data"))
 EXAMPLES = ROOT / "examples"
+#: model files written by earlier versions (tests/data/models/README.md)
+OLD_MODELS = Path(__file__).resolve().parent / "data" / "models"
+#: the former shipped default (mfcc-dnn) and streaming model (tws-hier, 100 fps, causal)
+OLD_DNN_MODEL = OLD_MODELS / "mfcc-dnn_video.hmz"
+OLD_TWS_MODEL = OLD_MODELS / "tws-hier_video.hmz"
 
 
 @pytest.fixture(scope="session")
