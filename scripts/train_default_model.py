@@ -273,8 +273,10 @@ def main(argv=None) -> int:
           + f" ({len(dropped)} recordings of the corpus dropped: "
           + ", ".join(sorted({f for _, f in dropped}) or ["none"]) + ").",
           "* **Licences**: as stated by each source repository (`../shared/data/README.md`); the clips behind "
-          "them (HDTF, VoxCeleb2, GRID, …) carry their own terms. No clip is in this repository — only the model "
-          "learnt from poses estimated from them.",
+          "them (HDTF, VoxCeleb2, GRID, …) carry their own terms. No clip is in this repository — only "
+          + ("the head pose tracked in them (25 frames a second) and per-frame prosody of their speech (F0, energy, "
+             "voicing): no audio or video." if a.system == "motion-match" else
+             "the model learnt from poses estimated from them."),
           provenance(a, fit_s), ""]
     if a.note:
         md += ["## Why this system\n", a.note, ""]

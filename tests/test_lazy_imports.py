@@ -50,7 +50,7 @@ def test_synth_imports_neither_torch_nor_plotting_nor_servers(tmp_path, examples
         args += ["-m", str(ROOT / "src" / "headmotion" / "data" / model)]
     mods = _modules(*args)
     assert out.exists() and out.stat().st_size > 1000          # it did synthesise
-    assert "headmotion.systems.dnn" in mods or model is not None
+    assert "headmotion.systems.motion_match" in mods or model is not None
     assert _loaded(mods, HEAVY + ("scipy.spatial",)) == []
 
 
@@ -66,7 +66,7 @@ def test_stream_imports_no_scipy(examples_dir):
                           "16000"], input=pcm, capture_output=True, timeout=300)
     report = json.loads(out.stderr.decode().strip().splitlines()[-1])
     assert report["rc"] in (0, None), out.stderr.decode()[-2000:]
-    assert len(out.stdout.decode().splitlines()) > 100                      # frames came out
+    assert len(out.stdout.decode().splitlines()) > 60                       # frames came out (2.8 s at 25 fps)
     assert _loaded(set(report["modules"]), HEAVY + ("scipy",)) == []
 
 

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 import soundfile as sf
 
+from conftest import OLD_DNN_MODEL, OLD_TWS_MODEL
 from headmotion.cli.synth_cmds import default_model_path, default_stream_model_path
 from headmotion.errors import AudioLoadingError
 from headmotion.io import load_audio
@@ -46,7 +47,8 @@ def test_block_reader_errors_name_the_file(tmp_path):
         list(iter_audio_blocks(bad, sample_rate=16000))
 
 
-@pytest.mark.parametrize("path", [default_stream_model_path, default_model_path], ids=["tws-hier", "mfcc-dnn"])
+@pytest.mark.parametrize("path", [default_stream_model_path, default_model_path, lambda: OLD_TWS_MODEL,
+                                  lambda: OLD_DNN_MODEL], ids=["stream", "default", "tws-hier", "mfcc-dnn"])
 def test_model_block_by_block_equals_its_stream(examples_dir, path):
     m = load_model(path())
     wav = examples_dir / "speech" / "speech_male.wav"
@@ -59,4 +61,4 @@ def test_model_block_by_block_equals_its_stream(examples_dir, path):
     # a causal system gives the same frames for any chunking; a DNN stream's network sees other
     # batch sizes for other chunkings, and float32 matrix products round differently per batch
     # size: the DNN stream contract's 1e-6 rad (systems/dnn_stream.py)
-    np.testing.assert_allclose(a.rotvec, b, atol=1e-9 if m.name.startswith("tws") else 1e-6)
+    np.testing.assert_allclose(a.rotvec, b, atol=1e-6 if m.name.endswith("dnn") else 1e-9)

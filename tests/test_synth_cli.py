@@ -29,7 +29,7 @@ def speech(tmp_path_factory, corpus_dir):
 
 def test_default_model_is_shipped_and_small():
     p = default_model_path()
-    assert p.exists() and p.stat().st_size < 3_000_000  # mfcc-dnn: 2.5 MB of float32 weights
+    assert p.exists() and p.stat().st_size < 1_000_000  # motion-match: the library, 25 frames a second of 7 min
 
 
 @pytest.mark.parametrize("ext", ["bvh", "csv", "json", "npz"])
@@ -37,7 +37,7 @@ def test_synth_default_model_all_formats(speech, tmp_path, ext):
     out = tmp_path / f"head.{ext}"
     assert main(["synth", str(speech), "-o", str(out)]) == 0
     m = load_motion(out)
-    assert 5900 <= len(m) <= 6100 and np.all(np.isfinite(m.rotvec))
+    assert m.fps == 25.0 and 1475 <= len(m) <= 1525 and np.all(np.isfinite(m.rotvec))
     assert np.degrees(m.rotvec).std() > 0.2  # it moves
 
 
@@ -73,7 +73,7 @@ def test_stream_cli_json_lines(tmp_path):
     r = subprocess.run([sys.executable, "-m", "headmotion", "stream"], input=pcm, capture_output=True, timeout=300)
     assert r.returncode == 0, r.stderr.decode()
     lines = [json.loads(s) for s in r.stdout.decode().splitlines()]
-    assert len(lines) == 200
+    assert len(lines) == 50  # 2 s at the stream model's 25 fps
     assert lines[0]["frame"] == 0 and len(lines[-1]["rotvec"]) == 3 and "pitch_yaw_roll_deg" in lines[5]
 
 
@@ -102,7 +102,7 @@ def test_stream_cli_resamples_other_input_rates(tmp_path):
         r = subprocess.run(args, input=(x * 32767).astype("<i2").tobytes(), capture_output=True, timeout=300)
         assert r.returncode == 0, r.stderr.decode()
         out[sr] = np.array([json.loads(s)["rotvec"] for s in r.stdout.decode().splitlines()])
-    assert len(out[8000]) == len(out[16000]) == 200
+    assert len(out[8000]) == len(out[16000]) == 50  # 2 s at 25 fps
     np.testing.assert_allclose(out[8000].std(axis=0), out[16000].std(axis=0), rtol=0.5)
 
 
@@ -116,13 +116,13 @@ def test_synth_contract_options(speech, tmp_path, capsys):
     assert main(["synth", str(speech), "-o", str(off), "--offset", "2,0,-1"]) == 0
     d = rotvec_to_pitch_yaw_roll(load_motion(off).rotvec).mean(0) - rotvec_to_pitch_yaw_roll(load_motion(base).rotvec).mean(0)
     np.testing.assert_allclose(np.degrees(d), [2.0, 0.0, -1.0], atol=1e-6)
-    # the default (mfcc-dnn) has no 'stochastic' parameter: refused; the streaming model (tws-hier) takes it
+    # the default (motion-match) has no 'stochastic' parameter: refused; a tws-hier model takes it
     capsys.readouterr()
     assert main(["synth", str(speech), "-o", str(tmp_path / "c.npz"), "--stochastic", "cluster"]) == 2
     assert "stochastic" in capsys.readouterr().err
-    from headmotion.cli.synth_cmds import default_stream_model_path
+    from conftest import OLD_TWS_MODEL
 
-    tws = str(default_stream_model_path())
+    tws = str(OLD_TWS_MODEL)
     assert main(["synth", str(speech), "-m", tws, "-o", str(tmp_path / "c.npz"), "--stochastic", "cluster",
                  "--seed", "4"]) == 0
     assert main(["synth", str(speech), "-m", tws, "-o", str(tmp_path / "x.npz"), "--stochastic", "always"]) == 2
@@ -142,4 +142,4 @@ def test_load_model_reads_the_file_once(monkeypatch):
 
     monkeypatch.setattr(B, "load_model_file", counting)
     m = B.load_model(default_model_path())
-    assert len(calls) == 1 and m.name == "mfcc-dnn" and m.frame_rate == 100.0 and m.sample_rate == 16000
+    assert len(calls) == 1 and m.name == "motion-match" and m.frame_rate == 25.0 and m.sample_rate == 16000

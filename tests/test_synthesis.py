@@ -12,6 +12,7 @@ import sys
 import numpy as np
 import pytest
 
+from conftest import OLD_TWS_MODEL
 from headmotion.cli import main
 from headmotion.errors import ModelFileError, ParameterError
 from headmotion.io import load_audio, load_motion
@@ -30,16 +31,17 @@ def models():
 def test_shipped_names_resolve_to_the_package_files(models, tmp_path, capsys):
     assert [m.name for m in list_models()] == ["default", "stream"]
     assert [m.path for m in list_models()] == [data_dir() / "default_model.hmz", data_dir() / "default_stream_model.hmz"]
-    assert list_models()[0].summary.startswith("mfcc-dnn: the default model")
-    assert list_models()[1].summary.startswith("tws-hier: the streaming default model")
-    assert models["default"].name == "mfcc-dnn" and models["stream"].name == "tws-hier"
-    assert load_model(data_dir() / "default_stream_model.hmz").name == "tws-hier"  # a path still works
+    assert list_models()[0].summary.startswith("motion-match: the default model")
+    assert list_models()[1].summary.startswith("motion-match: the streaming default model")
+    assert models["default"].name == models["stream"].name == "motion-match"
+    assert models["stream"].causal and models["default"].can_stream and not models["default"].causal
+    assert load_model(data_dir() / "default_stream_model.hmz").causal  # a path still works
     assert load_model(models["stream"]) is models["stream"]
     with pytest.raises(ModelFileError, match=r"'nope' is neither a shipped model \(default, stream\)"):
         load_model("nope")
     assert main(["models"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0].split()[:2] == ["default", "mfcc-dnn:"] and out[1].split()[:2] == ["stream", "tws-hier:"]
+    assert out[0].split()[:2] == ["default", "motion-match:"] and out[1].split()[:2] == ["stream", "motion-match:"]
     assert main(["models", "--json"]) == 0
     assert [d["name"] for d in json.loads(capsys.readouterr().out)] == ["default", "stream"]
     assert main(["info", "--model", "nope"]) == 1
@@ -129,9 +131,12 @@ def test_synthesize_audio_object_and_progress(examples_dir, models):
     for x, y in zip(a, b):
         np.testing.assert_array_equal(x.rotvec, y.rotvec)
     assert len(calls) == 2 and calls[-1][0] == pytest.approx(calls[-1][1])
-    choice = synthesize(wav, models["stream"], seed=1, stochastic="choice")[0]
-    assert models["stream"].get_params()["stochastic"] == "params"  # the caller's model is left as it was
-    assert not np.array_equal(choice.rotvec, a[0].rotvec)
+    tws = load_model(OLD_TWS_MODEL)  # a system with a 'stochastic' parameter
+    choice = synthesize(wav, tws, seed=1, stochastic="choice")[0]
+    assert tws.get_params()["stochastic"] == "params"  # the caller's model is left as it was
+    assert not np.array_equal(choice.rotvec, synthesize(wav, tws, seed=1)[0].rotvec)
+    with pytest.raises(ParameterError, match="motion-match has no parameter 'stochastic'"):
+        synthesize(wav, "stream", stochastic="choice")
     with pytest.raises(ParameterError, match="not both"):
         synthesize(wav, "stream", controls=Controls(), gain=2)
     with pytest.raises(ParameterError, match="samples"):
@@ -149,7 +154,7 @@ def test_long_input_is_read_in_blocks_by_both(examples_dir, tmp_path, models, mo
     blocks = synthesize(wav, models["default"], seed=2, gain=1.2)[0]
     cli = _cli_motions(["synth", str(wav), "--seed", "2", "--gain", "1.2"], tmp_path / "b.npz", 1)[0]
     np.testing.assert_array_equal(blocks.rotvec, cli.rotvec)
-    np.testing.assert_allclose(blocks.rotvec, whole.rotvec, atol=1e-6)  # the DNN's stream ≈ its offline frames
+    np.testing.assert_array_equal(blocks.rotvec, whole.rotvec)  # the stream makes predict's decisions
 
 
 # -- open_stream -----------------------------------------------------------------------------------------
@@ -158,7 +163,7 @@ def test_open_stream_gives_the_causal_models_offline_motion(examples_dir, models
     kw = {"gain": 1.4, "offset_degrees": "1,-2,0"}
     offline = synthesize(wav, models["stream"], seed=5, **kw)[0]
     st = open_stream(models["stream"], seed=5, **kw)
-    assert st.sample_rate == models["stream"].sample_rate and st.frame_rate == 100.0
+    assert st.sample_rate == models["stream"].sample_rate and st.frame_rate == 25.0
     x = load_audio(wav, sample_rate=st.sample_rate).samples
     parts = [st.push(x[i:i + 1601]).rotvec for i in range(0, len(x), 1601)] + [st.flush().rotvec]
     rv = np.vstack([p for p in parts if len(p)])
@@ -172,7 +177,7 @@ def test_open_stream_resamples_and_refuses_whole_recording_controls(examples_dir
     st = open_stream("stream", sample_rate=8000, still=True, offset_degrees="0,10,0")
     rv = np.vstack([st.push(x[i:i + 800]).rotvec.reshape(-1, 3) for i in range(0, len(x), 800)]
                    + [st.flush().rotvec.reshape(-1, 3)])
-    assert abs(len(rv) - round(len(x) / 8000 * 100)) <= 1
+    assert abs(len(rv) - round(len(x) / 8000 * 25)) <= 1
     from headmotion.rotations import rotvec_to_pitch_yaw_roll
 
     np.testing.assert_allclose(np.degrees(rotvec_to_pitch_yaw_roll(rv)), np.tile([0, 10, 0], (len(rv), 1)), atol=1e-9)
