@@ -38,6 +38,13 @@ energy, their deltas and voicing, computed incrementally with no lookahead: a fr
 synthesis; a decision reads the speech up to its own frame, its goal is the pose that speech
 asks for, held over the hop, and a hop is a pause when the last ``hop`` frames were mostly
 unvoiced.  The system then streams 39 ms behind the audio, and the stream equals ``predict``.
+
+**Frame-by-frame prosody** (``prosody="f0e-live"``, not ``live``; the shipped default): the same
+features, and every decision computed from a window of them around its frame (its reach back and
+ahead, :attr:`MotionMatch._reach`) as :class:`WindowStream` computes it when the audio streams in:
+the system streams with that lookahead (≈ 1.1 s), a long file is synthesised block by block, and
+the stream equals ``predict``.  ``lowpass`` and ``posture_s`` (docs/decisions/default_models.md)
+clean the library of a tracker's jitter and keep postures over seconds.
 """
 
 from __future__ import annotations
