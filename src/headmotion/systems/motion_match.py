@@ -304,14 +304,15 @@ class MotionMatch(Synthesizer):
         S, P, V, ok, A, end, Q = [], [], [], [], [], [], []
         start, offset, H = 0, 0, int(self.hop)
         starts_all = getattr(self, "lib_starts_", None)  # files written before clips were stored: found here
+        taps, steps = self._taps, self._goal_steps  # once, not per recording
         for n in self.lib_lengths_:
             m = self.lib_motion_[start:start + n].astype(np.float64)
-            d = speech_descriptors(self.lib_feats_[start:start + n], self._taps, causal=bool(self.live))
+            d = speech_descriptors(self.lib_feats_[start:start + n], taps, causal=bool(self.live))
             starts = starts_all[start:start + n] if starts_all is not None else clip_starts(m)
             bounds = np.r_[np.flatnonzero(starts), n]
             clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends
             good = np.arange(n) + H + 1 < clip_end
-            ahead = np.clip(np.arange(n)[:, None] + self._goal_steps[None, :], 0, n - 1)
+            ahead = np.clip(np.arange(n)[:, None] + steps[None, :], 0, n - 1)
             nxt = np.clip(np.arange(n)[:, None] + np.arange(1, H + 1)[None, :], 0, n - 1)
             v = np.vstack([m[1:2] - m[:1], np.diff(m, axis=0)])
             q = (v[nxt] ** 2).mean(axis=1)  # (n, 3): mean squared velocity over the next hop (a mirror's too)
