@@ -7,15 +7,15 @@ Skips with a reason without Playwright, chromium, or ../shared/data.
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import CHROMIUM
+from conftest import CHROMIUM, OLD_DNN_MODEL
 
 pytestmark = [pytest.mark.browser, pytest.mark.shared, pytest.mark.timeout(180)]
 
-MODEL = Path(__file__).resolve().parents[1] / "src" / "headmotion" / "data" / "default_model.hmz"
+#: a model that streams with lookahead at 100 fps (the former shipped default, mfcc-dnn)
+MODEL = OLD_DNN_MODEL
 
 
 @pytest.fixture(scope="module")

@@ -5,13 +5,14 @@ handshake gets a clear error message.  Bounded in time."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import OLD_DNN_MODEL
 
 pytestmark = pytest.mark.timeout(120)
-MODEL = Path(__file__).resolve().parents[1] / "src" / "headmotion" / "data" / "default_model.hmz"
+#: a model that streams with lookahead at 100 fps (the former shipped default, mfcc-dnn)
+MODEL = OLD_DNN_MODEL
 
 
 def _pcm(seconds: float, sr: int) -> np.ndarray:

@@ -49,7 +49,7 @@ def test_example_page_streams_microphone_and_moves_head(playwright):
             _wait_js(pg, "window.headmotionExample.frames >= 300")
             st = pg.evaluate("window.headmotionExample")
             assert not errors, errors
-            assert st["error"] is None and st["status"].startswith("streaming: stream (tws-hier)")
+            assert st["error"] is None and st["status"].startswith("streaming: stream (motion-match)")
             frames = [f[0] for f in st["received"]]
             assert frames == list(range(len(frames)))  # in order, none lost or repeated
             rv = np.array([f[1] for f in st["received"]])

@@ -14,6 +14,7 @@ from headmotion.errors import ParameterError
 from headmotion.io import load_audio
 from headmotion.serve.client import Client, ServerError
 from headmotion.serve.protocol import WS_PROTOCOL
+from headmotion.types import Audio
 
 
 @pytest.fixture(scope="module")
@@ -93,7 +94,7 @@ def test_stereo_chunks_are_mixed_down_not_interleaved(url):
     got = asyncio.run(run(stereo[i:i + 320] for i in range(0, len(x), 320)))
     s = registry().models["stream"].stream(seed=1)
     want = np.vstack([s.push(0.75 * x).rotvec, s.flush().rotvec])
-    assert got.shape == want.shape  # 278 frames for 2.78 s, not 556
+    assert got.shape == want.shape  # 69 frames for 2.78 s at 25 fps, not 139
     np.testing.assert_allclose(got, want, atol=1e-6)
     for bad in (np.zeros((2, 160), np.float32), np.zeros((4, 4, 4), np.float32)):
         with pytest.raises(ParameterError, match="samples, channels"):
@@ -154,5 +155,6 @@ def test_stream_reconnects_after_a_restart():
     assert all(b >= a for a, b in zip(ends, firsts[1:]))  # in order, none twice
     gaps = [b - a for a, b in zip(ends, firsts[1:]) if b != a]
     assert len(gaps) <= 1 and all(g <= 20 for g in gaps)  # at most the lookahead and a chunk missing
-    assert ends[-1] == 278  # the last frame is the audio's (2.78 s at 100 fps): the rest was sent again
-    assert sum(len(f.rotvec) for f in got) >= 278 - 20
+    n = len(registry().models["stream"].predict(Audio(x, 16000)))
+    assert ends[-1] == n  # the last frame is the audio's (2.78 s at 25 fps): the rest was sent again
+    assert sum(len(f.rotvec) for f in got) >= n - 20

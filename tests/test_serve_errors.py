@@ -71,7 +71,7 @@ def test_offline_controls_out_of_range_or_unknown(c, query, needle):
 def test_offline_controls_at_the_edges_of_their_ranges(c):
     r = _post(c, f"model=stream&gain=0,10,1&offset=-90,0,90&seed={SEED_MAX}&format=json")
     assert r.status_code == 200, r.text
-    assert len(r.json()["frames"]) > 200
+    assert len(r.json()["frames"]) > 50
 
 
 @pytest.mark.parametrize("fields,needle", [

@@ -89,7 +89,7 @@ def test_thirty_seconds_in_10ms_messages_unpaced_every_frame_as_post(server):
     pcm = _pcm(30.0)
     got, end = asyncio.run(_unpaced(url, pcm))
     want = _offline(url, pcm)
-    assert got.shape == want.shape == (3000, 3) and end["frames"] == 3000
+    assert got.shape == want.shape == (750, 3) and end["frames"] == 750  # 30 s at the stream model's 25 fps
     np.testing.assert_allclose(got, want.astype(np.float32), rtol=0, atol=1e-6)
 
 
@@ -152,7 +152,7 @@ def test_a_client_that_stops_reading_is_closed(small_buffers_server):
         sock.connect((host, int(port)))
         ws = await websockets.connect(url.replace("http", "ws") + "/v1/stream", sock=sock, max_size=None)
         await ws.send(json.dumps({"type": "start", "encoding": "s16le", "frames": "json"}))
-        pcm = _pcm(120.0).tobytes()
+        pcm = _pcm(480.0).tobytes()  # at 25 fps a frame per 40 ms: minutes of audio before the buffers fill
 
         sent = [0]
 

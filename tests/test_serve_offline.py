@@ -71,7 +71,7 @@ def test_formats(c, fmt, head):
     if head is not None:
         assert r.content.startswith(head)
     else:
-        assert len(r.text.splitlines()) > 200  # one line per frame (2.8 s at 100 fps) and a header
+        assert len(r.text.splitlines()) > 60  # one line per frame (2.8 s at 25 fps) and a header
 
 
 def test_zip_of_samples_still_and_fps(c):
@@ -122,8 +122,8 @@ def test_models_health_metrics_headers(c):
     assert c.get("/readyz").json()["status"] == "ready"
     cards = c.get("/v1/models").json()["models"]
     (card,) = cards
-    assert card["name"] == "stream" and card["system"] == "tws-hier" and card["sample_rate"] == 16000
-    assert card["frame_rate"] == 100.0 and "causal" in card["capabilities"] and 0 < card["latency_ms"] < 200
+    assert card["name"] == "stream" and card["system"] == "motion-match" and card["sample_rate"] == 16000
+    assert card["frame_rate"] == 25.0 and "causal" in card["capabilities"] and 0 < card["latency_ms"] < 200
     r = c.get("/metrics")
     assert "headmotion_requests_total" in r.text and "headmotion_frame_latency_seconds_bucket" in r.text
     assert r.headers["x-frame-options"] == "DENY" and r.headers["cache-control"] == "no-store"

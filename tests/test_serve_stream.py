@@ -32,7 +32,7 @@ def run_stream(c, x, chunk, fmt, seed=0, encoding="f32le"):
     with c.websocket_connect(WS) as ws:
         ws.send_text(start(encoding=encoding, frames=fmt, seed=seed, sample_rate=16000))
         ready = json.loads(ws.receive_text())
-        assert ready["type"] == "ready" and ready["fps"] == 100.0 and 0 < ready["latency_ms"] < 200
+        assert ready["type"] == "ready" and ready["fps"] == 25.0 and 0 < ready["latency_ms"] < 200
         for i in range(0, len(x), chunk):
             part = x[i:i + chunk]
             ws.send_bytes(part.astype("<f4").tobytes() if encoding == "f32le"
@@ -91,7 +91,7 @@ def test_stream_resamples_other_rates(c):
         ws.send_text('{"type": "end"}')
         msgs = read_until_close(ws)
     end = json.loads(msgs[-2]["text"])
-    assert abs(end["frames"] - 278) <= 1  # 2.78 s at 100 fps
+    assert abs(end["frames"] - 2.78 * 25) <= 1  # 2.78 s at the stream model's 25 fps
 
 
 BAD = [
