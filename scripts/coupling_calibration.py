@@ -76,11 +76,11 @@ def _new_scores(rec, pred, feats, onsets, model, *, n_shifts: int, seed: int, na
     out = {}
     fps = float(rec.motion.fps)
     if "xcca" in measures and model is not None:
-        r = model.test(pred, feats, fps=fps, n_shifts=n_shifts, seed=sub_seed(seed, rec.id, name, "xcca"))
+        r = model.test(pred, feats, fps=fps, n_shifts=n_shifts, seed=sub_seed(sub_seed(seed, rec.id, name), "xcca"))
         out.update({"xcca_p": r.p_value, "xcca_excess": r.excess})
     if "bc" in measures and onsets is not None and len(onsets):
         r = C.shift_null(lambda a: R.beat_consistency(R.motion_beats(a, fps=fps), onsets), pred, n_shifts=n_shifts,
-                         seed=sub_seed(seed, rec.id, name, "bc"))
+                         seed=sub_seed(sub_seed(seed, rec.id, name), "bc"))
         out.update({"bc_p": r.p_value, "bc_excess": r.excess})
     return out
 

@@ -391,7 +391,7 @@ def test_default_model_still_loads():
     if not p.is_file():
         pytest.skip("no default model in this checkout")
     config, arrays = load_model_file(p)
-    assert config["system"] and len(arrays) > 10
+    assert config["system"] and len(arrays) >= 5
 
 
 # -------------------------------------------------------------------------------------- C3D

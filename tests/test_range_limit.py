@@ -33,13 +33,14 @@ def test_bounds_from_training_are_its_99th_percentile_and_its_range_plus_a_tenth
 
 
 def test_the_default_model_applies_it_after_the_shaper_and_stays_in_range():
-    """The shipped default (mfcc-dnn): with ``range_limit`` the post stages' output (no pauses) is
+    """The former shipped default (mfcc-dnn, tests/data/models): with ``range_limit`` the post stages' output (no pauses) is
     :func:`soft_range` of the output without it; a network output pushed far out (×4) stays inside
     the asymptotes, the unlimited one does not."""
-    from headmotion.systems import load_model
-    from headmotion.cli.synth_cmds import default_model_path
+    from conftest import OLD_DNN_MODEL
 
-    m = load_model(default_model_path())
+    from headmotion.systems import load_model
+
+    m = load_model(OLD_DNN_MODEL)
     assert m.range_limit and m.range_.shape == (2, 3)
     y = 4.0 * np.random.default_rng(0).standard_normal((3000, 3)).cumsum(axis=0) / 30.0
     m.set_params(range_limit=False)

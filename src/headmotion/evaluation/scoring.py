@@ -200,7 +200,7 @@ def cross_speaker_coupling(s: RecordingScoring) -> dict[str, float]:
         return {}
     rec = s.recording
     r = s.coupling_model.test(np.asarray(s.pred, dtype=float), s.features, fps=float(rec.motion.fps),
-                              n_shifts=s.n_shifts, seed=sub_seed(s.base_seed, rec.id, s.condition.name, "xcca"))
+                              n_shifts=s.n_shifts, seed=sub_seed(s.seed, "xcca"))
     return {"xcca": r.score, **r.as_dict("xcca_")}
 
 
@@ -220,7 +220,7 @@ def beat_alignment(s: RecordingScoring) -> dict[str, float]:
     if len(p) < 4:
         return {}
     r = C.shift_null(lambda a: R.beat_consistency(R.motion_beats(a, fps=fps), onsets), p, n_shifts=s.n_shifts,
-                     seed=sub_seed(s.base_seed, rec.id, s.condition.name, "bc"))
+                     seed=sub_seed(s.seed, "bc"))
     return r.as_dict("bc_")
 
 
