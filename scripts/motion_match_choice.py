@@ -38,15 +38,6 @@ from headmotion.systems.base import create
 TAKES = 4
 
 
-def lowpassed(rotvec: np.ndarray, fps: float, hz: float = 3.0) -> np.ndarray:
-    """Rotation vectors low-passed at ``hz`` (zero-phase Butterworth, order 4): a head's slow
-    movements, where a tracker's frame-to-frame jitter decides nothing."""
-    from scipy.signal import butter, sosfiltfilt
-
-    x = np.asarray(rotvec, dtype=np.float64)
-    return sosfiltfilt(butter(4, hz, fs=fps, output="sos"), x, axis=0, padlen=min(len(x) - 1, 30))
-
-
 def held_out_corpus(path: str, exclude: str, min_seconds: float) -> Corpus:
     c = Corpus.load(path)
     c = c.subset([i for i, rid in enumerate(c.ids) if not (exclude and rid.startswith(exclude))])
@@ -93,9 +84,9 @@ def scores(made: dict, shifts: int) -> dict:
                        n_shifts=shifts)
     det3 = []
     for s in range(TAKES):  # both sides low-passed at 3 Hz: the tracker's jitter decides nothing
-        gen = {r: lowpassed(v[1][s], fps[r]) for r, v in made.items()}
-        det3.append(detectability({r: lowpassed(x, fps[r]) for r, x in real.items()}, gen, fps=fps, seed=0,
-                                  classifiers=("stats",), within=fold).scores["stats"].balanced_accuracy)
+        gen = {r: v[1][s] for r, v in made.items()}
+        det3.append(detectability(real, gen, fps=fps, seed=0, classifiers=("stats",), within=fold, cutoff_hz=3.0)
+                    .scores["stats"].balanced_accuracy)
     corr, sdr, pause, pause_rec, rev, rev_rec = [], [], [], [], [], []
     for r, v in made.items():
         rev.append(np.mean([reversal_rate(g, fps=fps[r]) for g in v[1]], axis=0))

@@ -562,6 +562,15 @@ class _Walk:
         return frames
 
 
+def _tail_rows(last: np.ndarray | None, raw: np.ndarray, n: int) -> np.ndarray:
+    """The feature rows still to come at a stream's end, ``n`` of them, as ``predict``'s features
+    are fitted to the audio's length: ``raw`` trimmed, or padded by repeating its last row — or,
+    when ``raw`` is empty, the last row seen before (``last``; None when nothing was seen)."""
+    if last is None:
+        return fit_length(raw, n)
+    return fit_length(np.concatenate([last[None], raw]), n + 1)[1:]
+
+
 class MotionMatchStream:
     """:meth:`MotionMatch.stream` (``live`` models): push float samples at the model's
     ``sample_rate``; a frame is final once its f0e-live features are (``latency_ms``, 39 ms at
@@ -606,9 +615,7 @@ class MotionMatchStream:
         """The remaining frames: as many in all as ``predict`` gives for the audio pushed."""
         raw = np.asarray(self.ex.flush()).reshape(-1, len(self.ex.names))
         n = max(_n_frames(self.samples, int(self.m.sample_rate_), FPS) - self.k, 0)
-        if self.raw_last is None:  # as predict's features: fit to the length of the audio
-            return self._frames(fit_length(raw, n))
-        return self._frames(fit_length(np.concatenate([self.raw_last[None], raw]), n + 1)[1:])
+        return self._frames(_tail_rows(self.raw_last, raw, n))
 
 
 class WindowStream:
@@ -668,10 +675,7 @@ class WindowStream:
         raw = np.asarray(self.ex.flush()).reshape(-1, len(self.ex.names))
         total = _n_frames(self.samples, int(self.m.sample_rate_), FPS)
         have = self.row0 + len(self.rows)
-        if self.raw_last is None:  # as predict's features: fit to the length of the audio
-            self._add(fit_length(raw, total))
-        else:
-            self._add(fit_length(np.concatenate([self.raw_last[None], raw]), max(total - have, 0) + 1)[1:])
+        self._add(_tail_rows(self.raw_last, raw, total if self.raw_last is None else max(total - have, 0)))
         self.rows = self.rows[:max(total - self.row0, 0)]
         return self._decide(total)
 
