@@ -8,7 +8,8 @@ convention is documented in :mod:`headmotion.rotations`.
 everything else are imported on first use (module ``__getattr__``, PEP 562), so that a command
 such as ``headmotion --help`` pays for nothing it does not use.  Synthesis — :func:`synthesize`,
 :func:`open_stream`, :func:`load_model`, :func:`list_models`, :class:`Controls` — is
-:mod:`headmotion.synthesis`.
+:mod:`headmotion.synthesis`; :func:`adapt` (a model adapted to one speaker) is
+:mod:`headmotion.systems.adapt`.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ _LAZY = {
     "Audio": ".types", "Motion": ".types", "FeatureTrack": ".types",
     **{name: ".synthesis" for name in ("Controls", "load_model", "list_models", "synthesize", "open_stream",
                                        "DEFAULT_MODEL")},
+    "adapt": ".systems.adapt",
 }
 
 
@@ -55,5 +57,5 @@ __all__ = [
     "__version__", "Audio", "Motion", "FeatureTrack",
     "HeadMotionError", "ParameterError", "AudioLoadingError", "SampleRateError", "LengthMismatchError",
     "FormatError", "NoHeadError", "NotFittedError", "ModelFileError",
-    "Controls", "load_model", "list_models", "synthesize", "open_stream",
+    "Controls", "load_model", "list_models", "synthesize", "open_stream", "adapt",
 ]

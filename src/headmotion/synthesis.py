@@ -6,7 +6,9 @@ Every front end parses its options once into :class:`Controls`, and the controls
 order (docs/design.md "CLI"; the seeds are silent on user controls):
 
 1. the model's motion for the speech (sample ``k`` of ``samples`` with seed ``seed + k``; a
-   deterministic model samples its parameters, ``stochastic="params"``, when ``samples > 1``);
+   deterministic model samples its parameters, ``stochastic="params"``, when ``samples > 1``),
+   with ``amount``: how much the head moves, by which recorded movements a motion-matching model
+   chooses (0 holds still, 1 the model's own, up to 3) — no angle is scaled;
 2. ``style_from``: made to move like a reference (:mod:`headmotion.motion.style`);
 3. ``gain`` about the mean pose — the styled one (the reference's) when a style is applied, else
    the model's training mean pose — then ``offset`` (:mod:`headmotion.motion.control`);
@@ -29,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ParameterError
+from .motion.control import AMOUNT_RANGE
 from .shipped import ShippedModel, list_models, resolve_model_path
 from .types import Audio, Motion
 
@@ -88,8 +91,13 @@ class Controls:
 
     Parameters
     ----------
+    amount : number in :data:`AMOUNT_RANGE`
+        How much the head moves, by choice: 1 = the model's natural amount, larger = larger,
+        faster recorded movements and more of them, smaller = calmer ones, 0 = held still.  Each
+        movement stays a recorded one (a motion-matching model; others refuse an amount other than 1).
     gain : number, (pitch, yaw, roll) or string ``"G"`` / ``"P,Y,R"``
-        Amplitude scale about the mean pose (1 = as the model moves, 0 = held at the mean pose).
+        Amplitude scale about the mean pose (1 = as the model moves, 0 = held at the mean pose):
+        every angle multiplied — a nod made twice as deep, not a bigger nod (``amount``).
     offset : number, (pitch, yaw, roll) or string
         Radians added to pitch, yaw and roll after the gain.
     still : bool
@@ -110,6 +118,7 @@ class Controls:
     gain: tuple = (1.0, 1.0, 1.0)
     offset: tuple = (0.0, 0.0, 0.0)
     still: bool = False
+    amount: float = 1.0
     style_from: object = None
     style_strength: float = 1.0
     style_keep_pose: bool = False
@@ -123,6 +132,12 @@ class Controls:
         _check_range(self.gain, GAIN_RANGE, "gain (--gain)", "")
         _check_range(tuple(math.degrees(v) for v in self.offset), OFFSET_RANGE_DEG, "offset (--offset)", " degrees")
         set_(self, "still", bool(self.still))
+        a = self.amount
+        if isinstance(a, bool) or not isinstance(a, (int, float, np.floating, np.integer)) \
+                or not AMOUNT_RANGE[0] <= a <= AMOUNT_RANGE[1]:
+            raise ParameterError(f"amount (--amount) must be a number from {AMOUNT_RANGE[0]:g} to {AMOUNT_RANGE[1]:g}; "
+                                 f"got {a!r:.40}")
+        set_(self, "amount", float(a))
         set_(self, "style_keep_pose", bool(self.style_keep_pose))
         s = self.style_strength
         if isinstance(s, bool) or not isinstance(s, (int, float, np.floating, np.integer)) or not 0.0 <= s <= 1.0:
@@ -223,6 +238,20 @@ def _with_stochastic(model, mode: str | None, samples: int):
     import copy
 
     return copy.copy(model).set_params(stochastic=mode)
+
+
+def _with_amount(model, amount: float):
+    """``model``, or a shallow copy with its ``amount`` set (the caller's model is left as it was);
+    ParameterError for a model that does not choose recorded movements."""
+    if amount == 1.0:
+        return model
+    if "amount" not in model.get_params():
+        raise ParameterError(f"amount (--amount) chooses larger or calmer recorded movements, which a "
+                             f"{model.name} model does not do; use a motion-matching model (the shipped "
+                             f"'default' and 'stream'), or --gain to scale this model's motion")
+    import copy
+
+    return copy.copy(model).set_params(amount=amount)
 
 
 def check_seed(seed, samples: int = 1) -> None:
@@ -327,7 +356,7 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int = 0, samples: int = 1, c
     m = load_model(model)
     speech, duration, in_blocks = _speech(audio, m)
     reference = _style_reference(c)
-    m = _with_stochastic(m, c.stochastic, samples)
+    m = _with_amount(_with_stochastic(m, c.stochastic, samples), c.amount)
     total = duration * samples
     out = []
     for k in range(samples):
@@ -413,11 +442,11 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int = 0, sample_rate: int |
     if sample_rate is not None and (isinstance(sample_rate, bool) or not isinstance(sample_rate, (int, np.integer))
                                     or sample_rate <= 0):
         raise ParameterError(f"sample_rate must be a positive whole number of Hz; got {sample_rate!r}")
-    m = _with_stochastic(m, c.stochastic, 1)
+    m = _with_amount(_with_stochastic(m, c.stochastic, 1), c.amount)
     inner = m.stream(seed=seed)
     return SpeechStream(m, inner, c, int(m.sample_rate) if sample_rate is None else int(sample_rate))
 
 
-__all__ = ["DEFAULT_MODEL", "DEFAULT_STREAM_MODEL", "GAIN_RANGE", "OFFSET_RANGE_DEG", "SEED_MAX", "check_seed",
+__all__ = ["AMOUNT_RANGE", "DEFAULT_MODEL", "DEFAULT_STREAM_MODEL", "GAIN_RANGE", "OFFSET_RANGE_DEG", "SEED_MAX", "check_seed",
            "Controls", "ShippedModel", "SpeechStream", "apply_controls",
            "list_models", "load_model", "open_stream", "reads_in_blocks", "synthesize"]

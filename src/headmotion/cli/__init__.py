@@ -34,6 +34,7 @@ from . import features_cmds  # noqa: E402,F401  features
 from . import corpus_cmds  # noqa: E402,F401  corpus check / import
 from . import video_cmds  # noqa: E402,F401  corpus from-video
 from . import synth_cmds  # noqa: E402,F401  train, synth
+from . import adapt_cmds  # noqa: E402,F401  adapt
 from . import stream_cmds  # noqa: E402,F401  stream
 from . import templates_cmds  # noqa: E402,F401  templates encode-error / analyse / confusion
 from . import eval_cmds  # noqa: E402,F401  evaluate, stats

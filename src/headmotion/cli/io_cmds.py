@@ -60,7 +60,7 @@ def _model_info(file: Path, as_json: bool) -> None:
 
     config, arrays = load_model_file(file)
     d = {"kind": "model", "system": config.get("system"), "headmotion_version": config.get("headmotion_version"),
-         "corpus": config.get("corpus"), "arrays": len(arrays),
+         "corpus": config.get("corpus"), "adapted_from": config.get("adapted_from"), "arrays": len(arrays),
          "parameters": sum(int(a.size) for a in arrays.values())}
     for key in ("features", "feature_config", "feature"):
         if key in config:
@@ -80,6 +80,10 @@ def _model_info(file: Path, as_json: bool) -> None:
         spk = c.get("speakers") if isinstance(c.get("speakers"), list) else []
         console.print(f"  trained on {e(c.get('recordings', '?'))} recordings, {e(c.get('minutes', '?'))} min, "
                       f"{len(spk)} speaker(s), fps {e(c.get('fps', '?'))}", highlight=False)
+    a = d.get("adapted_from") if isinstance(d.get("adapted_from"), dict) else {}
+    if a:
+        console.print(f"  adapted    from {e(a.get('base', '?'))}: {e(a.get('speech_seconds', '?'))} s of the speaker's "
+                      f"speech preferred (base cost {e(a.get('base_cost', '?'))})", highlight=False)
 
 
 def model_card_path(model_file: Path) -> Path:

@@ -39,6 +39,7 @@ def stream(
     neck_share: Optional[float] = typer.Option(None, "--neck-share", help="VMC: share of the rotation on the Neck "
                                                "bone (default 0.93, as the BVH/glTF writers)."),
     seed: int = typer.Option(0, "--seed", min=0),
+    amount: float = typer.Option(1.0, "--amount", help="How much the head moves, 0 to 3 (see synth --amount)."),
     gain: Optional[str] = typer.Option(None, "--gain", help="G or P,Y,R (see synth --gain)."),
     offset: Optional[str] = typer.Option(None, "--offset", help="Degrees, D or P,Y,R (see synth --offset)."),
     gain_pitch: Optional[float] = typer.Option(None, "--gain-pitch", help="Pitch amplitude scale (overrides --gain)."),
@@ -61,7 +62,7 @@ def stream(
     from ..synthesis import Controls
 
     controls = Controls.parse(gain=gain, offset_degrees=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
-                              offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll))
+                              offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll), amount=amount)
     m = load_cli_model(model, default="stream")  # the default model (mfcc-dnn) is not causal
     stream_live(m, input=input, sample_rate=sample_rate, realtime=realtime, device=device, chunk_ms=chunk_ms,
                 json_stream=None if no_json else sys.stdout, vmc=vmc, websocket=websocket, neck_share=neck_share,

@@ -103,8 +103,12 @@ def synth(
                                         "default; 'stream', the causal one; `headmotion models` lists them) "
                                         "or a model file."),
     seed: int = typer.Option(0, "--seed", min=0, help="Random seed (stochastic modes, --samples)."),
+    amount: float = typer.Option(1.0, "--amount", help="How much the head moves, 0 to 3: 1 = natural, 2 = "
+                                 "animated (larger, faster recorded movements, more of them), 0.5 = calm, 0 = "
+                                 "still. Each movement stays a recorded one (motion-matching models)."),
     gain: Optional[str] = typer.Option(None, "--gain", help="Amplitude scale about the model's mean pose: G or "
-                                       "P,Y,R (1 = as trained, 0 = held at the mean pose)."),
+                                       "P,Y,R (1 = as trained, 0 = held at the mean pose); every angle "
+                                       "multiplied (a deeper nod, not a bigger one: see --amount)."),
     gain_pitch: Optional[float] = typer.Option(None, "--gain-pitch", help="Pitch amplitude scale (overrides --gain)."),
     gain_yaw: Optional[float] = typer.Option(None, "--gain-yaw", help="Yaw amplitude scale (overrides --gain)."),
     gain_roll: Optional[float] = typer.Option(None, "--gain-roll", help="Roll amplitude scale (overrides --gain)."),
@@ -133,7 +137,7 @@ def synth(
 ):
     """Synthesise head motion for a speech file (the same as headmotion.synthesize in Python).
 
-    Order of the controls: the model's motion → --style-from → --gain/--offset (about the mean pose:
+    Order of the controls: the model's motion (chosen with --amount) → --style-from → --gain/--offset (about the mean pose:
     the reference's when styled, else the model's) → --still replaces everything but the offset →
     --fps."""
     from ..io import load_audio, save_motion
@@ -145,7 +149,7 @@ def synth(
         raise ParameterError(f"--neck-share must be between 0 and 1; got {neck_share}")
     controls = Controls.parse(gain=gain, offset_degrees=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
                               offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll), still=still,
-                              style_from=style_from, style_strength=style_strength,
+                              amount=amount, style_from=style_from, style_strength=style_strength,
                               style_keep_pose=style_keep_pose, fps=fps, stochastic=stochastic)
     if neck_share is not None and output.suffix.lower() not in (".bvh", ".glb", ".gltf"):
         raise ParameterError(f"--neck-share applies to .bvh, .glb and .gltf outputs; got {output.suffix!r}")

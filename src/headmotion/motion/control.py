@@ -27,6 +27,11 @@ from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
 from ..types import Motion
 
 
+#: the range of ``amount`` (how much the head moves, by the choice of recorded movements; a model
+#: that chooses them applies it: :class:`headmotion.systems.motion_match.MotionMatch`)
+AMOUNT_RANGE = (0.0, 3.0)
+
+
 def as_triple(value, what: str) -> np.ndarray:
     """A scalar or a ``(pitch, yaw, roll)`` triple as a finite float array of shape (3,)."""
     try:

@@ -8,7 +8,7 @@ docs/serve.md tells the same in prose.
 
 from __future__ import annotations
 
-from ..synthesis import GAIN_RANGE, OFFSET_RANGE_DEG, SEED_MAX
+from ..synthesis import AMOUNT_RANGE, GAIN_RANGE, OFFSET_RANGE_DEG, SEED_MAX
 
 #: close codes and the error kinds that come with them (docs/serve.md "Errors")
 ERROR_KINDS = {
@@ -40,6 +40,9 @@ def start_schema() -> dict:
             "encoding": {"enum": sorted(ENCODINGS), "default": "s16le"},
             "seed": {"type": "integer", "minimum": 0, "maximum": SEED_MAX, "default": 0},
             "frames": {"enum": ["json", "binary"], "default": "json"},
+            "amount": {"type": "number", "minimum": AMOUNT_RANGE[0], "maximum": AMOUNT_RANGE[1], "default": 1,
+                       "description": "How much the head moves: 1 natural, 2 animated, 0.5 calm, 0 still (the "
+                                      "choice of recorded movements; motion-matching models)."},
             "gain": _number_or_triple(*GAIN_RANGE, ""),
             "offset": _number_or_triple(*OFFSET_RANGE_DEG, " degrees"),
             "still": {"type": "boolean", "default": False},

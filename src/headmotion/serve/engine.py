@@ -34,7 +34,7 @@ class Controls(synthesis.Controls):
 
     @classmethod
     def parse(cls, *, gain=None, offset_deg=None, gain_pyr=(None, None, None),
-              offset_pyr_deg=(None, None, None), still: bool = False, fps=None) -> "Controls":
+              offset_pyr_deg=(None, None, None), still: bool = False, fps=None, amount=1.0) -> "Controls":
         """Controls from request values: ``gain`` / ``offset_deg`` a number, a (p, y, r) triple or
         the CLI's text ``"1.2"`` / ``"1,0.5,1"``; the per-axis values override them on their axis.
         Offsets are given in degrees (as on the command line) and kept in radians."""
@@ -47,7 +47,8 @@ class Controls(synthesis.Controls):
             if not (np.isfinite(fps) and lo <= fps <= hi):
                 raise ParameterError(f"fps must be between {lo:g} and {hi:g} frames per second; got {fps}")
         return super().parse(gain=gain, offset_degrees=offset_deg, gain_pyr=gain_pyr,
-                             offset_pyr_degrees=offset_pyr_deg, still=still, fps=fps)
+                             offset_pyr_degrees=offset_pyr_deg, still=still, fps=fps,
+                             amount=1.0 if amount is None else amount)
 
 
 def model_files(models_dir: Path | None = None) -> dict[str, Path]:

@@ -26,7 +26,7 @@ from fastapi import APIRouter, Query, Request
 from fastapi.responses import Response
 
 from ..errors import AudioLoadingError, ParameterError
-from ..synthesis import GAIN_RANGE, OFFSET_RANGE_DEG, SEED_MAX
+from ..synthesis import AMOUNT_RANGE, GAIN_RANGE, OFFSET_RANGE_DEG, SEED_MAX
 from ..types import Audio
 from . import engine
 from .access import ApiError, authorize
@@ -146,6 +146,9 @@ async def motion(
     model: Optional[str] = Query(None, description="Model name (GET /v1/models); default 'default'."),
     seed: int = Query(0, description=f"Synthesis seed, 0 to {SEED_MAX}; sample k uses seed + k."),
     samples: int = Query(1, ge=1, le=engine.MAX_SAMPLES, description="Number of samples."),
+    amount: Optional[float] = Query(None, description=f"How much the head moves, {AMOUNT_RANGE[0]:g} to "
+                                    f"{AMOUNT_RANGE[1]:g}: 1 natural (default), 2 animated, 0.5 calm, 0 still; "
+                                    "by the choice of recorded movements (motion-matching models)."),
     gain: Optional[str] = Query(None, description=f"Amplitude about the mean pose, {_G} on each axis: G or P,Y,R."),
     gain_pitch: Optional[float] = Query(None, description=f"Pitch amplitude, {_G}."),
     gain_yaw: Optional[float] = Query(None, description=f"Yaw amplitude, {_G}."),
@@ -167,7 +170,8 @@ async def motion(
     check_query(request, QUERY)
     try:
         controls = engine.Controls.parse(gain=gain, offset_deg=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
-                                         offset_pyr_deg=(offset_pitch, offset_yaw, offset_roll), still=still, fps=fps)
+                                         offset_pyr_deg=(offset_pitch, offset_yaw, offset_roll), still=still, fps=fps,
+                                         amount=amount)
         engine.check_seed(seed, samples)
     except ParameterError as exc:
         raise ApiError(400, "bad_parameter", str(exc)) from None

@@ -4,7 +4,7 @@ Protocol (docs/serve.md has examples):
 
 1. The client sends one text message, ``{"type": "start", "model": "stream", "sample_rate": 16000,
    "encoding": "s16le"|"f32le", "seed": 0, "frames": "json"|"binary", "gain": G|[p,y,r],
-   "offset": D|[p,y,r] (degrees), "still": false, "resample": "exact"|"fast"}`` (every field but
+   "offset": D|[p,y,r] (degrees), "still": false, "amount": 1, "resample": "exact"|"fast"}`` (every field but
    ``type`` optional; the controls' ranges are :mod:`headmotion.synthesis`'s; a browser, which
    cannot set headers on a WebSocket, may add ``"api_key"`` — until it is checked the message may
    be at most ``UNAUTHENTICATED_MESSAGE_BYTES``).
@@ -52,7 +52,7 @@ from .metrics import log_event
 HEADER = struct.Struct("<4sIIfd")
 MAGIC = b"HMF1"
 ENCODINGS = {"s16le": ("<i2", 32768.0), "f32le": ("<f4", 1.0)}
-START_FIELDS = {"type", "model", "sample_rate", "encoding", "seed", "frames", "gain", "offset", "still", "resample",
+START_FIELDS = {"type", "model", "sample_rate", "encoding", "seed", "frames", "gain", "offset", "still", "amount", "resample",
                 "api_key"}
 #: ``resample`` → soxr quality: ``exact`` resamples as ``POST /v1/motion`` does (the stream's frames
 #: are the offline answer's; ~20 ms of resampling delay), ``fast`` with less delay (~10 ms) and
@@ -122,10 +122,17 @@ def parse_start(text: str | None) -> Start:
     try:
         controls = engine.Controls.parse(gain=_number_or_triple(obj.get("gain"), "gain"),
                                          offset_deg=_number_or_triple(obj.get("offset"), "offset"),
-                                         still=_flag(obj.get("still", False)))
+                                         still=_flag(obj.get("still", False)),
+                                         amount=_number(obj.get("amount", 1.0), "amount"))
     except HeadMotionError as exc:
         raise bad(str(exc)) from None
     return Start(model, sr, enc, seed, frames, controls, key, resample)
+
+
+def _number(v, what):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ProtocolError("bad_start", f"{what} must be a number; got {v!r:.40}")
+    return v
 
 
 def _number_or_triple(v, what):

@@ -74,6 +74,7 @@ SYSTEMS: dict[str, str] = {
     "wav-dnn": "headmotion.systems.dnn.registered:WavDnnSystem",
     "motion-flow": "headmotion.systems.flow:MotionFlow",
     "motion-match": "headmotion.systems.motion_match:MotionMatch",
+    "adapt": "headmotion.systems.adapt:Adapt",
 }
 
 #: capability names

@@ -59,7 +59,7 @@ from ..align import n_frames as _n_frames
 from ..errors import ParameterError
 from ..features import ANALYSIS_RATE
 from ..models.numpy_nets import inference_threads
-from ..motion.control import mean_pose_of
+from ..motion.control import AMOUNT_RANGE, mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec
 from ..types import Audio, Motion
 from .base import CAUSAL, STREAMING, Synthesizer
@@ -79,6 +79,10 @@ LIVE_COLUMNS = [1, 3, 0, 2, 6]
 LIVE_FEATURES = {"smooth_lookahead": 0, "delta_lookahead": 0, "voicing": True}
 #: frames of the moving average over the features before they are matched
 SMOOTH = 5
+#: ``amount``: how far the choice leans per doubling — a frame's cost changes by
+#: ``AMOUNT_LEAN · log2(amount)`` times how much more (in SDs of log speed) its next hop moves than
+#: the library's average hop (docs/decisions/amount.md)
+AMOUNT_LEAN = 0.5
 
 
 def _smooth(x: np.ndarray, width: int, *, causal: bool = False) -> np.ndarray:
@@ -162,6 +166,12 @@ class MotionMatch(Synthesizer):
     posture_s : float, seconds; > 0: at a join the pose offset settles over this time constant
         (the velocity still over ``blend`` frames), so a posture the head has reached is kept for
         seconds, not pulled to the new clip's within a few frames; 0: both over ``blend`` frames
+    amount : float in [0, 3], how much the head moves, by choice: 1 as the library moves, above 1
+        the choice leans to clips that move more and faster over the next hop (and joins come
+        more often), below 1 to calmer ones; 0 holds the mean pose.  No angle is scaled: every
+        movement played is a recorded one (:data:`AMOUNT_LEAN`)
+    base_cost : float, an adapted model (:mod:`headmotion.systems.adapt`): cost of a frame from the
+        base library, not from the speaker's own recordings (0: no preference)
     prosody : str or None, the speech features matched: ``"f0e"`` (Praat F0, energy and voicing,
         read over the whole file), ``"f0e-live"`` (YIN F0, energy and voicing computed frame by frame:
         the system then streams — with ``live``, 39 ms behind the audio; otherwise with the lookahead
@@ -179,7 +189,8 @@ class MotionMatch(Synthesizer):
                  top_k: int = 8, temperature: float = 0.3, blend: int = 8, mirror: bool = True,
                  target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, goal_path: bool = True,
                  pause_switch: float = 0.0, pause_speed: bool = True, live: bool = False, lowpass: float = 0.0,
-                 posture_s: float = 0.0, prosody: str | None = None, seed: int = 0):
+                 posture_s: float = 0.0, prosody: str | None = None, amount: float = 1.0,
+                 base_cost: float = 0.0, seed: int = 0):
         self.hop, self.context, self.lookahead, self.goal_path = hop, context, lookahead, goal_path
         self.lowpass, self.posture_s, self.prosody = lowpass, posture_s, prosody
         self.pause_switch, self.pause_speed = pause_switch, pause_speed
@@ -187,6 +198,7 @@ class MotionMatch(Synthesizer):
         self.speech_weight, self.pose_weight, self.velocity_weight = speech_weight, pose_weight, velocity_weight
         self.switch_cost, self.top_k, self.temperature, self.blend = switch_cost, top_k, temperature, blend
         self.mirror, self.seed, self.live = mirror, seed, live
+        self.amount, self.base_cost = amount, base_cost
 
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]
@@ -208,7 +220,8 @@ class MotionMatch(Synthesizer):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ParameterError(f"{self.name}: {name} must be a whole number >= {lo}; got {v!r}")
         for name in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "temperature",
-                     "target_weight", "ridge", "pause_weight", "pause_switch", "lowpass", "posture_s"):
+                     "target_weight", "ridge", "pause_weight", "pause_switch", "lowpass", "posture_s",
+                     "base_cost"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
                 raise ParameterError(f"{self.name}: {name} must be a number >= 0; got {v!r}")
@@ -218,6 +231,11 @@ class MotionMatch(Synthesizer):
             raise ParameterError(f"{self.name}: live needs prosody 'f0e-live' (Praat's f0e reads the whole file)")
         if self.lowpass and not 0.5 <= self.lowpass < FPS / 2:
             raise ParameterError(f"{self.name}: lowpass must be 0 (off) or in [0.5, {FPS / 2:g}) Hz; got {self.lowpass!r}")
+        a = self.amount
+        if isinstance(a, bool) or not isinstance(a, (int, float, np.integer, np.floating)) \
+                or not AMOUNT_RANGE[0] <= a <= AMOUNT_RANGE[1]:
+            raise ParameterError(f"{self.name}: amount must be a number from {AMOUNT_RANGE[0]:g} to "
+                                 f"{AMOUNT_RANGE[1]:g}; got {a!r}")
         if self.temperature == 0:
             raise ParameterError(f"{self.name}: temperature must be > 0; got {self.temperature!r}")
         for name in ("mirror", "goal_path", "pause_speed", "live"):
@@ -301,11 +319,12 @@ class MotionMatch(Synthesizer):
         change over the next ``hop`` frames, where its clip ends (``lib_starts_``: the end of its
         recording, or a jump above ``MAX_STEP_DEG`` in the recorded motion — a tracking glitch is
         never played) and whether a clip may start there (``hop`` frames must follow before that end)."""
-        S, P, V, ok, A, end, Q = [], [], [], [], [], [], []
+        S, P, V, ok, A, end, Q, mine = [], [], [], [], [], [], [], []
         start, offset, H = 0, 0, int(self.hop)
         starts_all = getattr(self, "lib_starts_", None)  # files written before clips were stored: found here
+        own = getattr(self, "lib_own_", None)  # an adapted model: which recordings are the speaker's
         taps, steps = self._taps, self._goal_steps  # once, not per recording
-        for n in self.lib_lengths_:
+        for r, n in enumerate(self.lib_lengths_):
             m = self.lib_motion_[start:start + n].astype(np.float64)
             d = speech_descriptors(self.lib_feats_[start:start + n], taps, causal=bool(self.live))
             starts = starts_all[start:start + n] if starts_all is not None else clip_starts(m)
@@ -324,6 +343,7 @@ class MotionMatch(Synthesizer):
                 A.append(c[ahead] - c[:, None, :])  # (n, len(goal steps), 3): the pose change k frames on
                 V.append(v * f)
                 Q.append(q)
+                mine.append(np.full(n, own is None or bool(own[r])))
                 ok.append(good)
                 end.append(clip_end + offset)
                 offset += n
@@ -333,21 +353,27 @@ class MotionMatch(Synthesizer):
         self._V = np.concatenate(V)
         self._ok = np.concatenate(ok)
         self._end = np.concatenate(end)  # where each frame's recording (copy) ends
-        self._pose_sd = np.maximum(self._P.std(axis=0), 1e-3)
-        self._vel_sd = np.maximum(self._V.std(axis=0), 1e-4)
+        # an adapted model's range, posture and goal are the speaker's: fitted on their frames only
+        self._own = np.concatenate(mine)
+        fit = slice(None) if self._own.all() else self._own
+        self._pose_sd = np.maximum(self._P[fit].std(axis=0), 1e-3)
+        self._vel_sd = np.maximum(self._V[fit].std(axis=0), 1e-4)
         speed2 = (np.concatenate(Q) / self._vel_sd ** 2).sum(axis=1) / 3.0
+        # ``amount``: how much each frame's next hop moves, in SDs of the library's log speed
+        ls = np.log(speed2 + 1e-3)
+        self._lively = ((ls - ls.mean()) / max(ls.std(), 1e-6)).astype(np.float32)
         path = np.concatenate(A) / self._pose_sd  # (N, steps, 3)
         moved = path[:, -1, :]
         # the pose path the speech asks for: ridge regression of the pose on the speech around a
         # frame, each axis scaled to the library's SD (a regression predicts the average head)
-        X = np.c_[self._S.astype(np.float64), np.ones(len(self._S))]
+        X = np.c_[self._S.astype(np.float64), np.ones(len(self._S))][fit]
         reg = float(self.ridge) * np.eye(X.shape[1])
         reg[-1, -1] = 0.0
-        self._W = np.linalg.solve(X.T @ X + reg, X.T @ self._P)
+        self._W = np.linalg.solve(X.T @ X + reg, X.T @ self._P[fit])
         pred_sd = (X @ self._W).std(axis=0)
         # a goal stays among the poses the library holds (speech unlike any training speech, e.g.
         # the silence before a file's first word, would otherwise ask for a pose no one took)
-        self._goal_range = np.percentile(self._P, [1.0, 99.0], axis=0)
+        self._goal_range = np.percentile(self._P[fit], [1.0, 99.0], axis=0)
         # axes the speech predicts (with ``mirror``, yaw and roll are predicted as 0: no goal for them)
         self._goal_axes = pred_sd > 0.02 * self._pose_sd
         self._W *= np.where(self._goal_axes, np.minimum(self._pose_sd / np.maximum(pred_sd, 1e-12), 10.0), 0.0)
@@ -383,6 +409,10 @@ class MotionMatch(Synthesizer):
         if pose is not None:
             c = c + float(self.pose_weight) / 3.0 * sq("P", (pose / self._pose_sd).astype(np.float32))
             c = c + float(self.velocity_weight) / 3.0 * sq("V", (vel / self._vel_sd).astype(np.float32))
+        if self.amount > 0 and self.amount != 1:  # lean to clips that move more (amount > 1) or less
+            c = c - AMOUNT_LEAN * float(np.log2(self.amount)) * self._lively[at]
+        if self.base_cost > 0 and not self._own.all():  # an adapted model prefers the speaker's own
+            c = c + float(self.base_cost) * ~self._own[at]
         return float(c[0]) if only is not None else np.where(self._ok, c, np.inf)
 
     def _draw(self, cost: np.ndarray, rng: np.random.Generator, *, distinct: bool = False) -> int:
@@ -497,6 +527,9 @@ class MotionMatch(Synthesizer):
                   "lib_feats": self.lib_feats_, "lib_lengths": self.lib_lengths_}
         if getattr(self, "lib_starts_", None) is not None:
             arrays["lib_starts"] = self.lib_starts_
+        if getattr(self, "lib_own_", None) is not None:  # an adapted model (headmotion.systems.adapt)
+            arrays["lib_own"] = self.lib_own_
+            config["adapted_from"] = self.adapted_from_
         return config, arrays
 
     def _set_state(self, config, arrays):
@@ -514,6 +547,8 @@ class MotionMatch(Synthesizer):
         self.lib_feats_ = np.asarray(arrays["lib_feats"], dtype=np.float32)
         self.lib_lengths_ = np.asarray(arrays["lib_lengths"], dtype=np.int64)
         self.lib_starts_ = np.asarray(arrays["lib_starts"], dtype=bool) if "lib_starts" in arrays else None
+        self.lib_own_ = np.asarray(arrays["lib_own"], dtype=bool) if "lib_own" in arrays else None
+        self.adapted_from_ = config.get("adapted_from")
         self.fit_warnings_ = []
         self._index()
 
@@ -535,6 +570,9 @@ class _Walk:
         """The next ``n`` frames (degrees): one decision for the speech descriptor ``desc``, the
         pose ``goal`` at the goal steps and whether the hop is speech (1) or a pause (0)."""
         m, pos = self.m, self.pos
+        if m.amount == 0:  # holds the mean pose
+            self.t += n
+            return np.zeros((n, 3))
         if self.t == 0:
             cost = m._costs(desc, None, None, goal, speaking)
         else:
