@@ -344,3 +344,28 @@ def test_posture_s_keeps_a_reached_posture_for_seconds():
         frames = w.hop(np.zeros(m._S.shape[1], np.float32), None, 1.0, 26)
         assert frames[0, 0] == pytest.approx(6.0)  # no step at the join
         assert frames[25, 0] == pytest.approx(after_1s, abs=1e-3)
+
+
+def test_repeat_cost_keeps_a_take_from_looping_over_the_same_clips(model):
+    """Ten seconds of one unchanging input (a long silence asks the same question every hop):
+    without memory the walk may start the same few clips again and again; with a large
+    ``repeat_cost`` no clip starts within a hop of one started in the last REPEAT_S seconds."""
+    from headmotion.systems.motion_match import REPEAT_S, _Walk
+
+    feats = np.repeat(model.lib_feats_[:1], 300, axis=0)  # one frame's prosody, held
+    H = int(model.hop)
+    for cost, loops_allowed in ((0.0, True), (1e6, False)):
+        model.set_params(repeat_cost=cost)
+        try:
+            walk = _Walk(model, 0)
+            starts = []
+            for t in range(0, len(feats), H):
+                pos = walk.pos
+                walk.hop(*model.window_inputs(feats[max(0, t - 20):t + 40], min(t, 20)), H)
+                if walk.pos - H != pos:
+                    starts.append((t, walk.pos - H))
+            close = [(a, b) for i, a in enumerate(starts) for b in starts[:i]
+                     if a[0] - b[0] < REPEAT_S * FPS and abs(a[1] - b[1]) < H]
+            assert bool(close) == loops_allowed  # the held input does loop without memory
+        finally:
+            model.set_params(repeat_cost=0.0)

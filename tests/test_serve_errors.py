@@ -61,7 +61,8 @@ def test_another_websocket_path_gets_not_found(c):
     ("offset=1e9", "between -90 and 90 degrees"), ("offset_roll=-91", "between -90 and 90 degrees"),
     ("seed=99999999999999999999", "4294967295"), ("seed=-1", "0 to 4294967295"),
     (f"seed={SEED_MAX}&samples=2", "seed + samples - 1"), ("fps=5000", "between 1 and 1000"),
-    ("gain_ptich=2", "'gain_ptich'"), ("model=stream&api_key=x", "'api_key'")])
+    ("gain_ptich=2", "'gain_ptich'"), ("model=stream&api_key=x", "'api_key'"),
+    ("amount=3.5", "from 0 to 3"), ("amount=-1", "from 0 to 3")])
 def test_offline_controls_out_of_range_or_unknown(c, query, needle):
     r = _post(c, f"model=stream&{query}" if not query.startswith("model") else query)
     assert r.status_code == 400, r.text
@@ -77,7 +78,7 @@ def test_offline_controls_at_the_edges_of_their_ranges(c):
 @pytest.mark.parametrize("fields,needle", [
     ({"gain": -1}, "between 0 and 10"), ({"gain": [1, 1, 11]}, "between 0 and 10"),
     ({"offset": [0, 100, 0]}, "between -90 and 90 degrees"), ({"seed": 2 ** 32}, "0 to 4294967295"),
-    ({"resample": "best"}, "resample")])
+    ({"resample": "best"}, "resample"), ({"amount": 4}, "from 0 to 3"), ({"amount": "lots"}, "amount must be a number")])
 def test_stream_start_out_of_range(c, fields, needle):
     with c.websocket_connect(WS) as ws:
         ws.send_text(start(**fields))

@@ -79,3 +79,5 @@ def test_stream_still_and_gain():
         assert len(still) == 50 and np.allclose(still, [0, 10, 0], atol=1e-3)
         base, flat = frames(), frames(gain=[1, 0, 1])
         assert np.ptp(base[:, 1]) > 1.0 and np.ptp(flat[:, 1]) < 1e-3  # yaw held at the mean pose
+        held = frames(amount=0)  # by choice: the motion-matching model holds its mean pose
+        assert len(held) == 50 and np.ptp(held, axis=0).max() < 1e-6

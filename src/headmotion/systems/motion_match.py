@@ -83,6 +83,8 @@ SMOOTH = 5
 #: ``AMOUNT_LEAN · log2(amount)`` times how much more (in SDs of log speed) its next hop moves than
 #: the library's average hop (docs/decisions/amount.md)
 AMOUNT_LEAN = 0.5
+#: ``repeat_cost``: how long (seconds) a clip started is remembered
+REPEAT_S = 10.0
 
 
 def _smooth(x: np.ndarray, width: int, *, causal: bool = False) -> np.ndarray:
@@ -170,6 +172,9 @@ class MotionMatch(Synthesizer):
         the choice leans to clips that move more and faster over the next hop (and joins come
         more often), below 1 to calmer ones; 0 holds the mean pose.  No angle is scaled: every
         movement played is a recorded one (:data:`AMOUNT_LEAN`)
+    repeat_cost : float, cost of starting a clip within a hop of one started in the last
+        :data:`REPEAT_S` seconds: a take does not loop over the few movements that match a long
+        silence or a small library (0: no memory)
     base_cost : float, an adapted model (:mod:`headmotion.systems.adapt`): cost of a frame from the
         base library, not from the speaker's own recordings (0: no preference)
     prosody : str or None, the speech features matched: ``"f0e"`` (Praat F0, energy and voicing,
@@ -190,7 +195,7 @@ class MotionMatch(Synthesizer):
                  target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, goal_path: bool = True,
                  pause_switch: float = 0.0, pause_speed: bool = True, live: bool = False, lowpass: float = 0.0,
                  posture_s: float = 0.0, prosody: str | None = None, amount: float = 1.0,
-                 base_cost: float = 0.0, seed: int = 0):
+                 base_cost: float = 0.0, repeat_cost: float = 0.0, seed: int = 0):
         self.hop, self.context, self.lookahead, self.goal_path = hop, context, lookahead, goal_path
         self.lowpass, self.posture_s, self.prosody = lowpass, posture_s, prosody
         self.pause_switch, self.pause_speed = pause_switch, pause_speed
@@ -198,7 +203,7 @@ class MotionMatch(Synthesizer):
         self.speech_weight, self.pose_weight, self.velocity_weight = speech_weight, pose_weight, velocity_weight
         self.switch_cost, self.top_k, self.temperature, self.blend = switch_cost, top_k, temperature, blend
         self.mirror, self.seed, self.live = mirror, seed, live
-        self.amount, self.base_cost = amount, base_cost
+        self.amount, self.base_cost, self.repeat_cost = amount, base_cost, repeat_cost
 
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]
@@ -221,7 +226,7 @@ class MotionMatch(Synthesizer):
                 raise ParameterError(f"{self.name}: {name} must be a whole number >= {lo}; got {v!r}")
         for name in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "temperature",
                      "target_weight", "ridge", "pause_weight", "pause_switch", "lowpass", "posture_s",
-                     "base_cost"):
+                     "base_cost", "repeat_cost"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
                 raise ParameterError(f"{self.name}: {name} must be a number >= 0; got {v!r}")
@@ -562,6 +567,7 @@ class _Walk:
         self.t, self.pos, self.age = 0, -1, 0
         self.x0, self.v0 = np.zeros(3), np.zeros(3)
         self.last = np.zeros((0, 3))
+        self.recent: list[tuple[int, int]] = []  # (frame, library frame) of the clips started lately
         self.lam = 4.0 / float(model.blend)
         #: > 0: the rate (per frame) at which a join's pose offset settles (``posture_s``)
         self.settle = 1.0 / (float(model.posture_s) * FPS) if model.posture_s else 0.0
@@ -582,7 +588,18 @@ class _Walk:
             cost = m._costs(desc, ahead, vel, goal, speaking) + switch
             if 0 <= pos < len(cost) and pos + n <= m._end[pos - 1]:  # the clip playing goes on
                 cost[pos] = m._costs(desc, ahead, vel, goal, speaking, only=pos)
+            base_pos = cost[pos] if 0 <= pos < len(cost) else np.inf
+        if m.repeat_cost > 0 and self.recent:  # clips started in the last REPEAT_S seconds cost more
+            H = int(m.hop)
+            cost = cost.copy()
+            for _t0, j0 in self.recent:
+                lo, hi = max(0, j0 - H), j0 + H
+                cost[lo:hi] += float(m.repeat_cost)
+            if 0 <= pos < len(cost) and pos + n <= m._end[pos - 1]:
+                cost[pos] = base_pos
         j = m._draw(cost, self.rng, distinct=self.t == 0)  # a take's first movement: from different clips
+        if m.repeat_cost > 0 and j != pos:
+            self.recent = [(t0, j0) for t0, j0 in self.recent if self.t - t0 < REPEAT_S * FPS] + [(self.t, j)]
         if self.t > 0 and j != pos:  # a join: carry on from where the motion was going
             self.x0 = ahead - m._P[j]
             self.v0 = vel - m._V[j]
