@@ -30,6 +30,7 @@ TINY = {
     "motion-flow": dict(window=24, prefix=6, hidden=16, n_blocks=2, train_steps=20, batch_size=8, eval_every=10,
                         sampling_steps=2, n_threads=1),
     "motion-match": dict(),
+    "adapt": dict(min_speech_s=0.0),
 }
 BAD = {
     "tws-basic": {"method": "best"},
@@ -38,6 +39,7 @@ BAD = {
     **{name: {"embedding_dim": 0} for name in ("cccae", "ae-dnn", "mfcc-dnn", "fbank-dnn", "f0e-dnn", "wav-dnn")},
     "motion-flow": {"sampling_steps": 0},
     "motion-match": {"temperature": 0.0},
+    "adapt": {"min_speech_s": -1.0},
 }
 
 

@@ -73,7 +73,7 @@ def _in_range(q: dict) -> bool:
     gains = [q[k] for k in ("gain", "gain_yaw") if k in q]
     offsets = [q[k] for k in ("offset", "offset_pitch") if k in q]
     samples = q.get("samples", 1)
-    return (all(GAIN_RANGE[0] <= g <= GAIN_RANGE[1] for g in gains)
+    return (all(GAIN_RANGE[0] - 1e-9 <= g <= GAIN_RANGE[1] + 1e-9 for g in gains)  # the checks' rounding tolerance
             and all(OFFSET_RANGE_DEG[0] <= math.degrees(math.radians(o)) <= OFFSET_RANGE_DEG[1] + 1e-9 for o in offsets)
             and 1 <= samples <= 16 and 0 <= q.get("seed", 0) <= SEED_MAX - (samples - 1)
             and 1 <= q.get("fps", 100) <= 1000 and "gain_ptich" not in q and "colour" not in q)

@@ -166,8 +166,7 @@ def adapt(corpus, base="default", *, base_cost: float = BASE_COST, min_speech_s:
 class Adapt(Synthesizer):
     """The registered system ``adapt``: :func:`adapt` as a system that trains on a corpus, so that
     ``headmotion evaluate --systems "adapt[base=default]"`` adapts on every fold's training
-    recordings and ``headmotion train --system adapt`` writes the adapted model (a motion-match
-    model file).
+    recordings and ``headmotion train --system adapt`` writes the adapted model.
 
     Parameters
     ----------
@@ -216,16 +215,21 @@ class Adapt(Synthesizer):
     def _stream(self, *, seed: int | None):
         return self._model()._stream(seed=seed)
 
-    def save(self, path) -> Path:
-        """The adapted model, as a motion-match model file."""
-        self._check_fitted()
-        return self._model().save(path)
-
     def _get_state(self):
-        return self._model()._get_state()
+        """The adapted model's state, with this system's parameters beside it (a file that loads
+        as ``adapt``; ``headmotion adapt`` writes the motion-match model itself)."""
+        config, arrays = self._model()._get_state()
+        return {"adapt": self.get_params(), "model": config}, arrays
 
-    def _set_state(self, config, arrays):  # noqa: ARG002  (the files are motion-match files)
-        raise ParameterError("an adapted model is saved as a motion-match model file; load it with load_model")
-
+    def _set_state(self, config, arrays):
+        for k, v in config["adapt"].items():
+            setattr(self, k, v)
+        inner = MotionMatch.__new__(MotionMatch)
+        inner._set_state(config["model"], arrays)
+        inner.mean_pose_ = np.asarray(arrays["mean_pose"], dtype=np.float64)
+        inner.corpus_summary_ = config.get("corpus")
+        inner.fitted_ = True
+        self.model_ = inner
+        self.sample_rate_, self.fps_, self.fit_warnings_ = inner.sample_rate_, inner.fps_, []
 
 __all__ = ["adapt", "Adapt", "BASE_COST", "MIN_SPEECH_S"]
