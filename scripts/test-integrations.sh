@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# The voice-agent integrations' tests (tests/test_integration_pipecat.py and
+# tests/test_integration_livekit.py), each in its own virtual environment with its framework at
+# the version pinned in pyproject.toml's extras: Pipecat and LiveKit Agents want other releases of
+# some packages than the main environment has, so neither is installed there (the main suite skips
+# these two files).
+#
+#   bash scripts/test-integrations.sh [DIR]     # environments in DIR (default .venv-integrations/)
+#
+# Each environment: CPU PyTorch first (a headmotion dependency; torch==2.13.0 is the CPU wheel on
+# these machines, so nothing pulls CUDA wheels), then headmotion with the extra (editable) and
+# pytest.  A second run reuses the environments and only checks the installs.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+dir=${1:-.venv-integrations}
+python=${PYTHON:-python}
+status=0
+for extra in pipecat livekit; do
+  venv="$dir/$extra"
+  if [ ! -x "$venv/bin/python" ]; then
+    "$python" -m venv "$venv"
+  fi
+  "$venv/bin/python" -m pip install -q --disable-pip-version-check torch==2.13.0
+  "$venv/bin/python" -m pip install -q --disable-pip-version-check -e ".[$extra]" "pytest>=8"
+  case $extra in pipecat) dist=pipecat-ai ;; livekit) dist=livekit-agents ;; esac
+  version=$("$venv/bin/python" -c 'import importlib.metadata as m, sys; print(m.version(sys.argv[1]))' "$dist")
+  echo "== tests/test_integration_$extra.py with $dist $version"
+  "$venv/bin/python" -m pytest -q -p no:cacheprovider "tests/test_integration_$extra.py" || status=$?
+done
+exit "$status"

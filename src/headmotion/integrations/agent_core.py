@@ -1,0 +1,312 @@
+"""Head motion for a voice agent's speech, independent of the agent framework and its transport.
+
+An agent speaks in *utterances*: the TTS audio of one reply, which ends when the TTS stops or is
+cut off when the user interrupts.  Three layers, each usable alone:
+
+* :class:`HeadMotionCore` — one model, one stream per utterance (:func:`headmotion.open_stream`,
+  the library's streaming path): :meth:`~HeadMotionCore.push` takes float32 mono samples at any
+  rate (resampled to the model's as ``headmotion serve``'s stream does) and returns the frames now
+  final; :meth:`~HeadMotionCore.end` flushes the frames the lookahead held and
+  :meth:`~HeadMotionCore.interrupt` drops them; both then *settle* the head: a short run of frames
+  easing from the last pose shown to the rest pose (plus the offset control), never a jump.  The
+  next push opens a fresh stream.
+* :class:`~headmotion.integrations.pacing.Pacer` — when each frame should go out: frames wait until the audio they belong to plays
+  (the output is taken to play the utterances' audio one after the other in real time, as
+  Pipecat's and LiveKit's outputs do), so a page that applies each frame as it arrives moves in
+  time with the voice.  After an interruption the head settles from the last pose that went out.
+* :class:`~headmotion.integrations.pacing.PacedSender` — an asyncio task that sends the pacer's messages at their time through an
+  ``async send(message)`` of the framework (a Pipecat frame, a LiveKit data packet).
+
+The messages are those of ``headmotion serve``'s stream (docs/serve.md): ``{"type": "frames",
+"first", "fps", "audio_time", "frames": [{"frame", "time", "rotvec", "pitch_yaw_roll_deg"}]}``
+(the records of ``headmotion stream``, :func:`headmotion.live.frames.frame_records`), frames
+numbered from 0 in each utterance, and ``{"type": "end", "frames", "audio_seconds"}`` after an
+utterance's last frame (its settling included).  ``audio_time`` is the utterance's audio the agent
+had produced when the frames were made.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import quaternions
+from ..errors import HeadMotionError, ParameterError, SampleRateError
+from ..synthesis import DEFAULT_STREAM_MODEL, Controls, load_model, open_stream
+
+log = logging.getLogger("headmotion.integrations")
+
+#: ``resample`` → soxr quality, as for ``headmotion serve``'s stream: ``exact`` gives the frames
+#: the offline answer gives for the same samples (~20 ms of resampling delay), ``fast`` ~10 ms less
+#: delay and frames that may differ by a few degrees.  Audio at the model's rate is not resampled.
+RESAMPLE = {"exact": "HQ", "fast": "LQ"}
+#: seconds the head takes to settle to the rest pose after an utterance (default) and the range
+DEFAULT_SETTLE_S = 0.5
+SETTLE_RANGE_S = (0.0, 5.0)
+
+
+def pcm16_to_float(data, channels: int = 1) -> np.ndarray:
+    """Float32 mono samples in [-1, 1) of interleaved signed 16-bit little-endian PCM (bytes or a
+    buffer such as a LiveKit frame's ``data``); several channels are mixed down (their mean)."""
+    if isinstance(channels, bool) or not isinstance(channels, (int, np.integer)) or channels < 1:
+        raise ParameterError(f"channels must be a whole number >= 1; got {channels!r}")
+    x = np.frombuffer(memoryview(data).cast("B"), dtype="<i2")
+    if len(x) % channels:
+        raise ParameterError(f"{len(x)} samples are not a whole number of frames of {channels} channels")
+    y = x.astype(np.float32) / np.float32(32768.0)
+    if channels > 1:
+        y = y.reshape(-1, channels).mean(axis=1, dtype=np.float32)
+    return y
+
+
+@dataclass(frozen=True)
+class FrameBatch:
+    """Frames ``first …`` of an utterance: ``rotvec (n, 3)`` radians at ``fps``; ``audio_time``:
+    seconds of the utterance's audio received when they were made; ``settling``: frames easing to
+    the rest pose (not the model's)."""
+
+    first: int
+    fps: float
+    rotvec: np.ndarray
+    audio_time: float
+    settling: bool = False
+
+    def __len__(self) -> int:
+        return len(self.rotvec)
+
+    def message(self) -> dict:
+        """The frames message of ``headmotion serve``'s stream (JSON-ready)."""
+        from ..live.frames import frame_records
+
+        return {"type": "frames", "first": int(self.first), "fps": float(self.fps),
+                "audio_time": round(float(self.audio_time), 4),
+                "frames": frame_records(self.rotvec, self.fps, int(self.first))}
+
+
+@dataclass(frozen=True)
+class UtteranceEnd:
+    """The end of an utterance: ``frames`` sent in all (settling included), ``audio_seconds`` of its
+    audio received, ``interrupted`` when it was cut off."""
+
+    frames: int
+    audio_seconds: float
+    interrupted: bool = False
+
+    def message(self) -> dict:
+        """The end message of ``headmotion serve``'s stream."""
+        return {"type": "end", "frames": int(self.frames), "audio_seconds": round(float(self.audio_seconds), 4)}
+
+
+def _check_choice(value, choices, what: str) -> str:
+    if not isinstance(value, str) or value not in choices:
+        raise ParameterError(f"{what} must be one of {sorted(choices)}; got {value!r:.40}")
+    return value
+
+
+def check_seconds(value, bounds: tuple[float, float], what: str) -> float:
+    lo, hi = bounds
+    ok = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
+    if not ok or not math.isfinite(value) or not lo <= value <= hi:
+        raise ParameterError(f"{what} must be a number of seconds from {lo:g} to {hi:g}; got {value!r:.40}")
+    return float(value)
+
+
+class HeadMotionCore:
+    """A model and the stream of the utterance being spoken (module docstring).
+
+    Parameters
+    ----------
+    model : str, Path or Synthesizer
+        A model that streams: ``"stream"`` (the default: causal, 39 ms latency, 25 frames/s), a
+        model file, or a model already loaded (shared, not copied: one loaded model may serve many
+        agents).
+    seed : int
+        Synthesis seed; every utterance starts a fresh stream with it.
+    resample : ``"exact"`` or ``"fast"``
+        How audio at another rate than the model's is resampled (:data:`RESAMPLE`).
+    settle_s : float
+        Seconds the head takes to ease back to the rest pose after an utterance (0: no settling).
+    controls : Controls, optional
+        Gain, offset and still (or give them as keywords: ``gain=1.2, offset_degrees="-3,0,0"``);
+        the head settles to the rest pose plus the offset.
+    """
+
+    def __init__(self, model=DEFAULT_STREAM_MODEL, *, seed: int = 0, resample: str = "exact",
+                 settle_s: float = DEFAULT_SETTLE_S, controls: Controls | None = None, **controls_kwargs):
+        if controls is not None and controls_kwargs:
+            raise ParameterError(f"give the controls as `controls=` or as keywords, not both; "
+                                 f"got {sorted(controls_kwargs)}")
+        self.controls = Controls.parse(**controls_kwargs) if controls is None else controls
+        self.model = load_model(model)
+        self.seed = seed
+        self.quality = RESAMPLE[_check_choice(resample, RESAMPLE, "resample")]
+        self.settle_s = check_seconds(settle_s, SETTLE_RANGE_S, "settle_s")
+        probe = self._open()  # checks the seed, the controls and that the model streams, once
+        self.fps = float(probe.frame_rate)
+        self.latency_ms = float(probe.latency_ms)
+        self.sample_rate = int(self.model.sample_rate)
+        #: frames of a settling (0 when ``settle_s`` is 0)
+        self.settle_frames = int(math.ceil(self.settle_s * self.fps - 1e-9))
+        from ..rotations import pitch_yaw_roll_to_rotvec
+
+        #: the pose the head settles to: the rest pose (facing ahead) plus the offset control
+        self.rest_pose = np.asarray(pitch_yaw_roll_to_rotvec(*self.controls.offset), dtype=np.float64).reshape(3)
+        self._stream = None
+        self._resample = None
+        self._rate = None
+        self._samples_in = 0
+        self._history: list[np.ndarray] = []
+        self._made = 0
+        self._settled = True  # the last utterance has had its settling (or there was none)
+
+    def _open(self):
+        try:
+            return open_stream(self.model, seed=self.seed, controls=self.controls)
+        except HeadMotionError:
+            raise
+        except (AttributeError, NotImplementedError) as exc:  # a model without a stream
+            raise ParameterError(f"model {getattr(self.model, 'name', self.model)!r} does not stream: "
+                                 f"{exc}") from None
+
+    @property
+    def speaking(self) -> bool:
+        """True while an utterance is open (pushed to, not yet ended or interrupted)."""
+        return self._stream is not None
+
+    @property
+    def audio_seconds(self) -> float:
+        """Seconds of audio received in the current (or last) utterance."""
+        return self._samples_in / self._rate if self._rate else 0.0
+
+    @property
+    def frames_made(self) -> int:
+        """The model's frames made in the current (or last) utterance (settling not counted)."""
+        return self._made
+
+    def frames(self) -> np.ndarray:
+        """``(n, 3)`` the model's frames of the current (or last) utterance so far."""
+        return np.vstack(self._history) if self._history else np.zeros((0, 3))
+
+    def push(self, samples, sample_rate: int) -> FrameBatch:
+        """Push speech samples (float32 mono; ``(n, channels)`` is mixed down) at ``sample_rate``;
+        the first push after an end or an interruption opens a fresh stream.  Returns the frames
+        made final (maybe none).  Raises :class:`~headmotion.errors.SampleRateError` when the rate
+        changes within an utterance."""
+        if isinstance(sample_rate, bool) or not isinstance(sample_rate, (int, np.integer)) or sample_rate <= 0:
+            raise ParameterError(f"sample_rate must be a positive whole number of Hz; got {sample_rate!r:.40}")
+        x = np.asarray(samples, dtype=np.float32)
+        if x.ndim == 2:
+            x = x.mean(axis=1, dtype=np.float32)
+        elif x.ndim != 1:
+            raise ParameterError(f"samples must be mono (n,) or (n, channels); got shape {x.shape}")
+        if not np.all(np.isfinite(x)):
+            raise ParameterError("the samples hold NaN or infinite values")
+        if self._stream is None:
+            from ..io.resampler import Resampler
+
+            self._stream = self._open()
+            self._resample = Resampler(int(sample_rate), self.sample_rate, quality=self.quality)
+            self._rate = int(sample_rate)
+            self._samples_in = 0
+            self._history = []
+            self._made = 0
+            self._settled = False
+        elif int(sample_rate) != self._rate:
+            raise SampleRateError(f"the utterance's audio changed rate from {self._rate} Hz to {int(sample_rate)} Hz; "
+                                  "end the utterance before changing the rate")
+        self._samples_in += len(x)
+        return self._speech(self._stream.push(self._resample(x)).rotvec)
+
+    def _speech(self, rotvec) -> FrameBatch:
+        rv = np.array(rotvec, dtype=np.float64).reshape(-1, 3)
+        batch = FrameBatch(self._made, self.fps, rv, self.audio_seconds)
+        if len(rv):
+            self._history.append(rv)
+            self._made += len(rv)
+        return batch
+
+    def end(self) -> list:
+        """End the utterance (the TTS stopped): ``[tail, settling, UtteranceEnd]`` — the frames the
+        lookahead held, then the settling to the rest pose (batches left out when empty).
+        Nothing when no utterance is open."""
+        if self._stream is None:
+            return []
+        stream, self._stream = self._stream, None
+        tail = stream.push(self._resample(np.zeros(0, np.float32), last=True))
+        rest = stream.flush()
+        rv = np.vstack([np.asarray(tail.rotvec).reshape(-1, 3), np.asarray(rest.rotvec).reshape(-1, 3)])
+        out = []
+        batch = self._speech(rv)
+        if len(batch):
+            out.append(batch)
+        settle = self._settling(self._made)
+        self._settled = True
+        if len(settle):
+            out.append(settle)
+        out.append(UtteranceEnd(self._made + len(settle), self.audio_seconds, False))
+        return out
+
+    def interrupt(self, shown: int | None = None) -> list:
+        """Cut the utterance off (the user interrupted): the stream and the frames it held are
+        dropped, and the head settles from the last frame shown: ``[settling, UtteranceEnd]``.
+
+        ``shown`` is how many of the utterance's frames went out (None: all that were made); the
+        settling starts from frame ``shown - 1`` and is numbered from ``shown``.  An utterance
+        already ended may be cut off too while its audio still plays (``shown`` below its frame
+        count); otherwise, with no utterance open, nothing happens."""
+        was_open = self._stream is not None
+        self._stream = None
+        if shown is None:
+            if not was_open:
+                return []
+            shown = self._made
+        shown = max(0, min(int(shown), self._made))
+        if not was_open and (self._settled and shown >= self._made):
+            return []
+        settle = self._settling(shown)
+        self._settled = True
+        out = [settle] if len(settle) else []
+        out.append(UtteranceEnd(shown + len(settle), self.audio_seconds, True))
+        return out
+
+    def _settling(self, shown: int) -> FrameBatch:
+        """The settling after frame ``shown - 1``, numbered from ``shown``."""
+        n = self.settle_frames
+        if shown <= 0 or n == 0:
+            return FrameBatch(shown, self.fps, np.zeros((0, 3)), self.audio_seconds, True)
+        frames = self.frames()
+        last = frames[shown - 1]
+        prev = frames[shown - 2] if shown >= 2 else last
+        return FrameBatch(shown, self.fps, settle_path(last, prev, self.rest_pose, n), self.audio_seconds, True)
+
+
+def settle_path(last, prev, rest, n: int) -> np.ndarray:
+    """``(n, 3)`` poses easing from ``last`` (reached from ``prev`` one frame earlier) to ``rest``
+    over ``n`` frames, the last one ``rest`` exactly.
+
+    The rotation from the rest pose is taken in the rest pose's frame (a rotation vector ``x``)
+    and moved by a cubic Hermite curve: it leaves ``last`` with the head's own speed (the step
+    ``last - prev``) and arrives at ``rest`` at rest, so neither the pose nor its speed jumps.  Each
+    step is at most ``1.5 |x| / n`` plus the last step."""
+    q_rest = quaternions.rotvec_to_quat(np.asarray(rest, dtype=np.float64).reshape(1, 3))
+    inv = q_rest * np.array([-1.0, -1.0, -1.0, 1.0])
+
+    def rel(r):
+        return quaternions.quat_to_rotvec(quaternions.compose(inv, quaternions.rotvec_to_quat(r)))[0]
+
+    x0, xp = rel(last), rel(prev)
+    s = np.arange(1, n + 1, dtype=np.float64) / n
+    h00 = 2 * s ** 3 - 3 * s ** 2 + 1
+    h10 = s ** 3 - 2 * s ** 2 + s
+    x = h00[:, None] * x0 + h10[:, None] * (n * (x0 - xp))  # tangent: n frames × the last step
+    out = quaternions.quat_to_rotvec(quaternions.compose(np.repeat(q_rest, n, axis=0),
+                                                         quaternions.rotvec_to_quat(x)))
+    out[-1] = np.asarray(rest, dtype=np.float64).reshape(3)
+    return out
+
+
+__all__ = ["HeadMotionCore", "FrameBatch", "UtteranceEnd", "settle_path",
+           "pcm16_to_float", "RESAMPLE", "DEFAULT_SETTLE_S", "SETTLE_RANGE_S"]

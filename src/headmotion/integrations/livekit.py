@@ -1,0 +1,171 @@
+"""Head motion in a LiveKit agent: :class:`HeadMotionAudioOutput`, a link in the agent session's
+audio output chain.
+
+``pip install "headmotion[livekit]"``.  The output hands every audio frame on to the next output
+(the room's track) unchanged and makes head motion from it in-process; the frames go to the room
+as data packets on the topic ``headmotion`` — the JSON messages of ``headmotion serve``'s stream
+(docs/serve.md, docs/integrations.md)::
+
+    await session.start(agent=MyAgent(), room=ctx.room)
+    attach_head_motion(session, ctx.room)          # after start: wraps session.output.audio
+
+* Each frame goes out when its audio plays (``pace=True``, the default; the room's output plays the
+  agent's audio in real time), so a page applies each frame as it arrives; ``pace=False`` sends
+  the frames as soon as they are made (the page times them itself).
+* ``flush()`` (the end of the agent's reply): the frames the lookahead held, then the head settles
+  to the rest pose over ``settle_s`` after the audio, then ``{"type": "end", ...}``.
+* ``clear_buffer()`` (the user interrupted): the frames not yet sent are dropped and the head
+  settles from the last pose sent, at once; ``pause()``/``resume()`` (a possible false
+  interruption) hold and release the frames with the audio.  The next reply starts a fresh stream.
+
+The part that makes and paces the frames is :mod:`headmotion.integrations.agent_core`, so the
+output runs without a LiveKit server: give ``send`` any ``async def send(message: dict)``.
+Importing this module without LiveKit Agents raises
+:class:`~headmotion.errors.MissingDependencyError`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import time
+from collections.abc import Awaitable, Callable
+
+from ..errors import HeadMotionError, MissingDependencyError, ParameterError
+
+try:
+    from livekit import rtc
+    from livekit.agents.voice import io
+except ImportError as exc:  # pragma: no cover - exercised in a fresh process by the tests
+    raise MissingDependencyError(
+        f"the LiveKit integration needs LiveKit Agents ({exc}); install it with: pip install \"headmotion[livekit]\""
+    ) from exc
+
+from .agent_core import DEFAULT_SETTLE_S, HeadMotionCore, log, pcm16_to_float
+from .pacing import PacedSender, Pacer
+
+#: the data topic the messages go on unless told otherwise
+TOPIC = "headmotion"
+
+
+def room_sender(room: rtc.Room, *, topic: str = TOPIC, reliable: bool = True,
+                destination_identities: list[str] | None = None) -> Callable[[dict], Awaitable[None]]:
+    """``async send(message)`` that publishes the message as JSON text in a data packet of the
+    room's local participant on ``topic`` (to every participant, or to ``destination_identities``)."""
+
+    async def send(message: dict) -> None:
+        await room.local_participant.publish_data(json.dumps(message, separators=(",", ":")), reliable=reliable,
+                                                  topic=topic, destination_identities=destination_identities or [])
+
+    return send
+
+
+class HeadMotionAudioOutput(io.AudioOutput):
+    """An audio output that makes head motion from the agent's audio and passes it on (module
+    docstring).
+
+    Parameters
+    ----------
+    next_in_chain : AudioOutput
+        The output the audio goes on to (``session.output.audio`` after ``session.start``).
+    send : async callable
+        ``await send(message)`` for each message (:func:`room_sender` for a room's data packets).
+    model, seed, resample, settle_s, controls, **controls_kwargs
+        As :class:`~headmotion.integrations.agent_core.HeadMotionCore` (default model
+        ``"stream"``: 39 ms latency, 25 frames/s).
+    pace : bool
+        Send each frame when its audio plays (True) or when it is made (False).
+    delay_s : float
+        Hold the paced frames this much longer (the audio's jitter buffer on the listener's side).
+    """
+
+    def __init__(self, next_in_chain: io.AudioOutput, *, send: Callable[[dict], Awaitable[None]],
+                 model="stream", seed: int = 0, resample: str = "exact", settle_s: float = DEFAULT_SETTLE_S,
+                 pace: bool = True, delay_s: float = 0.0, controls=None, label: str = "HeadMotion",
+                 **controls_kwargs):
+        super().__init__(label=label, next_in_chain=next_in_chain,
+                         capabilities=io.AudioOutputCapabilities(pause=True))
+        self.core = HeadMotionCore(model, seed=seed, resample=resample, settle_s=settle_s, controls=controls,
+                                   **controls_kwargs)
+        self.pacer = Pacer(self.core, pace=pace, delay_s=delay_s, clock=time.monotonic)
+        self.sender = PacedSender(self.pacer, send)
+
+    @property
+    def sample_rate(self) -> int | None:
+        if self._sample_rate is not None:
+            return self._sample_rate
+        return self.next_in_chain.sample_rate if self.next_in_chain else None
+
+    def _motion(self, step, *args) -> None:
+        """A pacer step; a failure is logged and the audio goes on."""
+        try:
+            step(*args)
+        except HeadMotionError as exc:
+            log.warning("headmotion: no head motion for this audio: %s", exc)
+        self.sender.wake()
+
+    async def capture_frame(self, frame: rtc.AudioFrame) -> None:
+        self.sender.start()
+        await super().capture_frame(frame)
+        if self.next_in_chain is not None:
+            await self.next_in_chain.capture_frame(frame)  # the audio first: it plays from now on
+        if frame.samples_per_channel:
+            self._motion(lambda: self.pacer.audio(pcm16_to_float(frame.data, frame.num_channels),
+                                                  int(frame.sample_rate)))
+
+    def flush(self) -> None:
+        super().flush()
+        if self.next_in_chain is not None:
+            self.next_in_chain.flush()
+        self._motion(self.pacer.end)
+
+    def clear_buffer(self) -> None:
+        if self.next_in_chain is not None:
+            self.next_in_chain.clear_buffer()
+        self._motion(self.pacer.interrupt)
+
+    def pause(self) -> None:
+        super().pause()
+        self.pacer.pause()
+        self.sender.wake()
+
+    def resume(self) -> None:
+        super().resume()
+        self.pacer.resume()
+        self.sender.wake()
+
+    async def wait_sent(self, timeout: float | None = None) -> bool:
+        """Wait until every message made so far has gone out (True) or ``timeout`` (False)."""
+        return await self.sender.wait_idle(timeout)
+
+    async def aclose(self, *, drain: bool = False) -> None:
+        """Stop sending (``drain``: first send what still waits, due or not)."""
+        await self.sender.aclose(drain=drain)
+
+
+def attach_head_motion(session, room: rtc.Room | None = None, *, send: Callable[[dict], Awaitable[None]] | None = None,
+                       topic: str = TOPIC, **kwargs) -> HeadMotionAudioOutput:
+    """Put a :class:`HeadMotionAudioOutput` in front of ``session.output.audio`` (call after
+    ``await session.start(...)``), sending to ``room`` on ``topic`` (or through ``send``); it stops
+    when the session closes.  ``kwargs`` go to :class:`HeadMotionAudioOutput`."""
+    if session.output.audio is None:
+        raise ParameterError("the session has no audio output yet: call attach_head_motion after "
+                              "`await session.start(...)`")
+    if send is None:
+        if room is None:
+            raise ParameterError("give the room (its data packets carry the messages) or send=")
+        send = room_sender(room, topic=topic)
+    out = HeadMotionAudioOutput(session.output.audio, send=send, **kwargs)
+    session.output.audio = out
+
+    def _closed(_event=None) -> None:
+        asyncio.ensure_future(out.aclose())
+
+    try:
+        session.on("close", _closed)
+    except Exception:  # noqa: BLE001 - a session without that event: the caller closes it
+        pass
+    return out
+
+
+__all__ = ["HeadMotionAudioOutput", "attach_head_motion", "room_sender", "TOPIC"]

@@ -1,0 +1,321 @@
+"""When a voice agent's head-motion frames go out: in time with the audio they belong to
+(:class:`Pacer`), sent by an asyncio task (:class:`PacedSender`) — the pacing layer of
+:mod:`headmotion.integrations.agent_core`."""
+
+from __future__ import annotations
+
+import asyncio
+import bisect
+import itertools
+import math
+import time
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import SampleRateError
+from .agent_core import FrameBatch, HeadMotionCore, UtteranceEnd, check_seconds, log
+
+
+@dataclass(order=True)
+class _Entry:
+    due: float
+    seq: int
+    utt: int
+    number: int = -1  # frame number; -1 for an end message
+    row: object = None  # (3,) rotvec, or the UtteranceEnd
+    audio_time: float = 0.0
+    settling: bool = False
+
+
+class Pacer:
+    """When each frame message goes out (module docstring).  Not thread-safe; every method takes
+    ``now`` (seconds of ``clock``; None: ``clock()``).
+
+    Parameters
+    ----------
+    core : HeadMotionCore
+    pace : bool
+        True: a frame goes out when its audio plays (plus ``delay_s``); False: as soon as it is
+        made (the page then times the frames itself, by their ``time``).
+    delay_s : float
+        Seconds the frames are held back beyond the audio's playback as this process sees it: the
+        audio's way to the listener (e.g. a WebRTC jitter buffer) that the data does not take.
+    clock : callable
+        Seconds, monotonic (default :func:`time.monotonic`).
+    """
+
+    def __init__(self, core: HeadMotionCore, *, pace: bool = True, delay_s: float = 0.0,
+                 clock: Callable[[], float] = time.monotonic):
+        self.core, self.pace, self.clock = core, bool(pace), clock
+        self.delay_s = check_seconds(delay_s, (0.0, 10.0), "delay_s")
+        self._entries: list[_Entry] = []
+        self._seq = itertools.count()
+        self._utt = 0
+        self._sent: dict[int, int] = {}  # utterance → frames sent (its frames go out in order)
+        self._playhead = -math.inf  # when the audio handed to the output so far ends playing
+        self._segments: list[tuple[float, float]] = []  # (audio offset, wall start) of the utterance
+        self._paused_at: float | None = None
+
+    def _now(self, now):
+        return self.clock() if now is None else float(now)
+
+    @property
+    def pending(self) -> int:
+        """Messages' entries waiting to go out."""
+        return len(self._entries)
+
+    @property
+    def utterance(self) -> int:
+        """The number of the current (or last) utterance, from 1."""
+        return self._utt
+
+    def audio(self, samples, sample_rate: int, now=None) -> FrameBatch:
+        """The agent's audio of the current utterance, as it goes to the output (the first after
+        an end or an interruption starts a new utterance; audio at another rate than the
+        utterance's so far ends it and starts another).  Returns the frames made."""
+        now = self._now(now)
+        start = max(now, self._playhead)
+        if not self.core.speaking:
+            self._utt += 1
+            self._sent[self._utt] = 0
+            self._sent = {u: n for u, n in self._sent.items() if u >= self._utt - 1}
+            self._segments = []
+            if self.pace:  # the last utterance's settling gives way to this one's speech
+                self._cut(start + self.delay_s)
+        try:
+            batch = self.core.push(samples, sample_rate)  # raises before the timeline moves
+        except SampleRateError:  # the audio changed rate: that utterance ends and another begins
+            self.end(now)
+            return self.audio(samples, sample_rate, now)
+        n = int(np.shape(samples)[0]) if np.ndim(samples) else 0
+        if self.pace:
+            self._segments.append((self.core.audio_seconds - n / int(sample_rate), start))
+            self._playhead = start + n / int(sample_rate)
+        self._schedule(batch)
+        return batch
+
+    def end(self, now=None) -> None:
+        """The utterance ended (the TTS stopped): its last frames, its settling after its audio,
+        and its end message."""
+        self._now(now)
+        items = self.core.end()
+        for item in items:
+            if isinstance(item, FrameBatch):
+                self._schedule(item)
+            else:
+                self._schedule_end(item, None)
+
+    def interrupt(self, now=None) -> None:
+        """The utterance was cut off.  Paced: the frames not yet out are dropped and the head
+        settles from the last one that went out, starting now; an utterance whose audio has all
+        played keeps its settling.  Unpaced: every frame made goes out, then the settling.  With
+        nothing spoken, nothing happens."""
+        now = self._now(now)
+        utt = self._utt
+        if not self.pace:
+            if self.core.speaking:
+                for item in self.core.interrupt():
+                    if isinstance(item, FrameBatch):
+                        self._schedule(item)
+                    else:
+                        self._schedule_end(item, -math.inf)
+            return
+        speech_waiting = any(e.utt == utt and e.number >= 0 and not e.settling for e in self._entries)
+        if not (self.core.speaking or speech_waiting):
+            return
+        self._entries = [e for e in self._entries if e.utt != utt]
+        items = self.core.interrupt(shown=self._sent.get(utt, 0))
+        t0 = now + self.delay_s
+        last = t0
+        for item in items:
+            if isinstance(item, FrameBatch):
+                for k, row in enumerate(item.rotvec):
+                    last = t0 + k / item.fps
+                    self._add(_Entry(last, next(self._seq), utt, item.first + k, row, item.audio_time, True))
+            else:
+                self._schedule_end(item, last)
+        self._playhead = now
+        self._segments = []
+
+    def pause(self, now=None) -> None:
+        """The output paused its playback: nothing goes out until :meth:`resume`."""
+        if self._paused_at is None:
+            self._paused_at = self._now(now)
+
+    def resume(self, now=None) -> None:
+        """The output resumed: everything waiting moves later by the pause."""
+        if self._paused_at is None:
+            return
+        shift = max(0.0, self._now(now) - self._paused_at)
+        self._paused_at = None
+        for e in self._entries:
+            e.due += shift
+        self._playhead += shift
+        self._segments = [(a, p + shift) for a, p in self._segments]
+
+    def busy_until(self) -> float:
+        """When the audio handed to the output and every message waiting will have gone out."""
+        return max([self._playhead] + [e.due for e in self._entries])
+
+    def next_due(self) -> float | None:
+        """When the next message is due (None: nothing waits, or paused)."""
+        if self._paused_at is not None or not self._entries:
+            return None
+        return self._entries[0].due
+
+    def due(self, now=None) -> list[dict]:
+        """Pop the messages due by ``now``, in order (consecutive frames in one message)."""
+        if self._paused_at is not None:
+            return []
+        now = self._now(now)
+        k = 0
+        while k < len(self._entries) and self._entries[k].due <= now:
+            k += 1
+        return self._messages(self._pop(k))
+
+    def drain(self) -> list[dict]:
+        """Pop every message waiting, due or not (the pipeline ends)."""
+        return self._messages(self._pop(len(self._entries)))
+
+    def _pop(self, k: int) -> list[_Entry]:
+        out, self._entries = self._entries[:k], self._entries[k:]
+        for e in out:
+            if e.number >= 0:
+                self._sent[e.utt] = max(self._sent.get(e.utt, 0), e.number + 1)
+        return out
+
+    def _messages(self, entries: list[_Entry]) -> list[dict]:
+        out: list[dict] = []
+        group: list[_Entry] = []
+
+        def close():
+            if group:
+                rv = np.vstack([g.row for g in group])
+                out.append(FrameBatch(group[0].number, self.core.fps, rv, group[-1].audio_time).message())
+                group.clear()
+
+        for e in entries:
+            if e.number < 0:
+                close()
+                out.append(e.row.message())
+                continue
+            if group and (e.utt != group[-1].utt or e.number != group[-1].number + 1):
+                close()
+            group.append(e)
+        close()
+        return out
+
+    def _wall(self, t: float) -> float:
+        """When the utterance's audio time ``t`` plays (the timeline of its pushes)."""
+        if not self._segments:
+            return max(self.clock(), self._playhead)
+        i = max(0, bisect.bisect_right([a for a, _ in self._segments], t) - 1)
+        a, p = self._segments[i]
+        return p + (t - a)
+
+    def _add(self, e: _Entry) -> None:
+        bisect.insort(self._entries, e)
+
+    def _schedule(self, batch: FrameBatch) -> None:
+        for k, row in enumerate(batch.rotvec):
+            number = batch.first + k
+            due = self._wall(number / batch.fps) + self.delay_s if self.pace else -math.inf
+            self._add(_Entry(due, next(self._seq), self._utt, number, row, batch.audio_time, batch.settling))
+
+    def _schedule_end(self, end: UtteranceEnd, due: float | None) -> None:
+        if due is None:
+            if not self.pace:
+                due = -math.inf
+            else:  # after the utterance's last frame, or its audio
+                mine = [e.due for e in self._entries if e.utt == self._utt]
+                due = max(mine) if mine else self._wall(end.audio_seconds) + self.delay_s
+        self._add(_Entry(due, next(self._seq), self._utt, -1, end))
+
+    def _cut(self, at: float) -> None:
+        """Drop earlier utterances' frames due from ``at`` on; their end messages go out at ``at``."""
+        keep = []
+        for e in self._entries:
+            if e.due >= at and e.utt != self._utt:
+                if e.number >= 0:
+                    continue
+                e.due = at
+            keep.append(e)
+        self._entries = sorted(keep)
+
+
+class PacedSender:
+    """Sends a :class:`Pacer`'s messages at their time with ``await send(message)`` from an asyncio
+    task (started by :meth:`start` in the running loop).  A failing send is logged and the next
+    messages still go out: the head's data never stops the agent's voice."""
+
+    def __init__(self, pacer: Pacer, send: Callable[[dict], Awaitable[None]]):
+        self.pacer, self.send = pacer, send
+        self._wake: asyncio.Event | None = None
+        self._task: asyncio.Task | None = None
+
+    def start(self) -> None:
+        """Start the task (once; in a running event loop)."""
+        if self._task is None or self._task.done():
+            self._wake = asyncio.Event()
+            self._task = asyncio.get_running_loop().create_task(self._run(), name="headmotion-sender")
+
+    def wake(self) -> None:
+        """The pacer changed: look again at what is due."""
+        if self._wake is not None:
+            self._wake.set()
+
+    async def _run(self) -> None:
+        while True:
+            self._wake.clear()
+            for message in self.pacer.due():
+                await self._send(message)
+            nxt = self.pacer.next_due()
+            timeout = None if nxt is None else max(0.0, nxt - self.pacer.clock())
+            try:
+                await asyncio.wait_for(self._wake.wait(), timeout)
+            except TimeoutError:
+                pass
+
+    async def _send(self, message: dict) -> None:
+        try:
+            await self.send(message)
+        except asyncio.CancelledError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a lost data message must not stop the voice
+            log.warning("headmotion: could not send a %s message: %s: %s", message.get("type"),
+                        type(exc).__name__, exc)
+
+    async def wait_idle(self, timeout: float | None = None) -> bool:
+        """Wait until every message has gone out (True), or ``timeout`` seconds (False)."""
+        loop = asyncio.get_running_loop()
+        deadline = None if timeout is None else loop.time() + timeout
+        while self.pacer.pending:
+            if self._task is None or self._task.done():
+                return False
+            nxt = self.pacer.next_due()
+            wait = 0.02 if nxt is None else max(0.002, nxt - self.pacer.clock() + 0.002)
+            if deadline is not None:
+                if loop.time() >= deadline:
+                    return False
+                wait = min(wait, deadline - loop.time())
+            await asyncio.sleep(wait)
+        await asyncio.sleep(0)  # the last message popped is being sent
+        return True
+
+    async def aclose(self, *, drain: bool = False) -> None:
+        """Stop the task; ``drain``: first send every message still waiting, due or not."""
+        if self._task is not None:
+            self._task.cancel()
+            try:
+                await self._task
+            except (asyncio.CancelledError, Exception):  # noqa: BLE001 - stopping
+                pass
+            self._task = None
+        if drain:
+            for message in self.pacer.drain():
+                await self._send(message)
+
+
+__all__ = ["Pacer", "PacedSender"]

@@ -1,0 +1,159 @@
+"""Head motion in a Pipecat pipeline: :class:`HeadMotionProcessor`, placed after the TTS.
+
+``pip install "headmotion[pipecat]"``.  The processor passes every frame on unchanged; from the
+TTS audio (``TTSAudioRawFrame``) it makes head motion in-process and sends the frames to the
+client as transport messages — the JSON messages of ``headmotion serve``'s stream (docs/serve.md,
+docs/integrations.md)::
+
+    pipeline = Pipeline([transport.input(), stt, user_agg, llm, tts,
+                         HeadMotionProcessor(), transport.output(), assistant_agg])
+
+* ``pace=True`` (default): each frame goes out as an ``OutputTransportMessageUrgentFrame`` when
+  its audio plays (the output plays the TTS audio in real time, one utterance after the other),
+  so a page applies each frame as it arrives.  ``pace=False``: an ``OutputTransportMessageFrame``
+  after each audio frame, in order with the audio (the page times the frames itself).
+* ``TTSStoppedFrame`` ends the utterance: the frames held by the lookahead, then the head settles
+  to the rest pose over ``settle_s`` after the audio, then ``{"type": "end", ...}``.
+* ``InterruptionFrame`` (the user cut the agent off): the frames not yet sent are dropped and the
+  head settles from the last pose sent, at once.  The next TTS audio starts a fresh stream.
+* ``rtvi=True``: the messages go as ``RTVIServerMessageFrame`` (a Pipecat client's
+  ``onServerMessage``) instead of transport messages.
+
+Importing this module without Pipecat raises :class:`~headmotion.errors.MissingDependencyError`.
+"""
+
+from __future__ import annotations
+
+import time
+
+from ..errors import HeadMotionError, MissingDependencyError
+
+try:
+    from pipecat.frames.frames import (
+        CancelFrame,
+        EndFrame,
+        InterruptionFrame,
+        OutputTransportMessageFrame,
+        OutputTransportMessageUrgentFrame,
+        StartFrame,
+        TTSAudioRawFrame,
+        TTSStoppedFrame,
+    )
+    from pipecat.processors.frame_processor import FrameDirection, FrameProcessor
+except ImportError as exc:  # pragma: no cover - exercised in a fresh process by the tests
+    raise MissingDependencyError(
+        f"the Pipecat integration needs Pipecat ({exc}); install it with: pip install \"headmotion[pipecat]\""
+    ) from exc
+
+from .agent_core import DEFAULT_SETTLE_S, HeadMotionCore, log, pcm16_to_float
+from .pacing import PacedSender, Pacer
+
+
+class HeadMotionProcessor(FrameProcessor):
+    """Head motion from the TTS audio, sent to the client as messages (module docstring).
+
+    Parameters
+    ----------
+    model : str, Path or Synthesizer
+        A model that streams (default ``"stream"``: 39 ms latency, 25 frames/s); a loaded model is
+        shared, not copied.
+    seed, resample, settle_s, controls, **controls_kwargs
+        As :class:`~headmotion.integrations.agent_core.HeadMotionCore` (``gain``,
+        ``offset_degrees``, ``still`` …).
+    pace : bool
+        Send each frame when its audio plays (True) or after the audio frame it came from (False).
+    delay_s : float
+        Hold the paced frames this much longer (the audio's jitter buffer on the client).
+    audio_frames : tuple of frame classes
+        The audio that is speech (default ``(TTSAudioRawFrame,)``; other audio passes untouched).
+    rtvi : bool
+        Send ``RTVIServerMessageFrame(data=message)`` rather than transport message frames.
+    """
+
+    def __init__(self, model="stream", *, seed: int = 0, resample: str = "exact",
+                 settle_s: float = DEFAULT_SETTLE_S, pace: bool = True, delay_s: float = 0.0,
+                 audio_frames: tuple = (TTSAudioRawFrame,), rtvi: bool = False, controls=None,
+                 name: str | None = None, **controls_kwargs):
+        super().__init__(name=name)
+        self.core = HeadMotionCore(model, seed=seed, resample=resample, settle_s=settle_s, controls=controls,
+                                   **controls_kwargs)
+        self.pacer = Pacer(self.core, pace=pace, delay_s=delay_s, clock=time.monotonic)
+        self.audio_frames = tuple(audio_frames)
+        self.rtvi = bool(rtvi)
+        self._sender = PacedSender(self.pacer, self._send_now) if pace else None
+
+    @property
+    def fps(self) -> float:
+        return self.core.fps
+
+    @property
+    def latency_ms(self) -> float:
+        return self.core.latency_ms
+
+    def _frame(self, message: dict, *, urgent: bool):
+        if self.rtvi:
+            from pipecat.processors.frameworks.rtvi import RTVIServerMessageFrame
+
+            return RTVIServerMessageFrame(data=message)
+        return (OutputTransportMessageUrgentFrame if urgent else OutputTransportMessageFrame)(message=message)
+
+    async def _send_now(self, message: dict) -> None:
+        await self.push_frame(self._frame(message, urgent=True))
+
+    async def _send_in_order(self) -> None:
+        """Unpaced: the messages made so far, as data frames in order with the audio."""
+        if self._sender is None:
+            for message in self.pacer.due():
+                await self.push_frame(self._frame(message, urgent=False))
+
+    def _motion(self, step, *args) -> None:
+        """A pacer step; a failure is logged and the audio goes on."""
+        try:
+            step(*args)
+        except HeadMotionError as exc:
+            log.warning("headmotion: no head motion for this audio: %s", exc)
+        if self._sender is not None:
+            self._sender.wake()
+
+    async def process_frame(self, frame, direction: FrameDirection):
+        await super().process_frame(frame, direction)
+        if isinstance(frame, StartFrame):
+            await self.push_frame(frame, direction)
+            if self._sender is not None:
+                self._sender.start()
+        elif isinstance(frame, InterruptionFrame):
+            await self.push_frame(frame, direction)
+            self._motion(self.pacer.interrupt)
+            await self._send_in_order()
+        elif direction == FrameDirection.DOWNSTREAM and isinstance(frame, self.audio_frames):
+            if frame.audio:
+                self._motion(lambda: self.pacer.audio(pcm16_to_float(frame.audio, frame.num_channels),
+                                                      int(frame.sample_rate)))
+            await self.push_frame(frame, direction)
+            await self._send_in_order()
+        elif direction == FrameDirection.DOWNSTREAM and isinstance(frame, TTSStoppedFrame):
+            self._motion(self.pacer.end)
+            await self._send_in_order()
+            await self.push_frame(frame, direction)
+        elif isinstance(frame, EndFrame):
+            self._motion(self.pacer.end)
+            if self._sender is not None:  # the last frames go out as their audio plays, then the pipeline ends
+                wait = max(0.0, self.pacer.busy_until() - self.pacer.clock()) + 1.0
+                await self._sender.wait_idle(timeout=wait)
+                await self._sender.aclose(drain=True)
+            await self._send_in_order()
+            await self.push_frame(frame, direction)
+        elif isinstance(frame, CancelFrame):
+            if self._sender is not None:
+                await self._sender.aclose()
+            await self.push_frame(frame, direction)
+        else:
+            await self.push_frame(frame, direction)
+
+    async def cleanup(self):
+        await super().cleanup()
+        if self._sender is not None:
+            await self._sender.aclose()
+
+
+__all__ = ["HeadMotionProcessor"]
