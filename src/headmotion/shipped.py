@@ -60,7 +60,7 @@ def resolve_model_path(model) -> Path:
         return shipped_path(text)
     path = Path(model)
     if not path.exists():
-        from .systems.base import SYSTEMS  # a plain table: importing it loads no system
+        from .registry import SYSTEMS  # a plain table: importing it loads no system
 
         hint = (f"; {text!r} is a system, not a model: train one with `headmotion train CORPUS --system {text} "
                 f"-o mine.hmz`" if text in SYSTEMS else "")

@@ -58,9 +58,13 @@ def _corpus(corpus):
 
 
 def _base(base) -> MotionMatch:
-    from ..synthesis import load_model
+    if isinstance(base, (str, os.PathLike)):
+        from ..shipped import resolve_model_path
+        from .base import load_model
 
-    model = load_model(base)
+        model = load_model(resolve_model_path(base))
+    else:
+        model = base
     if not isinstance(model, MotionMatch):
         raise ParameterError(f"base {base!r} is a {getattr(model, 'name', type(model).__name__)} model; "
                              "adapting needs a motion-match model (the shipped 'default' or 'stream', or one "

@@ -59,23 +59,8 @@ import numpy as np
 from ..errors import ModelFileError, NotFittedError, ParameterError
 from ..models.serialization import load_model_file, save_model_file
 from ..motion.control import apply_gain, as_triple, is_identity
+from ..registry import SYSTEMS  # the table lives below the systems: shipped.py reads it too
 from ..types import Audio, Motion
-
-#: registry name → "module:Class" (modules are imported on first use)
-SYSTEMS: dict[str, str] = {
-    "tws-basic": "headmotion.systems.tws.basic:TwsBasic",
-    "tws-hier": "headmotion.systems.tws.hier:TwsHier",
-    "le2012": "headmotion.systems.le2012:Le2012",
-    "cccae": "headmotion.systems.dnn.registered:CccaeSystem",
-    "ae-dnn": "headmotion.systems.dnn.registered:AeDnnSystem",
-    "mfcc-dnn": "headmotion.systems.dnn.registered:MfccDnnSystem",
-    "fbank-dnn": "headmotion.systems.dnn.registered:FbankDnnSystem",
-    "f0e-dnn": "headmotion.systems.dnn.registered:F0eDnnSystem",
-    "wav-dnn": "headmotion.systems.dnn.registered:WavDnnSystem",
-    "motion-flow": "headmotion.systems.flow:MotionFlow",
-    "motion-match": "headmotion.systems.motion_match:MotionMatch",
-    "adapt": "headmotion.systems.adapt:Adapt",
-}
 
 #: capability names
 CAUSAL = "causal"
