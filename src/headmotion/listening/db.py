@@ -45,7 +45,7 @@ from typing import Any, Callable
 
 import sqlalchemy as sa
 
-from ..errors import MissingDependencyError, ParameterError
+from ..errors import HeadMotionError, MissingDependencyError, ParameterError
 from .sqlite_writer import GroupCommitWriter, connect
 
 metadata = sa.MetaData()
@@ -100,19 +100,19 @@ ANSWER_COLUMNS = ("participant", "trial_index", "phase", "kind", "item", "speake
                   "slot", "condition", "value", "other", "response_ms", "created_at")
 
 
-class NotFound(LookupError):
+class NotFound(HeadMotionError, LookupError):
     """No participant with that token."""
 
 
-class Conflict(RuntimeError):
+class Conflict(HeadMotionError, RuntimeError):
     """The request contradicts what is stored (answer changed, trial not reached, ...)."""
 
 
-class Full(RuntimeError):
+class Full(HeadMotionError, RuntimeError):
     """The test has as many participants as its configuration allows."""
 
 
-class RateLimited(RuntimeError):
+class RateLimited(HeadMotionError, RuntimeError):
     """Too many registrations from one client address in the window."""
 
 

@@ -3,10 +3,11 @@ their key's request rate allows one more request; the API's one error type."""
 
 from __future__ import annotations
 
+from ..errors import HeadMotionError
 from .auth import Key
 
 
-class ApiError(Exception):
+class ApiError(HeadMotionError):
     """An answer other than success: HTTP ``status``, a machine-readable ``kind`` and a sentence."""
 
     def __init__(self, status: int, kind: str, detail: str, headers: dict | None = None):

@@ -60,7 +60,7 @@ START_FIELDS = {"type", "model", "sample_rate", "encoding", "seed", "frames", "g
 RESAMPLE = {"exact": "HQ", "fast": "LQ"}
 
 
-class ProtocolError(Exception):
+class ProtocolError(HeadMotionError):
     """A message the protocol does not allow: ``kind``, a sentence and the close code."""
 
     def __init__(self, kind: str, detail: str, code: int = 1008, extra: dict | None = None):
