@@ -80,7 +80,7 @@ class Anchor(Condition):
         self.fps_ = float(recs[0].motion.fps)
         self.refs_ = []
         for r in recs:
-            m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
+            m = r.motion.resample(self.fps_)
             self.refs_.append((r.id, r.speaker, np.asarray(m.rotvec)))
         allr = np.vstack([x for _, _, x in self.refs_])
         self.mean_ = allr.mean(axis=0)

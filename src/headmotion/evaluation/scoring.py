@@ -165,7 +165,7 @@ def paper_chance(s: RecordingScoring) -> dict[str, float]:
         return {}
     rec = s.recording
     other_spk = s.others.speakers[s.seed % len(s.others.speakers)]
-    other = [o.motion if abs(o.motion.fps - rec.motion.fps) < 1e-9 else o.motion.resample(rec.motion.fps)
+    other = [o.motion.resample(rec.motion.fps)
              for o in s.others.filter(speaker=other_spk)]
     return {"paper_chance": C.paper_chance_score(rec.motion, other, window=s.window, seed=s.seed)}
 

@@ -65,7 +65,7 @@ def segment_table(motions, *, fps: float | None = DISCOVERY_FPS, min_swing_deg: 
     swing = np.radians(min_swing_deg) if min_swing_deg else 0.0
     out = []
     for i, m in enumerate(motions):
-        mm = m if fps is None or abs(m.fps - fps) < 1e-9 else m.resample(fps)
+        mm = m if fps is None else m.resample(fps)
         xs = smooth(np.asarray(mm.rotvec), fps=mm.fps)
         for j in range(3):
             b = segment_axis(xs[:, j], fps=mm.fps, smoothed=True, min_swing=swing)

@@ -68,7 +68,7 @@ def speech_features(audio: Audio, n: int) -> np.ndarray:
 
 def motion_degrees(motion: Motion, n: int) -> np.ndarray:
     """``(n, 3)`` pitch, yaw, roll in degrees at 25 fps, the recording's mean pose removed."""
-    m = motion if abs(motion.fps - FPS) < 1e-9 else motion.resample(FPS)
+    m = motion.resample(FPS)
     pyr = np.degrees(rotvec_to_pitch_yaw_roll(np.asarray(m.rotvec)))
     if len(pyr) >= n:
         pyr = pyr[:n]

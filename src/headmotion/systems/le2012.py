@@ -199,7 +199,7 @@ class Le2012(Synthesizer):
         self.sample_rate_ = ANALYSIS_RATE if cfg.name in LIVE_FEATURES else int(recs[0].audio.sample_rate)
         ang, feats, rvs = [], [], []
         for i, r in enumerate(recs):
-            m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
+            m = r.motion.resample(self.fps_)
             if len(m) < 3:
                 continue
             ang.append(rotvec_to_pitch_yaw_roll(m.rotvec))

@@ -32,7 +32,7 @@ def prepare(rec, config, fps: float) -> Prepared:
 
     T = n_frames(len(rec.audio.samples), rec.audio.sample_rate, fps)
     feats = np.asarray(features_for(rec, config, T).values, dtype=np.float32)
-    mot = rec.motion if abs(rec.motion.fps - fps) < 1e-9 else rec.motion.resample(fps)
+    mot = rec.motion.resample(fps)
     motion = fit_length(np.asarray(mot.rotvec, dtype=np.float64), T)
     if rec.speaking is not None:
         src = np.asarray(rec.speaking, dtype=bool)

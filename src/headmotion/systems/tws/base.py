@@ -162,7 +162,7 @@ class TwsBase(Synthesizer):
 
         motions, raw, names, masks, kept = [], [], [], [], []
         for i, r in enumerate(recs):
-            m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
+            m = r.motion.resample(self.fps_)
             T = len(m)
             if T < 2 * min_segment_frames(self.fps_):
                 continue

@@ -150,7 +150,7 @@ class TwsBasic(TwsBase):
         self._check_fitted()
         motions, feats = [], []
         for r in corpus:
-            m = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
+            m = r.motion.resample(self.fps_)
             motions.append(np.asarray(m.rotvec))
             feats.append(self._features_full(r.audio, len(m)))
         data = collect(motions, feats, self.fps_, min_swing=float(np.radians(self.min_swing_deg)))

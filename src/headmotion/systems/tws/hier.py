@@ -391,7 +391,7 @@ class TwsHier(TwsBase):
         self._check_fitted()
         motions, feats = [], []
         for r in corpus:
-            mo = r.motion if abs(r.motion.fps - self.fps_) < 1e-9 else r.motion.resample(self.fps_)
+            mo = r.motion.resample(self.fps_)
             motions.append(np.asarray(mo.rotvec))
             feats.append(self._features_full(r.audio, len(mo)))
         data = collect(motions, feats, self.fps_, with_frames=True,
