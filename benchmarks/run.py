@@ -35,26 +35,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from harness import Results, Row, on_local_cluster, peak_rss_of, time_median  # noqa: E402
+from inputs import ROOT, SHARED, speech_audio, speech_dir  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-SHARED = Path(os.environ.get("HEADMOTION_SHARED_DATA", ROOT.parent / "shared" / "data"))
 
 FEATURE_SETS = ("f0e", "f0e-live", "mfcc", "fbank", "wav", "prosody", "prosody-live", "lsp", "lar")
 SYNTH_SYSTEMS = ("tws-basic", "tws-hier", "le2012", "cccae", "mfcc-dnn")
 DNN_BENCH_PARAMS = {"max_epochs": 4, "ae_max_epochs": 4, "pretrain_epochs": 1, "patience": 2}
-
-
-def speech_dir() -> Path:
-    d = SHARED / "speech"
-    return d if d.is_dir() else ROOT / "examples" / "speech"
-
-
-def speech_audio(seconds: float, seed: int = 0):
-    from headmotion.synthetic import _speech_pool, speech_sources, tiled_speech
-    from headmotion.types import Audio
-
-    pool = _speech_pool(speech_sources(speech_dir()), 16000)
-    return Audio(tiled_speech(pool, seconds, sample_rate=16000, rng=np.random.default_rng(seed)), 16000)
 
 
 def planted(minutes: float, *, n_recordings: int = 6, fps: float = 100.0, seed: int = 0):

@@ -114,7 +114,7 @@ def _rss(p) -> float:
 
 def speech_pcm(seconds: float, seed: int = 0) -> np.ndarray:
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from run import speech_audio
+    from inputs import speech_audio
 
     x = speech_audio(seconds, seed).samples
     return (np.clip(x, -1, 1) * 32767).astype("<i2")
