@@ -33,6 +33,7 @@ TINY = {
     "motion-flow": dict(window=24, prefix=6, hidden=16, n_blocks=2, train_steps=20, batch_size=8, eval_every=10,
                         sampling_steps=2, n_threads=1),
     "motion-match": dict(prosody="f0e-live"),
+    "motion-match-f0e": dict(),
     "motion-match-live": dict(live=True, hop=4),
     "adapt": dict(min_speech_s=0.0),
 }
@@ -95,7 +96,7 @@ def main() -> int:
     for name, params in TINY.items():
         if only is not None and name not in only:
             continue
-        system = "motion-match" if name == "motion-match-live" else name
+        system = "motion-match" if name.startswith("motion-match") else name
         model = create(system, **params).fit(corpus)
         result[name] = fingerprints(model, audio)
         print(name, flush=True)

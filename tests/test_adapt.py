@@ -17,7 +17,7 @@ from headmotion.errors import ParameterError
 from headmotion.rotations import rotvec_to_pitch_yaw_roll
 from headmotion.systems import create, load_model
 from headmotion.systems.adapt import adapt
-from headmotion.systems.flow import motion_degrees
+from headmotion.motion.angles import centred_degrees
 from headmotion.types import Motion
 
 #: a base that plays back what it matches: nearest match only, leaving a clip costly, speech and
@@ -53,7 +53,7 @@ def test_the_speakers_own_speech_plays_their_recorded_motion_back(corpus, base):
     assert len(m.lib_lengths_) == len(base.lib_lengths_) + 1 and m.lib_own_.tolist()[-1]
     rec = own[0]
     out = angles(m.predict(rec.audio, seed=0))
-    truth = motion_degrees(rec.motion, len(out))
+    truth = centred_degrees(rec.motion, len(out), 25.0)
     np.testing.assert_allclose(out - np.degrees(m.mean_pose_), truth, atol=1e-6)
 
 

@@ -31,10 +31,10 @@ import numpy as np
 
 from ..align import n_frames as _n_frames
 from ..errors import ParameterError
+from ..motion.angles import centred_degrees
 from ..motion.control import mean_pose_of
 from .base import Synthesizer
-from .flow import FPS, motion_degrees
-from .motion_match import MotionMatch, clean_clips, clip_starts
+from .motion_match import FPS, MotionMatch, clean_clips, clip_starts
 
 #: the cost a frame of the base library pays over one of the speaker's (docs/decisions/adapt.md)
 BASE_COST = 2.0
@@ -126,7 +126,7 @@ def adapt(corpus, base="default", *, base_cost: float = BASE_COST, min_speech_s:
         n = _n_frames(len(r.audio.samples), r.audio.sample_rate, FPS)
         if n < int(model.hop) + 2:
             continue
-        motions.append(motion_degrees(r.motion, n).astype(np.float32))
+        motions.append(centred_degrees(r.motion, n, FPS).astype(np.float32))
         feats.append(((model._prosody(r.audio, n) - model.feat_mean_) / model.feat_std_).astype(np.float32))
         speech += _speech_seconds(r, n)
         if progress is not None:

@@ -41,8 +41,9 @@ import numpy as np
 from ..align import n_frames as _n_frames
 from ..devices import DEVICES, resolve_device
 from ..errors import ParameterError
+from ..motion.angles import centred_degrees
 from ..motion.control import mean_pose_of
-from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
+from ..rotations import pitch_yaw_roll_to_rotvec
 from ..types import Audio, Motion
 from .base import Synthesizer
 
@@ -68,13 +69,7 @@ def speech_features(audio: Audio, n: int) -> np.ndarray:
 
 def motion_degrees(motion: Motion, n: int) -> np.ndarray:
     """``(n, 3)`` pitch, yaw, roll in degrees at 25 fps, the recording's mean pose removed."""
-    m = motion.resample(FPS)
-    pyr = np.degrees(rotvec_to_pitch_yaw_roll(np.asarray(m.rotvec)))
-    if len(pyr) >= n:
-        pyr = pyr[:n]
-    else:
-        pyr = np.concatenate([pyr, np.repeat(pyr[-1:], n - len(pyr), axis=0)])
-    return pyr - pyr.mean(axis=0)
+    return centred_degrees(motion, n, FPS)
 
 
 @contextlib.contextmanager

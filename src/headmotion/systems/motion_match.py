@@ -7,9 +7,9 @@ speech-conditioned way of walking through it (motion matching, Clavet 2016; for 
 gesture, Habibie et al. 2022):
 
 * **Library** (:meth:`MotionMatch.fit`): every training recording's pitch, yaw and roll at 25 fps
-  in degrees, its mean pose removed (:func:`~headmotion.systems.flow.motion_degrees`), and, with
+  in degrees, its mean pose removed (:func:`~headmotion.motion.angles.centred_degrees`), and, with
   ``mirror``, its copy with yaw and roll negated; beside each frame, its prosody — energy, log F0,
-  their deltas and voicing (:func:`~headmotion.systems.flow.speech_features`, standardised).
+  their deltas and voicing (:data:`PROSODY`, selected by name; standardised).
 * **Matching**: every ``hop`` frames the system scores each library frame by how far the prosody
   around it (``context`` frames back to ``lookahead`` frames ahead) is from the prosody around the
   current frame, and how far its pose and velocity are from where the motion is heading; while
@@ -59,23 +59,24 @@ from ..align import n_frames as _n_frames
 from ..errors import ParameterError
 from ..features import ANALYSIS_RATE
 from ..models.numpy_nets import inference_threads
+from ..motion.angles import centred_degrees
 from ..motion.control import AMOUNT_RANGE, mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec
 from ..types import Audio, Motion
 from .base import CAUSAL, STREAMING, Synthesizer
-from .flow import FPS, motion_degrees, speech_features
 
-#: the columns of :func:`~headmotion.systems.flow.speech_features` matched: energy, Δenergy,
-#: log F0, energy (prosody), Δlog F0, voicing
-PROSODY = [0, 13, 14, 15, 16, 18]
+#: frames per second of the library and the output
+FPS = 25.0
+#: the prosody matched (``prosody="f0e"``), by feature set and name: the MFCC front end's energy and
+#: its delta, Praat's log F0, energy, Δlog F0 and voicing
+PROSODY = (("mfcc", {}, ("energy", "d_energy")), ("f0e", {"voicing": True}, ("logf0", "energy", "d_logf0", "voiced")))
 #: a frame-to-frame change above this (degrees at 25 fps, 250 °/s) is a tracking glitch: clips end there
 MAX_STEP_DEG = 10.0
-#: the voicing column within PROSODY
+#: the voicing column within PROSODY's columns
 VOICING = 5
-#: ``live``: the columns of the f0e-live features matched (energy, Δenergy, log F0, Δlog F0,
-#: voicing) and their settings: no smoothing or delta lookahead, so a frame is final 39 ms after
-#: its start at 16 kHz
-LIVE_COLUMNS = [1, 3, 0, 2, 6]
+#: the f0e-live prosody matched (the shipped models; ``live``), by name, and its settings: no
+#: smoothing or delta lookahead, so a frame is final 39 ms after its start at 16 kHz
+LIVE_NAMES = ("energy", "d_energy", "logf0", "d_logf0", "voiced")
 LIVE_FEATURES = {"smooth_lookahead": 0, "delta_lookahead": 0, "voicing": True}
 #: frames of the moving average over the features before they are matched
 SMOOTH = 5
@@ -275,7 +276,7 @@ class MotionMatch(Synthesizer):
 
     @property
     def _voicing(self) -> int:
-        return len(LIVE_COLUMNS) - 1 if self._live_prosody else VOICING
+        return len(LIVE_NAMES) - 1 if self._live_prosody else VOICING
 
     # -- fitting ---------------------------------------------------------------------------------
     def fit(self, corpus, *, progress=None) -> "MotionMatch":
@@ -293,7 +294,7 @@ class MotionMatch(Synthesizer):
             n = _n_frames(len(r.audio.samples), r.audio.sample_rate, FPS)
             if n < int(self.hop) + 2:
                 continue
-            motions.append(motion_degrees(r.motion, n).astype(np.float32))
+            motions.append(centred_degrees(r.motion, n, FPS).astype(np.float32))
             feats.append(self._prosody(r.audio, n))
             if progress is not None:
                 progress(i + 1, len(recs), f"motion-match library {i + 1}/{len(recs)}")
@@ -505,9 +506,12 @@ class MotionMatch(Synthesizer):
         if self._live_prosody:  # resampled to the analysis rate, the rate the stream is pushed at
             from ..features import extract
 
-            return np.asarray(extract("f0e-live", audio, fps=FPS, n_frames=n, **LIVE_FEATURES).values,
-                              dtype=np.float32)[:, LIVE_COLUMNS]
-        return speech_features(audio, n)[:, PROSODY]
+            return np.asarray(extract("f0e-live", audio, fps=FPS, n_frames=n, **LIVE_FEATURES).select(LIVE_NAMES).values,
+                              dtype=np.float32)
+        from ..features import extract
+
+        return np.concatenate([np.asarray(extract(name, audio, fps=FPS, n_frames=n, **params).select(names).values,
+                                          dtype=np.float32) for name, params, names in PROSODY], axis=1)
 
     def _degrees_to_motion(self, x: np.ndarray) -> Motion:
         pyr = np.radians(x) + self.mean_pose_
@@ -641,7 +645,8 @@ class MotionMatchStream:
         self.latency_ms = self.ex.latency_ms
         self.walk = _Walk(model, seed)
         self.back = model._live_back
-        self.past = np.zeros((0, len(LIVE_COLUMNS)), np.float32)
+        self.cols = [list(self.ex.names).index(n) for n in LIVE_NAMES]  # the matched columns, by name
+        self.past = np.zeros((0, len(LIVE_NAMES)), np.float32)
         self.pending = np.zeros((0, 3))
         self.k = 0            # frames emitted
         self.samples = 0      # samples pushed
@@ -651,7 +656,7 @@ class MotionMatchStream:
         m, H = self.m, int(self.m.hop)
         out = np.zeros((len(raw), 3))
         for i, row in enumerate(raw):
-            f = ((row[LIVE_COLUMNS] - m.feat_mean_) / m.feat_std_).astype(np.float32)
+            f = ((row[self.cols] - m.feat_mean_) / m.feat_std_).astype(np.float32)
             self.past = np.concatenate([self.past, f[None]])[-self.back:]
             if self.k % H == 0:
                 self.pending = self.walk.hop(*m.live_inputs(self.past), H)
@@ -689,7 +694,8 @@ class WindowStream:
         self.back, self.ahead = model._reach
         self.latency_ms = self.ex.latency_ms + 1000.0 * self.ahead / FPS
         self.walk = _Walk(model, seed)
-        self.rows = np.zeros((0, len(LIVE_COLUMNS)), np.float32)  # standardised prosody from frame row0
+        self.cols = [list(self.ex.names).index(n) for n in LIVE_NAMES]  # the matched columns, by name
+        self.rows = np.zeros((0, len(LIVE_NAMES)), np.float32)  # standardised prosody from frame row0
         self.row0 = 0
         self.t = 0            # the next decision's frame
         self.samples = 0      # samples pushed
@@ -698,7 +704,7 @@ class WindowStream:
     def _add(self, raw: np.ndarray) -> None:
         if len(raw):
             m = self.m
-            f = ((np.asarray(raw)[:, LIVE_COLUMNS] - m.feat_mean_) / m.feat_std_).astype(np.float32)
+            f = ((np.asarray(raw)[:, self.cols] - m.feat_mean_) / m.feat_std_).astype(np.float32)
             self.rows = np.concatenate([self.rows, f])
             self.raw_last = raw[-1]
 
@@ -735,4 +741,4 @@ class WindowStream:
         return self._decide(total)
 
 
-__all__ = ["MotionMatch", "MotionMatchStream", "WindowStream", "PROSODY", "speech_descriptors"]
+__all__ = ["MotionMatch", "MotionMatchStream", "WindowStream", "PROSODY", "LIVE_NAMES", "speech_descriptors"]
