@@ -29,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .vad import ENERGY_PERCENTILES, LEVEL_SHARE, MIN_SNR_DB, SILENCE_DB
+
 
 @dataclass
 class SpeechDetector:
@@ -41,8 +43,8 @@ class SpeechDetector:
     accuracy: float = float("nan")
     fps: float = 100.0
     window_s: float = 3.0
-    min_snr_db: float = 10.0
-    silence_db: float = -50.0
+    min_snr_db: float = MIN_SNR_DB
+    silence_db: float = SILENCE_DB
 
     @classmethod
     def for_features(cls, names, normalizer, fps: float) -> "SpeechDetector | None":
@@ -150,16 +152,16 @@ class SpeechTracker:
         self.n += 1
         if (u + 1) % self.update_frames == 0:
             if u >= self.W - 1:
-                st = np.percentile(self.e[(u - self._lags)[None, :] - self.e_off], (10, 95), axis=1)[:, 0]
+                st = np.percentile(self.e[(u - self._lags)[None, :] - self.e_off], ENERGY_PERCENTILES, axis=1)[:, 0]
             else:
-                st = np.percentile(self._window(u), (10, 95))
+                st = np.percentile(self._window(u), ENERGY_PERCENTILES)
             self.stats = (float(st[0]), float(st[1]))
         floor, level = self.stats
         d = self.det
         rng = level - floor
         if rng < d.min_snr_db:
             return e > d.silence_db
-        return e > floor + max(d.min_snr_db, 0.25 * rng)
+        return e > floor + max(d.min_snr_db, LEVEL_SHARE * rng)
 
     def push_db(self, e: np.ndarray) -> np.ndarray:
         """Flags of the next frames given their energies in dB (for systems whose features have no
@@ -176,7 +178,7 @@ class SpeechTracker:
         level = np.empty(n)
         # the first K-1 frames of the utterance: their own (short) windows
         for i in range(0, max(0, min(n, K - 1 - t0))):
-            floor[i], level[i] = np.percentile(self._window(t0 + i), (10, 95))
+            floor[i], level[i] = np.percentile(self._window(t0 + i), ENERGY_PERCENTILES)
         # update points u ((u+1) % K == 0) inside the chunk; frames use the latest update <= t
         lo = max(t0, K - 1)
         ups = np.arange(lo + (-(lo + 1)) % K, t0 + n, K)
@@ -185,10 +187,10 @@ class SpeechTracker:
             part = ups[ups < self.W - 1]
             st = np.empty((len(ups), 2))
             for k, u in enumerate(part):
-                st[k] = np.percentile(self._window(int(u)), (10, 95))
+                st[k] = np.percentile(self._window(int(u)), ENERGY_PERCENTILES)
             if len(full):
                 idx = full[:, None] - np.arange(0, self.W, self.stride)[None, :]
-                st[len(part):] = np.percentile(self.e[idx - self.e_off], (10, 95), axis=1).T
+                st[len(part):] = np.percentile(self.e[idx - self.e_off], ENERGY_PERCENTILES, axis=1).T
         i0 = max(0, K - 1 - t0)
         if i0 < n:
             tt = np.arange(t0 + i0, t0 + n)
@@ -200,7 +202,7 @@ class SpeechTracker:
         if len(ups):
             self.stats = (float(st[-1, 0]), float(st[-1, 1]))
         rng = level - floor
-        thr = floor + np.maximum(self.det.min_snr_db, 0.25 * rng)
+        thr = floor + np.maximum(self.det.min_snr_db, LEVEL_SHARE * rng)
         return np.where(rng < self.det.min_snr_db, e > self.det.silence_db, e > thr)
 
 

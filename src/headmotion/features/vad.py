@@ -34,6 +34,14 @@ from ..errors import FormatError, LengthMismatchError, ParameterError
 from ..types import Audio
 from .frames import frame_signal, log_energy_db
 
+#: the energy rule, shared with the causal detector (:mod:`.speech_activity`): the noise floor and
+#: the speech level are these percentiles of the frame energy (dB); a frame is speech above
+#: ``floor + max(MIN_SNR_DB, LEVEL_SHARE · (level − floor))``, or — with less than ``MIN_SNR_DB`` of
+#: range — above ``SILENCE_DB`` dBFS
+ENERGY_PERCENTILES = (10, 95)
+MIN_SNR_DB = 10.0
+SILENCE_DB = -50.0
+LEVEL_SHARE = 0.25
 SILENCE_LABELS = frozenset({"sil", "silence", "pause", "noise", "nonspeech", "non-speech", "0"})
 
 
@@ -44,8 +52,8 @@ def runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
-def speaking_mask(audio: Audio, *, fps: float, n_frames: int | None = None, min_snr_db: float = 10.0,
-                  silence_db: float = -50.0, max_gap_s: float = 0.3, min_speech_s: float = 0.1,
+def speaking_mask(audio: Audio, *, fps: float, n_frames: int | None = None, min_snr_db: float = MIN_SNR_DB,
+                  silence_db: float = SILENCE_DB, max_gap_s: float = 0.3, min_speech_s: float = 0.1,
                   hangover_s: float = 0.05, use_voicing: bool = True, window_s: float = 0.025) -> np.ndarray:
     """True for frames where someone speaks.
 
@@ -76,10 +84,10 @@ def speaking_mask(audio: Audio, *, fps: float, n_frames: int | None = None, min_
     frames = frame_signal(audio.samples, sample_rate=audio.sample_rate, fps=fps, n_frames=n_frames,
                           win_length=win)
     e = log_energy_db(frames, np.hamming(win))
-    floor, level = np.percentile(e, 10), np.percentile(e, 95)
+    floor, level = np.percentile(e, ENERGY_PERCENTILES[0]), np.percentile(e, ENERGY_PERCENTILES[1])
     if level - floor < min_snr_db:
         return np.full(n_frames, bool(np.median(e) > silence_db))
-    thr = floor + max(min_snr_db, 0.25 * (level - floor))
+    thr = floor + max(min_snr_db, LEVEL_SHARE * (level - floor))
     mask = (e > thr) & (e > silence_db)
 
     # fill short pauses
