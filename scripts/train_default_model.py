@@ -161,7 +161,7 @@ def unseen_speech_check(model, speech_dir: Path, pooled_heads, *, samples: int =
     return hdr + body, rows
 
 
-def provenance(a, fit_s: float) -> str:
+def provenance(a, fit_s: float, changed: dict | None = None) -> str:
     """The card's provenance line.  A model loaded with ``--from-model`` keeps the provenance of the
     card beside it (when there is one), and the line adds when and from which commit this card was
     written; a model trained here gets a fresh line."""
@@ -174,7 +174,9 @@ def provenance(a, fit_s: float) -> str:
                if ln.startswith("* **Provenance**:")]
     if earlier:
         kept = earlier[0].split("; card rewritten")[0].rstrip(".")
-        return f"{kept}; card rewritten {now} from commit {git_commit()} (model unchanged) by {cmd}."
+        what = ("fitted arrays unchanged; set " + ", ".join(f"{k}={v}" for k, v in changed.items())
+                if changed else "model unchanged")
+        return f"{kept}; card rewritten {now} from commit {git_commit()} ({what}) by {cmd}."
     return f"* **Provenance**: trained before (no card beside it); card written {now} from commit {git_commit()} by {cmd}."
 
 
@@ -206,8 +208,8 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int, default=4)
     ap.add_argument("--note", default="", help="a paragraph for the card (why this system was chosen)")
     ap.add_argument("--from-model", type=Path, default=None,
-                    help="a model this script trained before (same corpus, system and settings): write it and its card "
-                         "without training again")
+                    help="a model this script trained before (same corpus and system): write it and its card without "
+                         "training again; --set changes settings that act at synthesis (the fitted arrays stay)")
     ap.add_argument("--skip-speech", default="video_retalking_1",
                     help="comma-separated stems of --speech files to leave out (their speech is in the corpus)")
     a = ap.parse_args(argv)
@@ -237,9 +239,14 @@ def main(argv=None) -> int:
         model = load_model(a.from_model)
         if model.name != a.system:
             raise SystemExit(f"{a.from_model} is a {model.name} model, not {a.system}")
+        changed = {k: v for k, v in params.items() if model.get_params().get(k) != v}
+        if changed:  # settings that act at synthesis: the fitted arrays stay as they were
+            model.set_params(**changed)
+            print(f"set {changed} on the loaded model")
         fit_s = float("nan")
         print(f"loaded {a.from_model} (trained before by this script)")
     else:
+        changed = {}
         model = create(a.system, **params).fit(corpus)
         fit_s = time.time() - t
         print(f"trained {a.system} in {fit_s:.0f} s")
@@ -277,7 +284,7 @@ def main(argv=None) -> int:
           + ("the head pose tracked in them (25 frames a second) and per-frame prosody of their speech (F0, energy, "
              "voicing): no audio or video." if a.system == "motion-match" else
              "the model learnt from poses estimated from them."),
-          provenance(a, fit_s), ""]
+          provenance(a, fit_s, changed), ""]
     if a.note:
         md += ["## Why this system\n", a.note, ""]
     if a.evaluation is not None:
@@ -293,8 +300,11 @@ def main(argv=None) -> int:
                "units of the training heads' SD; shares, L1 and H speed against the pooled training heads "
                f"(recorded heads: 1.5–4 Hz share ≈ 0.05, <0.5 Hz ≈ 0.7, SD 3–4°).\n", tab, ""]
     md += ["## Training recordings\n", table,
-           "Train on your own speaker (mocap or a talking video of that person) for speaker-specific motion: "
-           "`headmotion train CORPUS --system SYSTEM -o mine.hmz`.\n"]
+           ("Adapt it to your own speaker (half a minute or more of their speech with motion: mocap or a "
+            "talking video of that person): `headmotion adapt CORPUS -o mine.hmz`; or train a model on them alone: "
+            "`headmotion train CORPUS --system SYSTEM -o mine.hmz`.\n") if a.system == "motion-match" else
+           ("Train on your own speaker (mocap or a talking video of that person) for speaker-specific motion: "
+            "`headmotion train CORPUS --system SYSTEM -o mine.hmz`.\n")]
     card = a.output.with_suffix(".md")
     from headmotion.io.atomic import atomic_write_text
 

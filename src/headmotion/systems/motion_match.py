@@ -74,6 +74,8 @@ PROSODY = (("mfcc", {}, ("energy", "d_energy")), ("f0e", {"voicing": True}, ("lo
 MAX_STEP_DEG = 10.0
 #: the voicing column within PROSODY's columns
 VOICING = 5
+#: a hop is speech when at least this share of its frames is voiced (else a pause)
+SPEAKING_SHARE = 0.2
 #: the f0e-live prosody matched (the shipped models; ``live``), by name, and its settings: no
 #: smoothing or delta lookahead, so a frame is final 39 ms after its start at 16 kHz
 LIVE_NAMES = ("energy", "d_energy", "logf0", "d_logf0", "voiced")
@@ -86,6 +88,9 @@ SMOOTH = 5
 AMOUNT_LEAN = 0.5
 #: ``repeat_cost``: how long (seconds) a clip started is remembered
 REPEAT_S = 10.0
+#: ``wait_s``: the pause and repeat costs of a head that waits (docs/decisions/amount-and-adapt.md)
+WAIT_PAUSE_WEIGHT = 3.0
+WAIT_REPEAT_COST = 3.0
 
 
 def _smooth(x: np.ndarray, width: int, *, causal: bool = False) -> np.ndarray:
@@ -176,6 +181,11 @@ class MotionMatch(Synthesizer):
     repeat_cost : float, cost of starting a clip within a hop of one started in the last
         :data:`REPEAT_S` seconds: a take does not loop over the few movements that match a long
         silence or a small library (0: no memory)
+    wait_s : float, seconds; > 0: once the speech has paused this long, the head *waits*: a pause
+        prefers clips that hold more (``pause_weight`` :data:`WAIT_PAUSE_WEIGHT`) and avoids the
+        clips started lately (``repeat_cost`` at least :data:`WAIT_REPEAT_COST`) — slow drifts and
+        a posture shift now and then instead of one matched movement over and over; 0: pauses of
+        any length are treated alike
     base_cost : float, an adapted model (:mod:`headmotion.systems.adapt`): cost of a frame from the
         base library, not from the speaker's own recordings (0: no preference)
     prosody : str or None, the speech features matched: ``"f0e"`` (Praat F0, energy and voicing,
@@ -196,7 +206,7 @@ class MotionMatch(Synthesizer):
                  target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, goal_path: bool = True,
                  pause_switch: float = 0.0, pause_speed: bool = True, live: bool = False, lowpass: float = 0.0,
                  posture_s: float = 0.0, prosody: str | None = None, amount: float = 1.0,
-                 base_cost: float = 0.0, repeat_cost: float = 0.0, seed: int = 0):
+                 base_cost: float = 0.0, repeat_cost: float = 0.0, wait_s: float = 0.0, seed: int = 0):
         self.hop, self.context, self.lookahead, self.goal_path = hop, context, lookahead, goal_path
         self.lowpass, self.posture_s, self.prosody = lowpass, posture_s, prosody
         self.pause_switch, self.pause_speed = pause_switch, pause_speed
@@ -204,7 +214,7 @@ class MotionMatch(Synthesizer):
         self.speech_weight, self.pose_weight, self.velocity_weight = speech_weight, pose_weight, velocity_weight
         self.switch_cost, self.top_k, self.temperature, self.blend = switch_cost, top_k, temperature, blend
         self.mirror, self.seed, self.live = mirror, seed, live
-        self.amount, self.base_cost, self.repeat_cost = amount, base_cost, repeat_cost
+        self.amount, self.base_cost, self.repeat_cost, self.wait_s = amount, base_cost, repeat_cost, wait_s
 
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]
@@ -227,7 +237,7 @@ class MotionMatch(Synthesizer):
                 raise ParameterError(f"{self.name}: {name} must be a whole number >= {lo}; got {v!r}")
         for name in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "temperature",
                      "target_weight", "ridge", "pause_weight", "pause_switch", "lowpass", "posture_s",
-                     "base_cost", "repeat_cost"):
+                     "base_cost", "repeat_cost", "wait_s"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
                 raise ParameterError(f"{self.name}: {name} must be a number >= 0; got {v!r}")
@@ -392,7 +402,8 @@ class MotionMatch(Synthesizer):
 
     # -- synthesis -------------------------------------------------------------------------------
     def _costs(self, s: np.ndarray, pose: np.ndarray | None, vel: np.ndarray | None,
-               goal: np.ndarray | None = None, speaking: float = 1.0, only: int | None = None):
+               goal: np.ndarray | None = None, speaking: float = 1.0, only: int | None = None,
+               pause_weight: float | None = None):
         """The cost of starting a clip at every library frame (or at the frame ``only``, a float)
         for the speech descriptor ``s``, the next pose and velocity the motion is heading for,
         the pose ``goal`` at the goal steps (``(len(_goal_steps), 3)``) and whether the hop is
@@ -409,8 +420,9 @@ class MotionMatch(Synthesizer):
             ax = self._goal_axes
             step = ((goal - (pose if pose is not None else 0.0)) / self._pose_sd)[..., ax].astype(np.float32).ravel()
             c = c + float(self.target_weight) / len(step) * sq("G", step)
-        if self.pause_weight > 0 and speaking < 1.0:  # in a pause, clips that hold
-            c = c + float(self.pause_weight) * (1.0 - speaking) * (
+        pw = float(self.pause_weight if pause_weight is None else pause_weight)
+        if pw > 0 and speaking < 1.0:  # in a pause, clips that hold
+            c = c + pw * (1.0 - speaking) * (
                 t["Q2"][at] if self.pause_speed else t["A2"][at] / 3.0)
         if pose is not None:
             c = c + float(self.pose_weight) / 3.0 * sq("P", (pose / self._pose_sd).astype(np.float32))
@@ -471,7 +483,7 @@ class MotionMatch(Synthesizer):
         voiced = np.clip(feats[:, VOICING] * self.feat_std_[VOICING] + self.feat_mean_[VOICING], 0.0, 1.0)
         for t in range(0, T, H):
             goal = goals[np.minimum(t + self._goal_steps, T - 1)] if goals is not None else None
-            speaking = float(voiced[t:t + H].mean() >= 0.2)  # 0 in a pause
+            speaking = float(voiced[t:t + H].mean() >= SPEAKING_SHARE)  # 0 in a pause
             n = min(H, T - t)
             out[t:t + n] = walk.hop(desc[t], goal, speaking, n)
         return out
@@ -486,7 +498,7 @@ class MotionMatch(Synthesizer):
         goal = self.goals(desc[np.minimum(at + self._goal_steps, last)]) if self.target_weight > 0 else None
         v = self._voicing
         voiced = np.clip(window[at:at + int(self.hop), v] * self.feat_std_[v] + self.feat_mean_[v], 0.0, 1.0)
-        return desc[at], goal, float(voiced.mean() >= 0.2)
+        return desc[at], goal, float(voiced.mean() >= SPEAKING_SHARE)
 
     def live_inputs(self, past: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, float]:
         """``live``: a decision's speech descriptor, goal and pause test from the standardised
@@ -499,7 +511,7 @@ class MotionMatch(Synthesizer):
             goal = np.repeat(self.goals(desc[None]), len(self._goal_steps), axis=0)
         v = self._voicing
         voiced = np.clip(past[-int(self.hop):, v] * self.feat_std_[v] + self.feat_mean_[v], 0.0, 1.0)
-        return desc, goal, float(voiced.mean() >= 0.2)
+        return desc, goal, float(voiced.mean() >= SPEAKING_SHARE)
 
     def _prosody(self, audio: Audio, n: int) -> np.ndarray:
         """The raw prosody columns matched, ``(n, 6)`` at 25 fps (f0e-live: ``(n, 5)``)."""
@@ -572,6 +584,7 @@ class _Walk:
         self.x0, self.v0 = np.zeros(3), np.zeros(3)
         self.last = np.zeros((0, 3))
         self.recent: list[tuple[int, int]] = []  # (frame, library frame) of the clips started lately
+        self.quiet = 0  # frames the speech has paused so far
         self.lam = 4.0 / float(model.blend)
         #: > 0: the rate (per frame) at which a join's pose offset settles (``posture_s``)
         self.settle = 1.0 / (float(model.posture_s) * FPS) if model.posture_s else 0.0
@@ -583,26 +596,31 @@ class _Walk:
         if m.amount == 0:  # holds the mean pose
             self.t += n
             return np.zeros((n, 3))
+        # the head waits in a pause that has already lasted wait_s before this hop
+        waiting = m.wait_s > 0 and not speaking and self.quiet >= float(m.wait_s) * FPS
+        self.quiet = 0 if speaking else self.quiet + n  # frames of pause so far
+        pw = WAIT_PAUSE_WEIGHT if waiting else None
+        repeat = max(float(m.repeat_cost), WAIT_REPEAT_COST) if waiting else float(m.repeat_cost)
         if self.t == 0:
-            cost = m._costs(desc, None, None, goal, speaking)
+            cost = m._costs(desc, None, None, goal, speaking, pause_weight=pw)
         else:
             vel = self.last[-1] - self.last[-2] if len(self.last) >= 2 else np.zeros(3)
             ahead = self.last[-1] + vel
             switch = float(m.switch_cost) * (1.0 if speaking else float(m.pause_switch))
-            cost = m._costs(desc, ahead, vel, goal, speaking) + switch
+            cost = m._costs(desc, ahead, vel, goal, speaking, pause_weight=pw) + switch
             if 0 <= pos < len(cost) and pos + n <= m._end[pos - 1]:  # the clip playing goes on
-                cost[pos] = m._costs(desc, ahead, vel, goal, speaking, only=pos)
+                cost[pos] = m._costs(desc, ahead, vel, goal, speaking, only=pos, pause_weight=pw)
             base_pos = cost[pos] if 0 <= pos < len(cost) else np.inf
-        if m.repeat_cost > 0 and self.recent:  # clips started in the last REPEAT_S seconds cost more
+        if repeat > 0 and self.recent:  # clips started in the last REPEAT_S seconds cost more
             H = int(m.hop)
             cost = cost.copy()
             for _t0, j0 in self.recent:
                 lo, hi = max(0, j0 - H), j0 + H
-                cost[lo:hi] += float(m.repeat_cost)
+                cost[lo:hi] += repeat
             if 0 <= pos < len(cost) and pos + n <= m._end[pos - 1]:
                 cost[pos] = base_pos
         j = m._draw(cost, self.rng, distinct=self.t == 0)  # a take's first movement: from different clips
-        if m.repeat_cost > 0 and j != pos:
+        if (m.repeat_cost > 0 or m.wait_s > 0) and j != pos:
             self.recent = [(t0, j0) for t0, j0 in self.recent if self.t - t0 < REPEAT_S * FPS] + [(self.t, j)]
         if self.t > 0 and j != pos:  # a join: carry on from where the motion was going
             self.x0 = ahead - m._P[j]
