@@ -142,9 +142,8 @@ def load_model_file(path, *, expect_system: str | None = None) -> tuple[dict[str
             except FormatError as exc:
                 raise ModelFileError(str(exc)) from None
             check_config(config, path)
-            with zf.open(infos["arrays.npz"]) as fh:
-                arrays = load_npz_arrays(_Spool(fh, infos["arrays.npz"].file_size, path), path=path,
-                                         max_bytes=MAX_ARRAYS_BYTES, error=ModelFileError)
+            with zf.open(infos["arrays.npz"]) as fh, _Spool(fh, infos["arrays.npz"].file_size, path) as spool:
+                arrays = load_npz_arrays(spool, path=path, max_bytes=MAX_ARRAYS_BYTES, error=ModelFileError)
     except ModelFileError:
         raise
     except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError, UnicodeDecodeError,
@@ -169,21 +168,26 @@ def load_model_file(path, *, expect_system: str | None = None) -> tuple[dict[str
 
 def _Spool(fh, size: int, path=None):
     """The inner ``arrays.npz`` as a seekable file (zipfile needs to seek), read at most ``size``
-    bytes (its declared size, already bounded) into a spooled temporary file."""
+    bytes (its declared size, already bounded) into a spooled temporary file, which the caller
+    closes."""
     import tempfile
 
     tmp = tempfile.SpooledTemporaryFile(max_size=64 << 20)
-    left = size
-    while True:
-        chunk = fh.read(min(1 << 20, left + 1))
-        if not chunk:
-            break
-        left -= len(chunk)
-        if left < 0:
-            raise ModelFileError(f"{path}: arrays.npz holds more data than its declared size")
-        tmp.write(chunk)
+    try:
+        left = size
+        while True:
+            chunk = fh.read(min(1 << 20, left + 1))
+            if not chunk:
+                break
+            left -= len(chunk)
+            if left < 0:
+                raise ModelFileError(f"{path}: arrays.npz holds more data than its declared size")
+            tmp.write(chunk)
+    except BaseException:
+        tmp.close()
+        raise
     tmp.seek(0)
-    return tmp
+    return tmp  # the caller closes it (a context manager)
 
 
 __all__ = ["save_model_file", "load_model_file", "check_config", "CONFIG_SCHEMA"]
