@@ -32,6 +32,7 @@ import numpy as np
 
 from .errors import ParameterError
 from .motion.control import AMOUNT_RANGE
+from .seeds import DEFAULT_SEED, SEED_MAX, check_seed, model_seed
 from .shipped import ShippedModel, list_models, resolve_model_path
 from .types import Audio, Motion
 
@@ -42,11 +43,9 @@ DEFAULT_STREAM_MODEL = "stream"
 
 #: the ranges of the controls, checked here for every front end (the command line, Python,
 #: ``headmotion serve``'s HTTP and stream): gain per axis (0 holds the mean pose; a negative gain
-#: would mirror the motion and is refused), offset per axis in degrees, seeds (with ``samples=K``,
-#: ``seed + K - 1``) — the range of numpy's legacy seeds, which some systems use
+#: would mirror the motion and is refused), offset per axis in degrees; seeds: :mod:`headmotion.seeds`
 GAIN_RANGE = (0.0, 10.0)
 OFFSET_RANGE_DEG = (-90.0, 90.0)
-SEED_MAX = 2 ** 32 - 1
 
 
 def _triple(value, what: str, *, degrees: bool = False) -> tuple[float, float, float]:
@@ -254,16 +253,6 @@ def _with_amount(model, amount: float):
     return copy.copy(model).set_params(amount=amount)
 
 
-def check_seed(seed, samples: int = 1) -> None:
-    """Refuse a seed outside ``0 … SEED_MAX`` (with ``samples=K``: ``seed + K - 1`` at most
-    :data:`SEED_MAX`) and a sample count below 1 (:class:`ParameterError` with the range)."""
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise ParameterError(f"samples (--samples) must be a whole number >= 1; got {samples!r}")
-    top = SEED_MAX - (int(samples) - 1)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= top:
-        more = f" (seed + samples - 1 at most {SEED_MAX})" if samples > 1 else ""
-        raise ParameterError(f"seed (--seed) must be a whole number from 0 to {top}{more}; got {seed!r:.40}")
-
 
 
 def reads_in_blocks(model, audio) -> bool:
@@ -326,7 +315,7 @@ def apply_controls(motion: Motion, model, controls: Controls, reference=None) ->
     return motion
 
 
-def synthesize(audio, model=DEFAULT_MODEL, *, seed: int = 0, samples: int = 1, controls: Controls | None = None,
+def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: int = 1, controls: Controls | None = None,
                progress=None, **controls_kwargs) -> list[Motion]:
     """Head motion for speech: what ``headmotion synth`` writes.
 
@@ -336,8 +325,9 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int = 0, samples: int = 1, c
         The speech; a path to a long recording is read block by block in bounded memory.
     model : str, Path or Synthesizer
         A shipped name (``"default"``, ``"stream"``), a model file or a loaded model.
-    seed : int
-        Synthesis seed of the first sample; sample ``k`` uses ``seed + k``.
+    seed : int or None
+        Synthesis seed of the first sample; sample ``k`` uses ``seed + k``.  None: the model's own
+        ``seed`` parameter, or 0 (:mod:`headmotion.seeds`).
     samples : int
         How many different motions to make.
     controls : Controls, optional
@@ -352,8 +342,10 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int = 0, samples: int = 1, c
         ``samples`` motions, at ``controls.fps`` or the model's frame rate.
     """
     c = _controls(controls, controls_kwargs)
-    check_seed(seed, samples)
+    check_seed(seed, samples, allow_none=True)
     m = load_model(model)
+    seed = model_seed(m, seed)
+    check_seed(seed, samples)
     speech, duration, in_blocks = _speech(audio, m)
     reference = _style_reference(c)
     m = _with_amount(_with_stochastic(m, c.stochastic, samples), c.amount)
@@ -408,7 +400,7 @@ class SpeechStream:
         return apply_controls(motion, self.model, self.controls)
 
 
-def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int = 0, sample_rate: int | None = None,
+def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int | None = None, sample_rate: int | None = None,
                 controls: Controls | None = None, **controls_kwargs) -> SpeechStream:
     """A stream of head motion from speech pushed as it comes: what ``headmotion stream`` and the
     live page run.
@@ -417,8 +409,8 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int = 0, sample_rate: int |
     ----------
     model : str, Path or Synthesizer
         A model that streams: a shipped name (``"stream"``, the default), a file or a loaded model.
-    seed : int
-        Synthesis seed.
+    seed : int or None
+        Synthesis seed (None: the model's own ``seed`` parameter, or 0).
     sample_rate : int, optional
         Rate of the samples to be pushed (default: the model's); other rates are resampled on
         the stream.
@@ -432,8 +424,10 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int = 0, sample_rate: int |
         ``push(samples) -> Motion`` (the frames now final, maybe none), ``flush() -> Motion``.
     """
     c = _controls(controls, controls_kwargs)
-    check_seed(seed)
+    check_seed(seed, allow_none=True)
     m = load_model(model)
+    seed = model_seed(m, seed)
+    check_seed(seed)
     if c.style_from is not None:
         raise ParameterError("style_from needs the whole recording: use synthesize, not a stream")
     if c.fps is not None and c.fps != float(m.frame_rate):
@@ -447,6 +441,6 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int = 0, sample_rate: int |
     return SpeechStream(m, inner, c, int(m.sample_rate) if sample_rate is None else int(sample_rate))
 
 
-__all__ = ["AMOUNT_RANGE", "DEFAULT_MODEL", "DEFAULT_STREAM_MODEL", "GAIN_RANGE", "OFFSET_RANGE_DEG", "SEED_MAX", "check_seed",
+__all__ = ["AMOUNT_RANGE", "DEFAULT_MODEL", "DEFAULT_SEED", "DEFAULT_STREAM_MODEL", "GAIN_RANGE", "OFFSET_RANGE_DEG", "SEED_MAX", "check_seed",
            "Controls", "ShippedModel", "SpeechStream", "apply_controls",
            "list_models", "load_model", "open_stream", "reads_in_blocks", "synthesize"]

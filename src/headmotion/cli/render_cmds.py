@@ -86,7 +86,7 @@ def view(
                               "drives the model through a WebSocket, the head moves as you speak"),
     model: Optional[str] = typer.Option(None, "-m", "--model", metavar="NAME|FILE", help="--live: a model that streams, by shipped "
                                         "name or file (default: the shipped 'stream')"),
-    seed: int = typer.Option(0, "--seed", min=0, help="--live: random seed of the stream"),
+    seed: Optional[int] = typer.Option(None, "--seed", min=0, help="--live: synthesis seed of the stream (default: the model's own)"),
 ):
     """Serve a local page that plays the speech and animates the head(s) in sync (or, with --live,
     moves the head from the microphone or an audio file as it plays)."""

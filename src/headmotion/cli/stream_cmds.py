@@ -38,7 +38,7 @@ def stream(
     no_json: bool = typer.Option(False, "--no-json", help="Do not write JSON lines on stdout."),
     neck_share: Optional[float] = typer.Option(None, "--neck-share", help="VMC: share of the rotation on the Neck "
                                                "bone (default 0.93, as the BVH/glTF writers)."),
-    seed: int = typer.Option(0, "--seed", min=0),
+    seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Synthesis seed (default: the model's own)."),
     amount: float = typer.Option(1.0, "--amount", help="How much the head moves, 0 to 3 (see synth --amount)."),
     gain: Optional[str] = typer.Option(None, "--gain", help="G or P,Y,R (see synth --gain)."),
     offset: Optional[str] = typer.Option(None, "--offset", help="Degrees, D or P,Y,R (see synth --offset)."),

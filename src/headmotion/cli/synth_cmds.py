@@ -102,7 +102,9 @@ def synth(
     model: Optional[str] = typer.Option(None, "-m", "--model", metavar="NAME|FILE", help="A shipped model by name ('default', the "
                                         "default; 'stream', the causal one; `headmotion models` lists them) "
                                         "or a model file."),
-    seed: int = typer.Option(0, "--seed", min=0, help="Random seed (stochastic modes, --samples)."),
+    seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Synthesis seed: the same seed, the same "
+                                        "motion; sample k of --samples uses seed + k (default: the model's own, 0 "
+                                        "for the shipped models)."),
     amount: float = typer.Option(1.0, "--amount", help="How much the head moves, 0 to 3: 1 = natural, 2 = "
                                  "animated (larger, faster recorded movements, more of them), 0.5 = calm, 0 = "
                                  "still. Each movement stays a recorded one (motion-matching models)."),
@@ -141,6 +143,7 @@ def synth(
     the reference's when styled, else the model's) → --still replaces everything but the offset →
     --fps."""
     from ..io import load_audio, save_motion
+    from ..seeds import model_seed
     from ..synthesis import Controls, reads_in_blocks, synthesize
 
     if samples < 1:
@@ -172,6 +175,6 @@ def synth(
         except ImportError as exc:
             raise ParameterError(f"--video needs headmotion.render, which is not available here ({exc})") from exc
         render_samples(motions, video, audio=load_audio(speech),
-                       seeds=[seed + k for k in range(samples)] if samples > 1 else None,
+                       seeds=[model_seed(m, seed) + k for k in range(samples)] if samples > 1 else None,
                        labels=None if samples > 1 else [m.name])
         console.print(f"video → {video}")

@@ -185,7 +185,7 @@ def open_outputs(*, json_stream=None, vmc: str | None = None, websocket: str | N
 
 def stream_live(model, *, input: str = "-", sample_rate: int | None = None, realtime: bool = False,
                 device=None, chunk_ms: float = 10.0, json_stream=None, vmc: str | None = None,
-                websocket: str | None = None, neck_share: float | None = None, seed: int = 0,
+                websocket: str | None = None, neck_share: float | None = None, seed: int | None = None,
                 controls=None, stdin=None, max_seconds: float | None = None,
                 on_message=_stderr, sd=None) -> dict:
     """Everything ``headmotion stream`` does, as one call: open the input (``"-"`` PCM on

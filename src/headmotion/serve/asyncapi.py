@@ -38,7 +38,8 @@ def start_schema() -> dict:
             "sample_rate": {"type": ["integer", "null"], "minimum": 8000, "maximum": 192000,
                             "description": "Rate of the audio sent (default: the model's)."},
             "encoding": {"enum": sorted(ENCODINGS), "default": "s16le"},
-            "seed": {"type": "integer", "minimum": 0, "maximum": SEED_MAX, "default": 0},
+            "seed": {"type": ["integer", "null"], "minimum": 0, "maximum": SEED_MAX, "default": None,
+                     "description": "Synthesis seed (default: the model's own, 0 for the shipped models)."},
             "frames": {"enum": ["json", "binary"], "default": "json"},
             "amount": {"type": "number", "minimum": AMOUNT_RANGE[0], "maximum": AMOUNT_RANGE[1], "default": 1,
                        "description": "How much the head moves: 1 natural, 2 animated, 0.5 calm, 0 still (the "

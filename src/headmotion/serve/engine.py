@@ -87,7 +87,7 @@ def card(name: str, model, path: Path) -> dict:
             "card": summary}
 
 
-def synthesize(model, audio: Audio, *, seed: int = 0, samples: int = 1,
+def synthesize(model, audio: Audio, *, seed: int | None = None, samples: int = 1,
                controls: Controls = Controls()) -> list[Motion]:
     """``samples`` motions for ``audio`` (sample k with seed ``seed + k``) from
     :func:`headmotion.synthesis.synthesize`, the controls applied as ``headmotion synth`` applies them."""
@@ -96,7 +96,7 @@ def synthesize(model, audio: Audio, *, seed: int = 0, samples: int = 1,
     return synthesis.synthesize(audio, model, seed=seed, samples=int(samples), controls=controls)
 
 
-def open_stream(model, *, seed: int = 0, controls: Controls = Controls()):
+def open_stream(model, *, seed: int | None = None, controls: Controls = Controls()):
     """A fresh stream of ``model`` (:func:`headmotion.synthesis.open_stream`): ``push(float32
     samples at model.sample_rate) -> Motion`` of the frames now final, ``flush() -> Motion`` of the
     rest; ``latency_ms`` its lookahead.  Frames come at the model's rate (``controls.fps`` applies

@@ -144,7 +144,8 @@ def encode_motions(motions, fmt: str) -> tuple[bytes, str]:
 async def motion(
     request: Request,
     model: Optional[str] = Query(None, description="Model name (GET /v1/models); default 'default'."),
-    seed: int = Query(0, description=f"Synthesis seed, 0 to {SEED_MAX}; sample k uses seed + k."),
+    seed: Optional[int] = Query(None, description=f"Synthesis seed, 0 to {SEED_MAX}; sample k uses seed + k "
+                                                  "(default: the model's own, 0 for the shipped models)."),
     samples: int = Query(1, ge=1, le=engine.MAX_SAMPLES, description="Number of samples."),
     amount: Optional[float] = Query(None, description=f"How much the head moves, {AMOUNT_RANGE[0]:g} to "
                                     f"{AMOUNT_RANGE[1]:g}: 1 natural (default), 2 animated, 0.5 calm, 0 still; "
@@ -172,7 +173,7 @@ async def motion(
         controls = engine.Controls.parse(gain=gain, offset_deg=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
                                          offset_pyr_deg=(offset_pitch, offset_yaw, offset_roll), still=still, fps=fps,
                                          amount=amount)
-        engine.check_seed(seed, samples)
+        engine.check_seed(seed, samples, allow_none=True)
     except ParameterError as exc:
         raise ApiError(400, "bad_parameter", str(exc)) from None
     name, m = st.registry.get(model, default=engine.DEFAULT_OFFLINE)

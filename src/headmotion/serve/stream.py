@@ -73,7 +73,7 @@ class Start:
     model: str | None
     sample_rate: int | None
     encoding: str
-    seed: int
+    seed: int | None
     frames: str
     controls: engine.Controls
     api_key: str | None
@@ -105,9 +105,9 @@ def parse_start(text: str | None) -> Start:
     enc = obj.get("encoding", "s16le")
     if not isinstance(enc, str) or enc not in ENCODINGS:
         raise bad(f"encoding must be one of {sorted(ENCODINGS)}; got {enc!r:.40}")
-    seed = _whole(obj.get("seed", 0))
+    seed = _whole(obj.get("seed"))
     try:
-        engine.check_seed(seed)
+        engine.check_seed(seed, allow_none=True)
     except HeadMotionError as exc:
         raise bad(str(exc).replace(" (--seed)", "")) from None
     resample = obj.get("resample", "exact")

@@ -60,6 +60,7 @@ from ..errors import ModelFileError, NotFittedError, ParameterError
 from ..models.serialization import load_model_file, save_model_file
 from ..motion.control import apply_gain, as_triple, is_identity
 from ..registry import SYSTEMS  # the table lives below the systems: shipped.py reads it too
+from ..seeds import check_seed
 from ..types import Audio, Motion
 
 #: capability names
@@ -196,7 +197,7 @@ class Synthesizer(ABC):
         if not isinstance(audio, Audio):
             raise ParameterError(f"{self.name}.predict expects an Audio; got {type(audio).__name__}")
         as_triple(gain, "gain"), as_triple(offset, "offset")
-        check_seed(seed)
+        check_seed(seed, allow_none=True)
         self._validate_params()
         motion = self._predict(audio, seed=self._synthesis_seed(seed))
         return apply_gain(motion, self.mean_pose_, gain, offset)
@@ -226,7 +227,7 @@ class Synthesizer(ABC):
                                  f"streaming capability)")
         self._check_fitted()
         as_triple(gain, "gain"), as_triple(offset, "offset")
-        check_seed(seed)
+        check_seed(seed, allow_none=True)
         self._validate_params()
         return _GainedStream(self._stream(seed=self._synthesis_seed(seed)), self.mean_pose_, gain, offset)
 
@@ -304,15 +305,6 @@ def pair_shortest(predicted, motions) -> tuple[list[np.ndarray], list[np.ndarray
         pred.append(x[:n])
         targ.append(m[:n])
     return pred, targ
-
-
-def check_seed(seed) -> None:
-    """A synthesis seed must be None or a whole number >= 0 (numpy's generators refuse the rest
-    with a bare ValueError)."""
-    if seed is None:
-        return
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ParameterError(f"the synthesis seed must be a whole number >= 0; got {seed!r}")
 
 
 def cross_fit_groups(recs, *, by_speaker: bool = False) -> np.ndarray:

@@ -29,7 +29,7 @@ from ..errors import ParameterError
 from .server import STATIC
 
 
-def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
+def create_live_app(model, *, seed: int | None = None, model_path: str | None = None):
     """FastAPI app serving the live page and its WebSocket for a loaded causal model."""
     from fastapi import FastAPI, WebSocketDisconnect
     from fastapi.responses import FileResponse
@@ -96,7 +96,7 @@ def create_live_app(model, *, seed: int = 0, model_path: str | None = None):
 
 
 @contextlib.contextmanager
-def running_live_server(model, *, host: str = "127.0.0.1", port: int = 0, seed: int = 0,
+def running_live_server(model, *, host: str = "127.0.0.1", port: int = 0, seed: int | None = None,
                         model_path: str | None = None):
     """Run the live server in a background thread; yields its base URL."""
     from .server import running_app
@@ -106,7 +106,7 @@ def running_live_server(model, *, host: str = "127.0.0.1", port: int = 0, seed: 
         yield url
 
 
-def serve_live(model, *, host: str = "127.0.0.1", port: int = 8765, seed: int = 0, model_path=None,
+def serve_live(model, *, host: str = "127.0.0.1", port: int = 8765, seed: int | None = None, model_path=None,
                open_browser: bool = True, announce=print):
     """Serve the live page until interrupted (``headmotion view --live``)."""
     from .server import wait_until_interrupted
