@@ -82,5 +82,5 @@ def test_a_model_that_does_not_choose_movements_refuses_an_amount(corpus):
 
 def test_the_model_parameter_is_checked_too(model):
     m = create("motion-match", amount=7)
-    with pytest.raises(ParameterError, match="amount must be a number from 0 to 3"):
+    with pytest.raises(ParameterError, match="'amount' parameter of motion-match must be a number from 0 to 3"):
         m._validate_params()

@@ -210,7 +210,7 @@ def test_parameters_and_unfitted():
     audio = Audio(np.zeros(SR, np.float32), SR)
     with pytest.raises(NotFittedError):
         create("cccae").predict(audio)
-    with pytest.raises(ParameterError, match="'embedding_dim' parameter of cccae must be an int >= 1"):
+    with pytest.raises(ParameterError, match="'embedding_dim' parameter of cccae must be a whole number >= 1"):
         CccaeSystem(embedding_dim=0).fit(Corpus([]))
     with pytest.raises(ParameterError, match="alpha"):
         CccaeSystem(alpha=-1.0).fit(Corpus([]))

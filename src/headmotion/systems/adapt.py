@@ -32,8 +32,9 @@ import numpy as np
 from ..align import n_frames as _n_frames
 from ..errors import ParameterError
 from ..motion.angles import centred_degrees
-from ..motion.control import mean_pose_of
+from ..motion.control import AMOUNT_RANGE, mean_pose_of
 from .base import Synthesizer
+from .constraints import check_params, real, whole
 from .motion_match import FPS, MotionMatch, clean_clips, clip_starts
 
 #: the cost a frame of the base library pays over one of the speaker's (docs/decisions/adapt.md)
@@ -192,12 +193,15 @@ class Adapt(Synthesizer):
         """The adapted model's (its base's)."""
         return self.model_.capabilities if self.is_fitted else frozenset()
 
+    #: what each parameter may be (:mod:`.constraints`; ``base``: a shipped name or a file)
+    _parameter_constraints: ClassVar[dict] = {"base_cost": [real(0)], "min_speech_s": [real(0)],
+                                              "amount": [real(*AMOUNT_RANGE)], "seed": [whole(0)]}
+
     def _validate_params(self) -> None:
         if not isinstance(self.base, (str, os.PathLike)):
-            raise ParameterError(f"adapt: base must be a shipped model name or a model file; got {self.base!r}")
-        v = self.min_speech_s
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
-            raise ParameterError(f"adapt: min_speech_s must be a number >= 0; got {v!r}")
+            raise ParameterError(f"the 'base' parameter of adapt must be a shipped model name or a model file; "
+                                 f"got {self.base!r}")
+        check_params(self, self._parameter_constraints)
 
     def fit(self, corpus, *, progress=None) -> "Adapt":
         self._validate_params()

@@ -46,6 +46,7 @@ from ..motion.control import mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec
 from ..types import Audio, Motion
 from .base import Synthesizer
+from .constraints import Options, check_params, real, whole
 
 FPS = 25.0
 #: the speech features: (feature set, extractor parameters, columns kept)
@@ -191,34 +192,22 @@ class MotionFlow(Synthesizer):
         self.random_state, self.seed, self.n_threads = random_state, seed, n_threads
 
     # -- parameters ------------------------------------------------------------------------------
-    def _validate_params(self) -> None:
-        def whole(name, lo):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-                raise ParameterError(f"{self.name}: {name} must be a whole number >= {lo}; got {v!r}")
+    #: what each parameter may be (:mod:`.constraints`)
+    _parameter_constraints: ClassVar[dict] = {
+        "window": [whole(8)], "prefix": [whole(1)], "hidden": [whole(8)],
+        **{k: [whole(1)] for k in ("n_blocks", "sampling_steps", "train_steps", "batch_size", "eval_every")},
+        **{k: [whole(0)] for k in ("random_state", "join_frames", "seed")},
+        "cond_dropout": [real(0.0, 1.0, closed="left")], "valid_share": [real(0.0, 0.9, closed="left")],
+        "guidance": [real(0)], "smooth_weight": [real(0)], "learning_rate": [real(0, closed="neither")],
+        "target": [Options(TARGETS)], "inpaint": [Options(INPAINT)], "device": [Options(tuple(DEVICES))],
+        "n_threads": [whole(1), None],
+    }
 
-        for name, lo in (("window", 8), ("prefix", 1), ("hidden", 8), ("n_blocks", 1), ("sampling_steps", 1),
-                         ("train_steps", 1), ("batch_size", 1), ("eval_every", 1), ("random_state", 0), ("join_frames", 0),
-                         ("seed", 0)):
-            whole(name, lo)
+    def _validate_params(self) -> None:
+        check_params(self, self._parameter_constraints)
         if self.prefix >= self.window // 2:
-            raise ParameterError(f"{self.name}: prefix must be below half the window ({self.window}); got {self.prefix}")
-        for name, lo, hi in (("cond_dropout", 0.0, 1.0), ("valid_share", 0.0, 0.9)):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not lo <= v < hi:
-                raise ParameterError(f"{self.name}: {name} must be in [{lo}, {hi}); got {v!r}")
-        for name in ("guidance", "learning_rate", "smooth_weight"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0 or (name == "learning_rate" and v == 0):
-                raise ParameterError(f"{self.name}: {name} must be a number >= 0 (learning_rate > 0); got {v!r}")
-        if self.target not in TARGETS:
-            raise ParameterError(f"{self.name}: target must be one of {list(TARGETS)}; got {self.target!r}")
-        if self.inpaint not in INPAINT:
-            raise ParameterError(f"{self.name}: inpaint must be one of {list(INPAINT)}; got {self.inpaint!r}")
-        if self.device not in DEVICES:
-            raise ParameterError(f"{self.name}: device must be one of {list(DEVICES)}; got {self.device!r}")
-        if self.n_threads is not None:
-            whole("n_threads", 1)
+            raise ParameterError(f"the 'prefix' parameter of {self.name} must be below half the window "
+                                 f"({self.window}); got {self.prefix}")
 
     # -- fitting ---------------------------------------------------------------------------------
     def fit(self, corpus, *, progress=None) -> "MotionFlow":

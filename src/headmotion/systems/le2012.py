@@ -53,6 +53,8 @@ frame is ~100× slower.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
 from ..errors import ParameterError
@@ -63,6 +65,7 @@ from ..rotations import rotvec_to_pitch_yaw_roll
 from ..types import Audio, Motion
 from .base import CAUSAL, Synthesizer, cross_fitted, pair_shortest
 from .budget import DEFAULT_TRAIN_HOURS, check_hours, corpus_summary
+from .constraints import BOOLEAN, Options, check_params, real, whole
 from .tws.features import make_feature_config
 from .tws.generator import LIVE_FEATURES
 
@@ -160,29 +163,17 @@ class Le2012(Synthesizer):
         self.seed = seed
         self.max_train_hours = max_train_hours
 
+    #: what each parameter may be (:mod:`.constraints`; ``max_train_hours``: :func:`.budget.check_hours`)
+    _parameter_constraints: ClassVar[dict] = {
+        **{k: [whole(1)] for k in ("n_components", "n_steps", "max_train_frames")},
+        "step": [real(0, closed="neither")], "pull_tau_s": [real(0), None], "start_sd": [real(0)],
+        "idle": [Options(("auto",)), None, real(0, 1)],
+        "cross_fit": [BOOLEAN], "post_restore": [BOOLEAN], "fps": [real(0, closed="neither"), None],
+    }
+
     def _validate_params(self) -> None:
         check_hours(self)
-        for k in ("n_components", "n_steps", "max_train_frames"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise ParameterError(f"the {k!r} parameter of le2012 must be a whole number >= 1; got {v!r}")
-        if not (isinstance(self.step, (int, float)) and self.step > 0):
-            raise ParameterError(f"the 'step' parameter of le2012 must be a positive number; got {self.step!r}")
-        v = self.pull_tau_s
-        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or v < 0):
-            raise ParameterError(f"the 'pull_tau_s' parameter of le2012 must be None or a number >= 0 (s); got {v!r}")
-        v = self.start_sd
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
-            raise ParameterError(f"the 'start_sd' parameter of le2012 must be a number >= 0; got {v!r}")
-        v = self.idle
-        if v is not None and v != "auto" and (isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v <= 1):
-            raise ParameterError(f"the 'idle' parameter of le2012 must be 'auto', None or a number in [0, 1]; got {v!r}")
-        if not isinstance(self.cross_fit, (bool, np.bool_)):
-            raise ParameterError(f"the 'cross_fit' parameter of le2012 must be True or False; got {self.cross_fit!r}")
-        if not isinstance(self.post_restore, (bool, np.bool_)):
-            raise ParameterError(f"the 'post_restore' parameter of le2012 must be True or False; got {self.post_restore!r}")
-        if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
-            raise ParameterError(f"the 'fps' parameter of le2012 must be a positive number or None; got {self.fps!r}")
+        check_params(self, self._parameter_constraints)
 
     def _config(self):
         return make_feature_config(self.features, self.fps_)

@@ -64,6 +64,7 @@ from ..motion.control import AMOUNT_RANGE, mean_pose_of
 from ..rotations import pitch_yaw_roll_to_rotvec
 from ..types import Audio, Motion
 from .base import CAUSAL, STREAMING, Synthesizer
+from .constraints import BOOLEAN, Options, check_params, real, whole
 
 #: frames per second of the library and the output
 FPS = 25.0
@@ -230,34 +231,27 @@ class MotionMatch(Synthesizer):
         """The prosody is f0e-live (computed frame by frame), not the whole-file f0e."""
         return bool(self.live) or self.prosody == "f0e-live"
     # -- parameters ------------------------------------------------------------------------------
+    #: what each parameter may be (:mod:`.constraints`)
+    _parameter_constraints: ClassVar[dict] = {
+        **{k: [whole(1)] for k in ("hop", "top_k", "blend")},
+        **{k: [whole(0)] for k in ("context", "lookahead", "seed")},
+        **{k: [real(0)] for k in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "target_weight",
+                                  "ridge", "pause_weight", "pause_switch", "lowpass", "posture_s", "base_cost",
+                                  "repeat_cost", "wait_s")},
+        "temperature": [real(0, closed="neither")],
+        "amount": [real(*AMOUNT_RANGE)],
+        "prosody": [Options(("f0e", "f0e-live")), None],
+        **{k: [BOOLEAN] for k in ("mirror", "goal_path", "pause_speed", "live")},
+    }
+
     def _validate_params(self) -> None:
-        for name, lo in (("hop", 1), ("context", 0), ("lookahead", 0), ("top_k", 1), ("blend", 1), ("seed", 0)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-                raise ParameterError(f"{self.name}: {name} must be a whole number >= {lo}; got {v!r}")
-        for name in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "temperature",
-                     "target_weight", "ridge", "pause_weight", "pause_switch", "lowpass", "posture_s",
-                     "base_cost", "repeat_cost", "wait_s"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
-                raise ParameterError(f"{self.name}: {name} must be a number >= 0; got {v!r}")
-        if self.prosody not in (None, "f0e", "f0e-live"):
-            raise ParameterError(f"{self.name}: prosody must be 'f0e' or 'f0e-live'; got {self.prosody!r}")
+        check_params(self, self._parameter_constraints)
         if self.live and self.prosody == "f0e":
-            raise ParameterError(f"{self.name}: live needs prosody 'f0e-live' (Praat's f0e reads the whole file)")
+            raise ParameterError(f"the 'live' parameter of {self.name} needs prosody 'f0e-live' (Praat's f0e reads "
+                                 "the whole file)")
         if self.lowpass and not 0.5 <= self.lowpass < FPS / 2:
-            raise ParameterError(f"{self.name}: lowpass must be 0 (off) or in [0.5, {FPS / 2:g}) Hz; got {self.lowpass!r}")
-        a = self.amount
-        if isinstance(a, bool) or not isinstance(a, (int, float, np.integer, np.floating)) \
-                or not AMOUNT_RANGE[0] <= a <= AMOUNT_RANGE[1]:
-            raise ParameterError(f"{self.name}: amount must be a number from {AMOUNT_RANGE[0]:g} to "
-                                 f"{AMOUNT_RANGE[1]:g}; got {a!r}")
-        if self.temperature == 0:
-            raise ParameterError(f"{self.name}: temperature must be > 0; got {self.temperature!r}")
-        for name in ("mirror", "goal_path", "pause_speed", "live"):
-            v = getattr(self, name)
-            if not isinstance(v, (bool, np.bool_)):
-                raise ParameterError(f"{self.name}: {name} must be true or false; got {v!r}")
+            raise ParameterError(f"the 'lowpass' parameter of {self.name} must be 0 (off) or in [0.5, {FPS / 2:g}) Hz; "
+                                 f"got {self.lowpass!r}")
 
     @property
     def _goal_steps(self) -> np.ndarray:

@@ -47,6 +47,8 @@ load with it off.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
 from ...align import n_frames as _n_frames
@@ -62,6 +64,7 @@ from ...rotations import rotvec_to_pitch_yaw_roll
 from ...types import Audio, Motion
 from ..budget import check_hours
 from ..base import CAUSAL, Synthesizer, check_stochastic, cross_fitted, pair_shortest
+from ..constraints import BOOLEAN, Options, check_params, real, whole
 from .features import extract_blocked, make_feature_config
 from .generator import LIVE_FEATURES, Generator, TwsStream
 from .limits import Limits
@@ -81,31 +84,21 @@ class TwsBase(Synthesizer):
     #: the values of ``method``: how (d, a) is taken from the conditional distribution
     METHODS = ("ml", "mmse", "sample")
 
+    #: what each parameter may be (:mod:`..constraints`; ``stochastic``: :func:`..base.check_stochastic`,
+    #: ``max_train_hours``: :func:`..budget.check_hours`)
+    _parameter_constraints: ClassVar[dict] = {
+        "feature_block": [whole(1)], "feature_context": [whole(0)],
+        "min_swing_deg": [real(0, 90, closed="left")], "idle": [real(0, 1)],
+        **{k: [BOOLEAN] for k in ("log_params", "speed_shaping", "slow_band_restore", "amplitude_match", "cross_fit",
+                                  "soft_limit")},
+        "fps": [real(0, closed="neither"), None],
+    }
+
     def _validate_params(self) -> None:
-        if self.method not in self.METHODS:
-            raise ParameterError(f"the 'method' parameter of {self.name} must be one of {list(self.METHODS)}; "
-                                 f"got {self.method!r}")
+        check_params(self, {"method": [Options(tuple(self.METHODS))]})
         check_stochastic(self.stochastic, self.name)
-        for k in ("feature_block", "feature_context"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (1 if k == "feature_block" else 0):
-                raise ParameterError(f"the {k!r} parameter of {self.name} must be a whole number "
-                                     f"{'>= 1' if k == 'feature_block' else '>= 0'}; got {v!r}")
-        ms = self.min_swing_deg
-        if isinstance(ms, bool) or not isinstance(ms, (int, float, np.integer, np.floating)) or not 0 <= ms < 90:
-            raise ParameterError(f"the 'min_swing_deg' parameter of {self.name} must be a number of degrees "
-                                 f">= 0 (0 = the thesis's segmentation); got {ms!r}")
-        idle = self.idle
-        if isinstance(idle, bool) or not isinstance(idle, (int, float, np.integer, np.floating)) or not 0 <= idle <= 1:
-            raise ParameterError(f"the 'idle' parameter of {self.name} must be in [0, 1] (speed in pauses as a "
-                                 f"fraction of speech; 1 = no settling); got {idle!r}")
-        for k in ("log_params", "speed_shaping", "slow_band_restore", "amplitude_match", "cross_fit", "soft_limit"):
-            if not isinstance(getattr(self, k), (bool, np.bool_)):
-                raise ParameterError(f"the {k!r} parameter of {self.name} must be True or False; "
-                                     f"got {getattr(self, k)!r}")
+        check_params(self, self._parameter_constraints)
         check_hours(self)
-        if self.fps is not None and not (isinstance(self.fps, (int, float)) and self.fps > 0):
-            raise ParameterError(f"the 'fps' parameter of {self.name} must be a positive number or None; got {self.fps!r}")
 
     #: smallest amplitude (radians) taken to log space with ``log_params`` (0.006°)
     _LOG_FLOOR = 1e-4

@@ -50,6 +50,7 @@ from ...errors import ParameterError
 from ...models.gmm import GMMRegression
 from ...models.hmm import ErgodicLM, HMMBank, LeftToRightHMM
 from ..budget import DEFAULT_TRAIN_HOURS
+from ..constraints import check_params, whole
 from .base import TwsBase
 from .vectors import CONTEXT, MAX_HMM_FRAMES, collect, context_frames
 
@@ -180,9 +181,7 @@ class TwsHier(TwsBase):
 
     def _validate_params(self) -> None:
         super()._validate_params()
-        n = self.n_clusters
-        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
-            raise ParameterError(f"n_clusters must be a positive int or None (G-means); got {n!r}")
+        check_params(self, {"n_clusters": [whole(1), None]})  # None: G-means finds the number
 
     # -- vectors ----------------------------------------------------------------------------
     @staticmethod
