@@ -12,6 +12,7 @@ from serve_helpers import WS, client, read_until_close, start
 
 from headmotion.errors import ParameterError
 from headmotion.serve import engine
+from headmotion.synthesis import Controls
 
 
 def test_models_folder(tmp_path):
@@ -55,9 +56,10 @@ def test_readyz_says_why_loading_failed(tmp_path):
 
 
 def test_controls_parse():
-    c = engine.Controls.parse(gain="1.2", offset_deg="0,10,0", gain_pyr=(None, 0.5, None), still=False, fps=25)
+    c = engine.Controls.parse(gain="1.2", offset_degrees="0,10,0", gain_pyr=(None, 0.5, None), still=False, fps=25)
+    assert engine.Controls is Controls  # one class for every front end
     assert c.gain == (1.2, 0.5, 1.2) and np.allclose(c.offset, (0, np.radians(10), 0)) and c.fps == 25.0
-    for bad in ({"gain": "a"}, {"gain": "1,2"}, {"fps": 0}, {"offset_deg": [1, 2]}):
+    for bad in ({"gain": "a"}, {"gain": "1,2"}, {"fps": 0}, {"fps": 1001}, {"offset_degrees": [1, 2]}):
         with pytest.raises(ParameterError):
             engine.Controls.parse(**bad)
 

@@ -64,7 +64,8 @@ def test_controls_parse_known_answers_and_errors():
     assert Controls(gain="0.5").gain == (0.5, 0.5, 0.5) and not Controls().moves_pose
     for bad, match in [({"gain": "1,2"}, "one number or three"), ({"gain": "x"}, "comma-separated"),
                        ({"gain": float("nan")}, "finite"), ({"style_strength": 2}, "between 0 and 1"),
-                       ({"fps": 0}, "positive"), ({"offset": 1, "offset_degrees": 1}, "not both"),
+                       ({"fps": 0}, "between 1 and 1000"), ({"fps": 1500}, "between 1 and 1000"),
+                       ({"offset": 1, "offset_degrees": 1}, "not both"),
                        ({"style_from": 3}, "file path or a Motion")]:
         with pytest.raises(ParameterError, match=match):
             Controls.parse(**bad)

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ParameterError
+from .io._limits import FPS_RANGE
 from .motion.control import AMOUNT_RANGE
 from .seeds import DEFAULT_SEED, SEED_MAX, check_seed, model_seed
 from .shipped import ShippedModel, list_models, resolve_model_path
@@ -108,7 +109,7 @@ class Controls:
     style_keep_pose : bool
         Keep the model's mean pose (take only amplitude and spectral balance from the reference).
     fps : float or None
-        Output frame rate (None: the model's).
+        Output frame rate, within :data:`FPS_RANGE` (None: the model's).
     stochastic : str or None
         What the model samples (``none``, ``choice``, ``params``, ``both``; None: the model's
         setting), validated by the model.
@@ -145,8 +146,9 @@ class Controls:
         if self.fps is not None:
             f = self.fps
             if isinstance(f, bool) or not isinstance(f, (int, float, np.floating, np.integer)) \
-                    or not math.isfinite(f) or f <= 0:
-                raise ParameterError(f"fps (--fps) must be a positive number; got {f!r}")
+                    or not math.isfinite(f) or not FPS_RANGE[0] <= f <= FPS_RANGE[1]:
+                raise ParameterError(f"fps (--fps) must be between {FPS_RANGE[0]:g} and {FPS_RANGE[1]:g} frames per "
+                                     f"second; got {f!r}")
             set_(self, "fps", float(f))
         if self.stochastic is not None and not isinstance(self.stochastic, str):
             raise ParameterError(f"stochastic (--stochastic) must be one of none, choice, params, both; "
@@ -157,7 +159,7 @@ class Controls:
 
     @classmethod
     def parse(cls, *, gain=None, offset=None, offset_degrees=None, gain_pyr=(None, None, None),
-              offset_pyr_degrees=(None, None, None), **rest) -> "Controls":
+              offset_pyr_degrees=(None, None, None), amount=None, **rest) -> "Controls":
         """Controls from a front end's options, each parsed once.
 
         Parameters
@@ -169,6 +171,7 @@ class Controls:
         gain_pyr, offset_pyr_degrees : three of number or None
             Per-axis overrides (``--gain-pitch`` …, ``--offset-roll`` in degrees): an axis given
             here replaces that axis of ``gain`` / the offset.
+        amount : number or None (1)
         **rest
             The other fields of :class:`Controls`.
 
@@ -184,7 +187,7 @@ class Controls:
         else:
             o = _triple(0.0 if offset is None else offset, "offset")
         o = _per_axis(o, offset_pyr_degrees, "offset", degrees=True)
-        return cls(gain=g, offset=o, **rest)
+        return cls(gain=g, offset=o, amount=1.0 if amount is None else amount, **rest)
 
     @property
     def moves_pose(self) -> bool:
@@ -441,6 +444,6 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int | None = None, sample_r
     return SpeechStream(m, inner, c, int(m.sample_rate) if sample_rate is None else int(sample_rate))
 
 
-__all__ = ["AMOUNT_RANGE", "DEFAULT_MODEL", "DEFAULT_SEED", "DEFAULT_STREAM_MODEL", "GAIN_RANGE", "OFFSET_RANGE_DEG", "SEED_MAX", "check_seed",
+__all__ = ["AMOUNT_RANGE", "DEFAULT_MODEL", "DEFAULT_SEED", "DEFAULT_STREAM_MODEL", "FPS_RANGE", "GAIN_RANGE", "OFFSET_RANGE_DEG", "SEED_MAX", "check_seed",
            "Controls", "ShippedModel", "SpeechStream", "apply_controls",
            "list_models", "load_model", "open_stream", "reads_in_blocks", "synthesize"]

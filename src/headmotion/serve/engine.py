@@ -11,44 +11,22 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 
 from .. import synthesis
 from ..errors import ModelFileError, ParameterError
-from ..shipped import SHIPPED_FILES, data_dir
+from ..shipped import SHIPPED_FILES, shipped_path
 from ..types import Audio, Motion
 
-#: the models shipped in the package, by the names the API knows them by
-SHIPPED = {name: data_dir() / file for name, file in SHIPPED_FILES.items()}
+#: the models shipped in the package, by the names the API knows them by (:mod:`headmotion.shipped`)
+SHIPPED = {name: shipped_path(name) for name in SHIPPED_FILES}
 DEFAULT_OFFLINE, DEFAULT_STREAM = "default", "stream"
-#: the service's own ranges (the controls' ranges are :mod:`headmotion.synthesis`'s, checked by
-#: :class:`Controls` and :func:`check_seed`): output frame rate, samples per offline request
-FPS_RANGE = (1.0, 1000.0)
+#: the controls and their ranges are the library's (:class:`headmotion.synthesis.Controls`, parsed
+#: once per request with offsets in degrees, as on the command line); the service's own range:
+#: samples per offline request
+Controls = synthesis.Controls
+FPS_RANGE = synthesis.FPS_RANGE
 MAX_SAMPLES = 16
 check_seed = synthesis.check_seed
-
-
-class Controls(synthesis.Controls):
-    """:class:`headmotion.synthesis.Controls` as a request gives them: offsets in degrees, and a
-    frame rate within what the service offers."""
-
-    @classmethod
-    def parse(cls, *, gain=None, offset_deg=None, gain_pyr=(None, None, None),
-              offset_pyr_deg=(None, None, None), still: bool = False, fps=None, amount=1.0) -> "Controls":
-        """Controls from request values: ``gain`` / ``offset_deg`` a number, a (p, y, r) triple or
-        the CLI's text ``"1.2"`` / ``"1,0.5,1"``; the per-axis values override them on their axis.
-        Offsets are given in degrees (as on the command line) and kept in radians."""
-        if fps is not None:
-            try:
-                fps = float(fps)
-            except (TypeError, ValueError):
-                raise ParameterError(f"fps must be a number of frames per second; got {fps!r}") from None
-            lo, hi = FPS_RANGE
-            if not (np.isfinite(fps) and lo <= fps <= hi):
-                raise ParameterError(f"fps must be between {lo:g} and {hi:g} frames per second; got {fps}")
-        return super().parse(gain=gain, offset_degrees=offset_deg, gain_pyr=gain_pyr,
-                             offset_pyr_degrees=offset_pyr_deg, still=still, fps=fps,
-                             amount=1.0 if amount is None else amount)
 
 
 def model_files(models_dir: Path | None = None) -> dict[str, Path]:

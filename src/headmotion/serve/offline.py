@@ -170,8 +170,8 @@ async def motion(
     t0 = time.perf_counter()
     check_query(request, QUERY)
     try:
-        controls = engine.Controls.parse(gain=gain, offset_deg=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
-                                         offset_pyr_deg=(offset_pitch, offset_yaw, offset_roll), still=still, fps=fps,
+        controls = engine.Controls.parse(gain=gain, offset_degrees=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
+                                         offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll), still=still, fps=fps,
                                          amount=amount)
         engine.check_seed(seed, samples, allow_none=True)
     except ParameterError as exc:

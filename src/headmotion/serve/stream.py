@@ -121,7 +121,7 @@ def parse_start(text: str | None) -> Start:
         raise bad("api_key must be text")
     try:
         controls = engine.Controls.parse(gain=_number_or_triple(obj.get("gain"), "gain"),
-                                         offset_deg=_number_or_triple(obj.get("offset"), "offset"),
+                                         offset_degrees=_number_or_triple(obj.get("offset"), "offset"),
                                          still=_flag(obj.get("still", False)),
                                          amount=_number(obj.get("amount", 1.0), "amount"))
     except HeadMotionError as exc:
