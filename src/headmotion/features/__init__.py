@@ -274,5 +274,15 @@ class FeatureConfig:
         return cls(name=d["name"], fps=d.get("fps", DEFAULT_FPS), params=d.get("params") or {})
 
 
-__all__ = ["extract", "available", "register", "register_file", "unregister", "FeatureConfig",
+def feature_config(features, fps: float) -> "FeatureConfig":
+    """``features`` as a :class:`FeatureConfig`: one already, its dict (a model file's), or a set's
+    name at ``fps``."""
+    if isinstance(features, FeatureConfig):
+        return features
+    if isinstance(features, dict):
+        return FeatureConfig.from_dict(features)
+    return FeatureConfig(str(features), fps=float(fps))
+
+
+__all__ = ["extract", "available", "register", "register_file", "unregister", "FeatureConfig", "feature_config",
            "Normalizer", "DEFAULT_FPS", "ANALYSIS_RATE"]

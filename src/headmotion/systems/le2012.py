@@ -59,6 +59,8 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..features import ANALYSIS_RATE
+from ..features import feature_config as make_feature_config
+from ..features.live import LIVE_SETS as LIVE_FEATURES
 from ..models.gmm import GMMRegression
 from ..motion.control import mean_pose_of
 from ..rotations import rotvec_to_pitch_yaw_roll
@@ -66,8 +68,6 @@ from ..types import Audio, Motion
 from .base import CAUSAL, Synthesizer, cross_fitted, pair_shortest
 from .budget import DEFAULT_TRAIN_HOURS, check_hours, corpus_summary
 from .constraints import BOOLEAN, Options, check_params, real, whole
-from .tws.features import make_feature_config
-from .tws.generator import LIVE_FEATURES
 
 
 _LOG2PI = float(np.log(2.0 * np.pi))

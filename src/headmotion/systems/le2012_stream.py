@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..types import Motion
-from .tws.generator import LiveFeatures
+from ..features.live import LiveFeatures
 
 
 class Le2012Stream:

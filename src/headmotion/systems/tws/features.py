@@ -8,17 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...features import feature_config as make_feature_config  # noqa: F401  (the tws modules' name)
+
 from ...types import Audio
-
-
-def make_feature_config(features, fps: float):
-    from ...features import FeatureConfig
-
-    if isinstance(features, FeatureConfig):
-        return features
-    if isinstance(features, dict):
-        return FeatureConfig.from_dict(features)
-    return FeatureConfig(str(features), fps=float(fps))
 
 
 def extract_blocked(audio: Audio, config, n_frames: int, *, block: int, context: int,
