@@ -34,7 +34,7 @@ from .errors import ParameterError
 from .io._limits import FPS_RANGE
 from .motion.control import AMOUNT_RANGE
 from .seeds import DEFAULT_SEED, SEED_MAX, check_seed, model_seed
-from .shipped import ShippedModel, list_models, resolve_model_path
+from .shipped import ShippedModel, list_models
 from .types import Audio, Motion
 
 #: the shipped model :func:`synthesize` uses unless told otherwise (offline)
@@ -223,7 +223,7 @@ def load_model(model=DEFAULT_MODEL):
     if isinstance(model, (str, os.PathLike)):
         from .systems.base import load_model as load_file
 
-        return load_file(resolve_model_path(model))
+        return load_file(model)  # a shipped name or a file
     if hasattr(model, "frame_rate") and (hasattr(model, "predict") or hasattr(model, "stream")):
         return model
     raise ParameterError(f"model must be a shipped name, a model file or a loaded model; got {type(model).__name__}")

@@ -360,7 +360,12 @@ def create(name: str, **params) -> Synthesizer:
 
 
 def load_model(path) -> Synthesizer:
-    """Load any model file, whatever system made it (the file is read once)."""
+    """Load any model file, whatever system made it (the file is read once); a shipped model's
+    name (``"default"``, ``"stream"``) is its file (:func:`headmotion.shipped.resolve_model_path`).
+    :func:`headmotion.load_model` is this, and passes a model already loaded through."""
+    from ..shipped import resolve_model_path
+
+    path = resolve_model_path(path)
     config, arrays = load_model_file(path)
     system = config.get("system")
     if system not in SYSTEMS:
