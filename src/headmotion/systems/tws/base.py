@@ -73,6 +73,23 @@ from .post import post_tables as _post_tables
 from .vectors import collect
 
 
+#: the parameters tws-basic and tws-hier share, documented once (their docstrings read it at
+#: ``{post_parameters}``)
+POST_PARAMETERS_DOC = """min_swing_deg : smallest swing (degrees) between extrema when segmenting training motion
+        (0.5; 0 = the thesis's segmentation; see :mod:`headmotion.systems.tws.base`)
+    soft_limit : pull back towards the mean pose before the hard clip (True; False = literal)
+    idle : speed in pauses as a fraction of speech, decided causally (0.4; 1 = no settling)
+    log_params : regress and sample (d, a) in log space (False = linear, the thesis)
+    speed_shaping : re-time the output so that its speeds are the training heads' (True; False = the
+        thesis; see :mod:`headmotion.systems.tws.base`)
+    slow_band_restore : move the output's share of slow (< 0.5 Hz) posture motion up to the training heads',
+        keeping its variance
+        (True; False = the thesis; see :mod:`headmotion.systems.tws.base`)
+    amplitude_match : scale the output about the mean pose so that each axis's SD is the training
+        heads' (per-axis gains measured on the synthesis the post stages are fitted on; True; see
+        :mod:`headmotion.systems.tws.base`)"""
+
+
 class TwsBase(Synthesizer):
     """Feature handling, training-data collection, generation, streaming and persistence shared
     by :class:`~headmotion.systems.tws.basic.TwsBasic` and

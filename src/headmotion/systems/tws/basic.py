@@ -22,7 +22,7 @@ import numpy as np
 
 from ...models.gmm import GMMRegression
 from ..budget import DEFAULT_TRAIN_HOURS
-from .base import TwsBase
+from .base import POST_PARAMETERS_DOC, TwsBase
 from .vectors import collect
 
 #: frequency splits between slow / medium / fast segments (Hz), thesis §5.5
@@ -48,19 +48,7 @@ class TwsBasic(TwsBase):
     method : "ml", "mmse" or "sample" — how (d, a) is taken from the conditional distribution
     stochastic : "none", "choice" (= "class", the speed class), "params" or "both" — what is
         sampled (default "params"; §5.5 modifications; the vocabulary of :mod:`headmotion.systems.base`)
-    min_swing_deg : smallest swing (degrees) between extrema when segmenting training motion
-        (0.5; 0 = the thesis's segmentation; see :mod:`headmotion.systems.tws.base`)
-    soft_limit : pull back towards the mean pose before the hard clip (True; False = literal)
-    idle : speed in pauses as a fraction of speech, decided causally (0.4; 1 = no settling)
-    log_params : regress and sample (d, a) in log space (False = linear, the thesis)
-    speed_shaping : re-time the output so that its speeds are the training heads' (True; False = the
-        thesis; see :mod:`headmotion.systems.tws.base`)
-    slow_band_restore : move the output's share of slow (< 0.5 Hz) posture motion up to the training heads',
-        keeping its variance
-        (True; False = the thesis; see :mod:`headmotion.systems.tws.base`)
-    amplitude_match : scale the output about the mean pose so that each axis's SD is the training
-        heads' (per-axis gains measured on the synthesis the post stages are fitted on; True; see
-        :mod:`headmotion.systems.tws.base`)
+    {post_parameters}
     cross_fit : fit the post stages on synthesis of training speech by models trained on the other
         half of the recordings (False; see :mod:`headmotion.systems.tws.base`)
     feature_block, feature_context : frames per feature block and audio context (streaming)
@@ -176,5 +164,9 @@ class TwsBasic(TwsBase):
         self.gmms_ = {(int(j), int(c)): GMMRegression.from_arrays(arrays, f"gmm_{j}_{c}_")
                       for j, c in config["gmm_keys"]}
 
+
+
+if TwsBasic.__doc__:  # None under python -OO
+    TwsBasic.__doc__ = TwsBasic.__doc__.replace("{post_parameters}", POST_PARAMETERS_DOC)
 
 __all__ = ["TwsBasic", "speed_class", "SPEED_SPLITS_HZ", "CLASS_NAMES"]

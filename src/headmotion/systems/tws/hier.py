@@ -51,7 +51,7 @@ from ...models.gmm import GMMRegression
 from ...models.hmm import ErgodicLM, HMMBank, LeftToRightHMM
 from ..budget import DEFAULT_TRAIN_HOURS
 from ..constraints import check_params, whole
-from .base import TwsBase
+from .base import POST_PARAMETERS_DOC, TwsBase
 from .vectors import CONTEXT, MAX_HMM_FRAMES, collect, context_frames
 
 AXIS_NAMES = ("rx", "ry", "rz")
@@ -122,19 +122,7 @@ class TwsHier(TwsBase):
     lm_weight : float, weight of the language-model log probability
     method : "ml", "mmse" or "sample"
     stochastic : "none", "choice" (= "cluster"), "params" or "both" (default "params": sampled, seeded)
-    min_swing_deg : smallest swing (degrees) between extrema when segmenting training motion
-        (0.5; 0 = the thesis's segmentation; see :mod:`headmotion.systems.tws.base`)
-    soft_limit : pull back towards the mean pose before the hard clip (True; False = literal)
-    idle : speed in pauses as a fraction of speech, decided causally (0.4; 1 = no settling)
-    log_params : regress and sample (d, a) in log space (False = linear, the thesis)
-    speed_shaping : re-time the output so that its speeds are the training heads' (True; False = the
-        thesis; see :mod:`headmotion.systems.tws.base`)
-    slow_band_restore : move the output's share of slow (< 0.5 Hz) posture motion up to the training heads',
-        keeping its variance
-        (True; False = the thesis; see :mod:`headmotion.systems.tws.base`)
-    amplitude_match : scale the output about the mean pose so that each axis's SD is the training
-        heads' (per-axis gains measured on the synthesis the post stages are fitted on; True; see
-        :mod:`headmotion.systems.tws.base`)
+    {post_parameters}
     cross_fit : fit the post stages on synthesis of training speech by models trained on the other
         half of the recordings (True; see :mod:`headmotion.systems.tws.base`)
     feature_block, feature_context, seed, blocked : see :class:`~headmotion.systems.tws.basic.TwsBasic`
@@ -459,5 +447,9 @@ class TwsHier(TwsBase):
             self.lms_.append(AxisLM(lm=ErgodicLM.from_arrays(arrays, f"lm{j}_"), K=int(ks[f"lm{j}"])))
         self.fit_info_ = config.get("fit_info", {})
 
+
+
+if TwsHier.__doc__:  # None under python -OO
+    TwsHier.__doc__ = TwsHier.__doc__.replace("{post_parameters}", POST_PARAMETERS_DOC)
 
 __all__ = ["TwsHier", "Clusters", "TemplateModel", "AxisLM"]
