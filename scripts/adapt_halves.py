@@ -24,7 +24,7 @@ for cost in costs:
         else:
             m = adapt(train, "default", base_cost=cost, min_speech_s=10)
         dt = time.time() - t
-        m.set_params(amount=amount, repeat_cost=float(sys.argv[4]) if len(sys.argv) > 4 else 0.0)
+        m.set_params(amount=amount, repeat_cost=float(sys.argv[4]) if len(sys.argv) > 4 else m.repeat_cost)
         gens = [m.predict(test.audio, seed=s) for s in range(4)]
         d = detectability({test.id: test.motion}, {test.id: gens}, chunk_s=6.0, seed=0, classifiers=("stats",), n_boot=200)
         X = [np.degrees(g.rotvec) for g in gens]

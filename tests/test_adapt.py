@@ -126,3 +126,10 @@ def test_the_command_writes_the_model_and_its_card_or_nothing(corpus, base, tmp_
     bad = runner.invoke(app, ["adapt", str(folder), "-o", str(tmp_path / "x.hmz"), "--base", str(tws)])
     assert bad.exit_code != 0 and "needs a motion-match model" in bad.output + str(bad.exception)
     assert not (tmp_path / "x.hmz").exists() and not (tmp_path / "x.md").exists()
+
+
+def test_the_adapted_model_keeps_the_bases_settings_unless_told(corpus, base):
+    m = adapt(speaker(corpus, "b"), base, min_speech_s=0)
+    assert {k: v for k, v in m.get_params().items() if k != "base_cost"} == \
+        {k: v for k, v in base.get_params().items() if k != "base_cost"}
+    assert adapt(speaker(corpus, "b"), base, min_speech_s=0, repeat_cost=3.0).repeat_cost == 3.0

@@ -80,7 +80,7 @@ def _speech_seconds(recording, n: int) -> float:
 
 
 def adapt(corpus, base="default", *, base_cost: float = BASE_COST, min_speech_s: float = MIN_SPEECH_S,
-          progress=None) -> MotionMatch:
+          repeat_cost: float | None = None, progress=None) -> MotionMatch:
     """A model adapted to the speaker of ``corpus`` (see the module docstring).
 
     Parameters
@@ -95,6 +95,8 @@ def adapt(corpus, base="default", *, base_cost: float = BASE_COST, min_speech_s:
         preference).
     min_speech_s : float
         The least speech with motion accepted (seconds).
+    repeat_cost : float or None
+        The adapted model's ``repeat_cost`` (None: the base's).
     progress : callable, optional
         ``progress(done, total, description)`` per recording.
 
@@ -145,7 +147,10 @@ def adapt(corpus, base="default", *, base_cost: float = BASE_COST, min_speech_s:
         [clip_starts(m) for m in np.split(model.lib_motion_, np.cumsum(model.lib_lengths_)[:-1])])
     base_own = np.zeros(len(model.lib_lengths_), bool)  # an adapted base's speaker becomes part of the base
 
-    out = MotionMatch(**{**model.get_params(), "base_cost": float(base_cost)})
+    params = {**model.get_params(), "base_cost": float(base_cost)}
+    if repeat_cost is not None:
+        params["repeat_cost"] = float(repeat_cost)
+    out = MotionMatch(**params)
     out.lib_motion_ = np.concatenate([model.lib_motion_, *motions]).astype(np.float32)
     out.lib_feats_ = np.concatenate([model.lib_feats_, *feats]).astype(np.float32)
     out.lib_lengths_ = np.r_[model.lib_lengths_, [len(m) for m in motions]].astype(np.int64)
@@ -178,6 +183,7 @@ class Adapt(Synthesizer):
     base : str, the model adapted (a shipped name or a motion-match model file)
     base_cost : float, cost of a base library frame over one of the speaker's
     min_speech_s : float, the least speech with motion accepted (seconds)
+    repeat_cost : float or None, the adapted model's ``repeat_cost`` (None: the base's)
     amount : float, how much the head moves (:class:`~headmotion.systems.motion_match.MotionMatch`)
     seed : int, default synthesis seed
     """
@@ -185,8 +191,9 @@ class Adapt(Synthesizer):
     name: ClassVar[str] = "adapt"
 
     def __init__(self, *, base: str = "default", base_cost: float = BASE_COST, min_speech_s: float = MIN_SPEECH_S,
-                 amount: float = 1.0, seed: int = 0):
+                 repeat_cost: float | None = None, amount: float = 1.0, seed: int = 0):
         self.base, self.base_cost, self.min_speech_s, self.amount, self.seed = base, base_cost, min_speech_s, amount, seed
+        self.repeat_cost = repeat_cost
 
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]
@@ -194,7 +201,7 @@ class Adapt(Synthesizer):
         return self.model_.capabilities if self.is_fitted else frozenset()
 
     #: what each parameter may be (:mod:`.constraints`; ``base``: a shipped name or a file)
-    _parameter_constraints: ClassVar[dict] = {"base_cost": [real(0)], "min_speech_s": [real(0)],
+    _parameter_constraints: ClassVar[dict] = {"base_cost": [real(0)], "min_speech_s": [real(0)], "repeat_cost": [real(0), None],
                                               "amount": [real(*AMOUNT_RANGE)], "seed": [whole(0)]}
 
     def _validate_params(self) -> None:
@@ -206,7 +213,7 @@ class Adapt(Synthesizer):
     def fit(self, corpus, *, progress=None) -> "Adapt":
         self._validate_params()
         self.model_ = adapt(corpus, self.base, base_cost=self.base_cost, min_speech_s=float(self.min_speech_s),
-                            progress=progress)
+                            repeat_cost=self.repeat_cost, progress=progress)
         for k in ("mean_pose_", "sample_rate_", "fps_", "corpus_summary_", "fit_seconds_", "fit_warnings_"):
             setattr(self, k, getattr(self.model_, k))
         self.fitted_ = True
