@@ -338,6 +338,16 @@ def bench_train(res: Results, quick: bool):
         t30 = float(np.exp(np.polyval(np.polyfit(np.log(minutes), np.log(times), 1), np.log(30))))
         res.add(Row("5 train", f"{name}: 30 min (from the fit)", t30, "s", "<= 120 s", t30 <= 120,
                     "interpolated" if max(minutes) >= 30 else "extrapolated"))
+    # adapting the shipped default to a speaker: 5 minutes of their speech with motion
+    from headmotion.systems.adapt import adapt
+
+    corpus = planted(5.0, n_recordings=5, seed=6)
+    list(corpus)
+    t0 = time.perf_counter()
+    adapt(corpus, "default", min_speech_s=0)
+    t = time.perf_counter() - t0
+    res.add(Row("5 train", "adapt default: 5 min of material", t, "s", "<= 30 s", t <= 30,
+                "headmotion adapt: feature extraction and the search tables"))
     if not quick:
         corpus = planted(10.0, n_recordings=10, seed=4)
         list(corpus)
