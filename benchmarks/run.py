@@ -471,7 +471,7 @@ def bench_video(res: Results, quick: bool):
 
 
 def bench_evaluate(res: Results, quick: bool):
-    from headmotion.evaluation.protocols import evaluate
+    from headmotion.evaluation.protocol.protocols import evaluate
 
     minutes = 3 if quick else 30
     corpus = planted(minutes, n_recordings=6 if quick else 10, seed=6)

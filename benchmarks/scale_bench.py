@@ -216,7 +216,7 @@ def bench_scale(res: Results, quick: bool, *, speech_dir=None) -> None:
 
 def _bench_parallel_evaluation(res: Results, corpus_dir: Path, hours: float) -> None:
     from headmotion.corpus import Corpus
-    from headmotion.evaluation.protocols import evaluate
+    from headmotion.evaluation.protocol.protocols import evaluate
 
     corpus = Corpus.load(corpus_dir)
     kw = dict(protocol="split", seed=0, n_shifts=20, feature_sets=[], samples=0, fig48=False)

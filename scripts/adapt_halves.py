@@ -6,8 +6,8 @@ four takes' pairwise correlation, SD beside the recorded (docs/decisions/amount-
 """
 import sys, time, numpy as np, itertools
 from headmotion.corpus import Corpus
-from headmotion.evaluation.pause_folds import split_corpus_at_pauses
-from headmotion.evaluation.detectability import detectability
+from headmotion.evaluation.protocol.pause_folds import split_corpus_at_pauses
+from headmotion.evaluation.detection.detectability import detectability
 from headmotion.systems.adapt import adapt
 from headmotion.synthesis import load_model
 c = Corpus.load(sys.argv[1] if len(sys.argv) > 1 else '.zeggs_corpus')

@@ -8,8 +8,8 @@ import time, glob, numpy as np
 from headmotion.synthesis import synthesize, load_model
 from headmotion.io import load_audio
 from headmotion.types import Audio
-from headmotion.evaluation.detectability import prepare
-from headmotion.evaluation.realism import speech_mask_for
+from headmotion.evaluation.detection.detectability import prepare
+from headmotion.evaluation.measures.realism import speech_mask_for
 files = sorted(glob.glob('../shared/data/speech/*.wav')) + sorted(glob.glob('../shared/data/speech/*.flac'))
 print(len(files), "speech files")
 def speed(x):  # deg/s, prepared (6 Hz low-pass, 25 fps), norm over axes

@@ -5,13 +5,13 @@ For every evaluation seed, the corpus is dealt into speaker-disjoint folds exact
 ``headmotion evaluate --protocol speakers`` does; the uncoupled anchors (shaped noise, another
 speaker's motion; no training) are made for every held-out recording with the evaluation's seeds,
 scored by Forced CCA (global and 3 s local) against the recording's speech features with the
-circular-shift null of :mod:`headmotion.evaluation.chance` — once with plain circular shifts (the
+circular-shift null of :mod:`headmotion.evaluation.measures.chance` — once with plain circular shifts (the
 old test) and once with shifts of the motion's bridge (the new one) — and the per-recording p
 values are pooled with Stouffer's Z as the evaluation pools them.  Under the null (the anchors are
 uncoupled by construction) the pooled p is uniform: the share below 0.05 should be 0.05.
 
 ``--measures`` picks the tests: ``fcca`` (the four nulls above), ``xcca`` (cross-speaker coupling,
-:mod:`headmotion.evaluation.cross_coupling`: projections fitted on each fold's training recordings'
+:mod:`headmotion.evaluation.measures.cross_coupling`: projections fitted on each fold's training recordings'
 recorded heads and speech, as ``headmotion evaluate`` fits them) and ``bc`` (beat alignment: BC of
 the head's angular speed against the speech onsets), the last two with the evaluation's test (the
 bridge shifted by every offset) and its per-recording seeds.  ``--anchors`` adds ``floor`` (stretches
@@ -34,15 +34,15 @@ import numpy as np
 from scipy.stats import binomtest
 
 from headmotion.corpus import Corpus
-from headmotion.evaluation import chance as C
-from headmotion.evaluation import metrics as M
-from headmotion.evaluation import realism as R
-from headmotion.evaluation.anchors import create_anchor
-from headmotion.evaluation.cross_coupling import CrossSpeakerCCA
-from headmotion.evaluation.feature_table import extract_one
-from headmotion.evaluation.parallel import sub_seed
-from headmotion.evaluation.protocols import make_folds
-from headmotion.evaluation.realism import stouffer
+from headmotion.evaluation.measures import chance as C
+from headmotion.evaluation.measures import metrics as M
+from headmotion.evaluation.measures import realism as R
+from headmotion.evaluation.protocol.anchors import create_anchor
+from headmotion.evaluation.measures.cross_coupling import CrossSpeakerCCA
+from headmotion.evaluation.protocol.feature_table import extract_one
+from headmotion.evaluation.protocol.parallel import sub_seed
+from headmotion.evaluation.protocol.protocols import make_folds
+from headmotion.evaluation.measures.realism import stouffer
 
 ANCHOR_NAMES = ("shaped-noise", "other-speaker")
 MEASURES = ("fcca", "xcca", "bc")
@@ -71,8 +71,8 @@ def _scores(rec, pred, feats, *, n_shifts: int, window_s: float, seed: int, null
 
 def _new_scores(rec, pred, feats, onsets, model, *, n_shifts: int, seed: int, name: str, measures) -> dict:
     """Cross-speaker coupling and beat alignment of one anchor motion, with the seeds
-    ``headmotion evaluate`` gives them (:func:`headmotion.evaluation.scoring.cross_speaker_coupling`,
-    :func:`~headmotion.evaluation.scoring.beat_alignment`)."""
+    ``headmotion evaluate`` gives them (:func:`headmotion.evaluation.protocol.scoring.cross_speaker_coupling`,
+    :func:`~headmotion.evaluation.protocol.scoring.beat_alignment`)."""
     out = {}
     fps = float(rec.motion.fps)
     if "xcca" in measures and model is not None:

@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from headmotion.corpus import Corpus
-from headmotion.evaluation import chance as C
-from headmotion.evaluation import metrics as M
-from headmotion.evaluation.feature_table import extract_one
-from headmotion.evaluation.parallel import sub_seed
-from headmotion.evaluation.realism import stouffer
+from headmotion.evaluation.measures import chance as C
+from headmotion.evaluation.measures import metrics as M
+from headmotion.evaluation.protocol.feature_table import extract_one
+from headmotion.evaluation.protocol.parallel import sub_seed
+from headmotion.evaluation.measures.realism import stouffer
 from headmotion.io.native import load_npz
 
 
@@ -36,7 +36,7 @@ def main() -> None:
     a = ap.parse_args()
     corpus = Corpus.load(a.corpus)
     if a.folds_at_pauses:
-        from headmotion.evaluation.pause_folds import split_corpus_at_pauses
+        from headmotion.evaluation.protocol.pause_folds import split_corpus_at_pauses
 
         corpus, _ = split_corpus_at_pauses(corpus, a.folds_at_pauses)
     recs = {r.id: r for r in corpus}

@@ -19,9 +19,9 @@ import numpy as np
 
 from headmotion.align import fit_length
 from headmotion.corpus import Corpus
-from headmotion.evaluation.anchors import Anchor
-from headmotion.evaluation.protocols import evaluate
-from headmotion.evaluation.report import write_report
+from headmotion.evaluation.protocol.anchors import Anchor
+from headmotion.evaluation.protocol.protocols import evaluate
+from headmotion.evaluation.reporting.report import write_report
 
 DATA = Path(__file__).resolve().parents[1] / "src" / "headmotion" / "data"
 
@@ -59,7 +59,7 @@ def main() -> None:
     a = ap.parse_args()
     corpus = Corpus.load(a.corpus)
     if a.folds_at_pauses:
-        from headmotion.evaluation.pause_folds import split_corpus_at_pauses
+        from headmotion.evaluation.protocol.pause_folds import split_corpus_at_pauses
 
         corpus, _ = split_corpus_at_pauses(corpus, a.folds_at_pauses)
         protocol, folds = "loo", 0

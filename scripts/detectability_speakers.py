@@ -18,7 +18,7 @@ import argparse
 import numpy as np
 
 from headmotion.corpus import Corpus
-from headmotion.evaluation import detectability as D
+from headmotion.evaluation.detection import detectability as D
 
 
 def _line(label: str, res) -> str:

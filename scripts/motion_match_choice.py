@@ -28,11 +28,11 @@ import numpy as np
 
 from headmotion.align import fit_length
 from headmotion.corpus import Corpus
-from headmotion.evaluation.cross_coupling import CrossSpeakerCCA, pooled
-from headmotion.evaluation.detectability import detectability, prepare, reversal_rate
-from headmotion.evaluation.feature_table import extract_one
-from headmotion.evaluation.folds import make_folds
-from headmotion.evaluation.realism import coupling, pause_speed_ratio, pause_speed_ratio_k, speech_mask_for, stouffer
+from headmotion.evaluation.measures.cross_coupling import CrossSpeakerCCA, pooled
+from headmotion.evaluation.detection.detectability import detectability, prepare, reversal_rate
+from headmotion.evaluation.protocol.feature_table import extract_one
+from headmotion.evaluation.protocol.folds import make_folds
+from headmotion.evaluation.measures.realism import coupling, pause_speed_ratio, pause_speed_ratio_k, speech_mask_for, stouffer
 from headmotion.systems.base import create
 
 TAKES = 4

@@ -1,7 +1,7 @@
 """The realism targets table from one or more ``headmotion evaluate`` report directories.
 
-One row per (evaluation, condition): the realism medians of :func:`headmotion.evaluation.report.
-realism_summary` with the targets of :func:`~headmotion.evaluation.report.realism_targets` marked
+One row per (evaluation, condition): the realism medians of :func:`headmotion.evaluation.reporting.report.
+realism_summary` with the targets of :func:`~headmotion.evaluation.reporting.report.realism_targets` marked
 (✓ met, ✗ not; the spectral L1 and the speed Hellinger are shown per recording (median) and
 pooled over the test set (and over all K samples of a stochastic system), the targets use the pooled ones), the pooled FCCA excess with its Stouffer p, the cross-speaker coupling and the beat alignment (excess, Stouffer p), the detectability beside the floor (other speakers' recorded heads) at 6 Hz and at 3 Hz, the direction reversals per frame, and the number of targets met.  With
 several evaluations of the same corpus (seeds), ``--mean-over`` adds one row per condition with the
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from headmotion.evaluation.protocols import EvaluationResult
-from headmotion.evaluation.report import read_metrics_csv, realism_summary, realism_targets, ruler_anchor
+from headmotion.evaluation.protocol.protocols import EvaluationResult
+from headmotion.evaluation.reporting.report import read_metrics_csv, realism_summary, realism_targets, ruler_anchor
 
 TARGETS = ("band", "l1", "sd", "speed", "lc", "sat", "pause")
 

@@ -81,8 +81,8 @@ def git_commit() -> str:
 
 def held_out_section(eval_dir: Path, system: str) -> str:
     """The realism table and coupling line of ``system`` (and the ruler) from an evaluation report."""
-    from headmotion.evaluation.protocols import EvaluationResult
-    from headmotion.evaluation.report import (REALISM_COLUMNS, coupling_line, read_metrics_csv, realism_summary,
+    from headmotion.evaluation.protocol.protocols import EvaluationResult
+    from headmotion.evaluation.reporting.report import (REALISM_COLUMNS, coupling_line, read_metrics_csv, realism_summary,
                                               realism_targets)
 
     if (eval_dir / "metrics.csv").is_file():
@@ -124,7 +124,7 @@ def unseen_speech_check(model, speech_dir: Path, pooled_heads, *, samples: int =
                         skip=()) -> tuple[str, list[dict]]:
     """Measures of the model on every readable audio file of ``speech_dir`` (not in the corpus)."""
     from headmotion.errors import HeadMotionError
-    from headmotion.evaluation import realism as R
+    from headmotion.evaluation.measures import realism as R
     from headmotion.io.audio import load_audio
     from headmotion.types import Motion
 

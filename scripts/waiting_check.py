@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from headmotion.corpus import Corpus
-from headmotion.evaluation.realism import limit_cycle_index
-from headmotion.evaluation.waiting import pause_segment_speeds, waiting
+from headmotion.evaluation.measures.realism import limit_cycle_index
+from headmotion.evaluation.measures.waiting import pause_segment_speeds, waiting
 from headmotion.io import load_audio
 from headmotion.synthesis import load_model
 

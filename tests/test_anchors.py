@@ -6,7 +6,7 @@ import pytest
 from headmotion.corpus import Corpus
 from headmotion.errors import NotFittedError, ParameterError
 from headmotion.synthetic import planted_corpus
-from headmotion.evaluation.anchors import ANCHORS, create_anchor, shaped_noise
+from headmotion.evaluation.protocol.anchors import ANCHORS, create_anchor, shaped_noise
 from headmotion.systems import create
 
 

@@ -94,7 +94,7 @@ def _at_100(rec: Recording) -> Motion:
 
 @pytest.mark.slow
 def test_cccae_embedding_correlates_better_than_ae_and_waveform(corpus, trained):
-    from headmotion.evaluation.metrics import local_cca
+    from headmotion.evaluation.measures.metrics import local_cca
     from headmotion.features import extract
 
     cccae, ae = trained
@@ -120,7 +120,7 @@ def test_cccae_embedding_correlates_better_than_ae_and_waveform(corpus, trained)
 
 @pytest.mark.slow
 def test_cccae_prediction_beats_the_mean(corpus, trained):
-    from headmotion.evaluation.metrics import nmse
+    from headmotion.evaluation.measures.metrics import nmse
 
     from headmotion.align import fit_length
     from headmotion.systems.dnn import PAPER_PARAMS

@@ -1,4 +1,4 @@
-"""Chance levels by circular shifts (headmotion.evaluation.chance)."""
+"""Chance levels by circular shifts (headmotion.evaluation.measures.chance)."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from headmotion.errors import ParameterError
-from headmotion.evaluation import chance as C
-from headmotion.evaluation import metrics as M
+from headmotion.evaluation.measures import chance as C
+from headmotion.evaluation.measures import metrics as M
 
 
 def _smooth(rng, T, D, width=15):

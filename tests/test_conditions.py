@@ -1,5 +1,5 @@
 """Evaluation conditions behind one contract: anchors, trained systems and model files
-(headmotion.evaluation.conditions, .condition_specs)."""
+(headmotion.evaluation.protocol.conditions, .condition_specs)."""
 
 from __future__ import annotations
 
@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from headmotion.errors import ModelFileError, ParameterError
-from headmotion.evaluation import protocols as P
-from headmotion.evaluation.anchors import ANCHORS, create_anchor
-from headmotion.evaluation.condition_specs import SHIPPED_MODELS, condition_spec, shipped_model_path
-from headmotion.evaluation.conditions import Condition, ModelFileCondition, SystemCondition
-from headmotion.evaluation.parallel import sub_seed
-from headmotion.evaluation.scoring import conform
+from headmotion.evaluation.protocol import protocols as P
+from headmotion.evaluation.protocol.anchors import ANCHORS, create_anchor
+from headmotion.evaluation.protocol.condition_specs import SHIPPED_MODELS, condition_spec, shipped_model_path
+from headmotion.evaluation.protocol.conditions import Condition, ModelFileCondition, SystemCondition
+from headmotion.evaluation.protocol.parallel import sub_seed
+from headmotion.evaluation.protocol.scoring import conform
 from headmotion.systems.base import load_model
 
 from test_protocols import EnergyFollower, envelope, make_corpus
@@ -109,7 +109,7 @@ def test_cli_scores_a_model_file_beside_anchors(small, tmp_path):
 
 def test_a_new_measure_plugs_in_per_recording_and_pooled(small, monkeypatch):
     """A measure appended to the scoring tuples lands in the rows of every condition."""
-    from headmotion.evaluation import scoring as S
+    from headmotion.evaluation.protocol import scoring as S
 
     def frames(s):
         return {"frames": float(len(s.pred))}

@@ -8,7 +8,7 @@ import pytest
 from headmotion.corpus import Corpus, Recording
 from headmotion.errors import ParameterError
 from headmotion.evaluation import corpus_stats as CS
-from headmotion.evaluation import stats_report as report
+from headmotion.evaluation.reporting import stats_report as report
 from headmotion.types import Audio, Motion
 
 SR = 16000
@@ -165,7 +165,7 @@ def test_corpus_stats_feature_table(tmp_path):
         assert {"featcca_local[f0e]", "featcca_local[f0e]_null_mean", "featcca_local[f0e]_excess",
                 "featcca_local[prosody]_p"} <= set(vals)
         assert 0.0 < vals["featcca_local[f0e]"] <= 1.0 and 0.0 < vals["featcca_local[f0e]_null_mean"] <= 1.0
-        # the excess is the motion's bridge's score over chance (evaluation.chance): close to score − chance
+        # the excess is the motion's bridge's score over chance (evaluation.measures.chance): close to score − chance
         assert vals["featcca_local[f0e]_excess"] == pytest.approx(
             vals["featcca_local[f0e]"] - vals["featcca_local[f0e]_null_mean"], abs=0.05)
     md = report.write_stats(st, tmp_path / "stats", figures=False)["report"].read_text()

@@ -1,5 +1,5 @@
-"""Cross-speaker coupling (headmotion.evaluation.cross_coupling) and the reversal rate
-(headmotion.evaluation.detectability.reversal_rate): known answers."""
+"""Cross-speaker coupling (headmotion.evaluation.measures.cross_coupling) and the reversal rate
+(headmotion.evaluation.detection.detectability.reversal_rate): known answers."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from headmotion.errors import NotFittedError, ParameterError
-from headmotion.evaluation import cross_coupling as X
-from headmotion.evaluation.detectability import reversal_rate
+from headmotion.evaluation.measures import cross_coupling as X
+from headmotion.evaluation.detection.detectability import reversal_rate
 from headmotion.types import FeatureTrack, Motion
 
 FPS = 25.0
@@ -143,7 +143,7 @@ def test_reversal_rate_ignores_jitter_above_the_low_pass():
 
 # -- in headmotion evaluate -------------------------------------------------------------------------
 def test_floor_rows_put_every_detectability_beside_the_floor():
-    from headmotion.evaluation.detectability import floor_rows
+    from headmotion.evaluation.detection.detectability import floor_rows
 
     rows = [{"system": s, "recording": "ALL", "metric": m, "value": v} for s, m, v in
             (("floor", "detect", 0.6), ("floor", "detect_3hz", 0.55), ("mine", "detect", 0.9),
@@ -157,7 +157,7 @@ def test_floor_rows_put_every_detectability_beside_the_floor():
 
 
 def test_reversal_rows_pool_frames_over_recordings():
-    from headmotion.evaluation.detectability import reversal_rows
+    from headmotion.evaluation.detection.detectability import reversal_rows
 
     t = np.arange(0, 20, 1 / FPS)
     one = np.radians(np.stack([5 * np.sin(2 * np.pi * t), 5 * np.sin(np.pi * t), 0 * t], 1))
@@ -169,7 +169,7 @@ def test_reversal_rows_pool_frames_over_recordings():
 
 
 def test_low_pass_at_3_hz_removes_tremor_and_keeps_slow_motion():
-    from headmotion.evaluation.detectability import prepare
+    from headmotion.evaluation.detection.detectability import prepare
 
     t = np.arange(0, 20, 1 / FPS)
     slow = np.radians(np.stack([5 * np.sin(2 * np.pi * 1.0 * t)] * 3, 1))
@@ -186,7 +186,7 @@ def test_low_pass_at_3_hz_removes_tremor_and_keeps_slow_motion():
 def test_low_pass_detectability_rows():
     """Sines against white noise stay told apart at 3 Hz (the noise below 3 Hz is no sine); the rows
     carry the prefix ``detect_3hz`` and no per-statistic AUCs."""
-    from headmotion.evaluation.detectability import low_pass_rows
+    from headmotion.evaluation.detection.detectability import low_pass_rows
 
     rng = np.random.default_rng(0)
     t = np.arange(250) / FPS
@@ -204,7 +204,7 @@ def test_cross_speaker_and_beat_alignment_measures_of_a_recording():
     the speech across speakers, its half-length shift is not; both get a beat-alignment test."""
     from types import SimpleNamespace
 
-    from headmotion.evaluation import scoring as S
+    from headmotion.evaluation.protocol import scoring as S
 
     rng = np.random.default_rng(5)
     train = [_recording(rng) for _ in range(8)]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from headmotion.errors import ParameterError
-from headmotion.evaluation import detectability as D
+from headmotion.evaluation.detection import detectability as D
 from headmotion.types import Motion
 
 FPS = 25.0

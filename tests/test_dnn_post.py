@@ -95,7 +95,7 @@ def test_band_restoration_gives_the_training_motion_its_band_variances(fitted):
 
 
 def test_speed_shaping_gives_the_training_speed_distribution(fitted):
-    from headmotion.evaluation.realism import hellinger_values
+    from headmotion.evaluation.measures.realism import hellinger_values
 
     corpus, m = fitted
     train = [r for r in corpus if m.splits_[r.id] == "train"]

@@ -10,9 +10,9 @@ import pytest
 
 from headmotion.corpus import Corpus, Recording
 from headmotion.errors import ParameterError
-from headmotion.evaluation import protocols as P
-from headmotion.evaluation.pause_folds import choose_cuts, split_at_pauses, split_corpus_at_pauses
-from headmotion.evaluation.report import realism_summary, realism_targets, render_report
+from headmotion.evaluation.protocol import protocols as P
+from headmotion.evaluation.protocol.pause_folds import choose_cuts, split_at_pauses, split_corpus_at_pauses
+from headmotion.evaluation.reporting.report import realism_summary, realism_targets, render_report
 from headmotion.systems.base import Synthesizer
 from headmotion.types import Audio, Motion
 
@@ -128,7 +128,7 @@ def test_report_has_realism_table_targets_and_coupling(res):
 def test_targets_measure_against_desync_when_evaluated():
     """The thesis's desync (another take of the speaker) is the ruler when present; the shift only
     without it: a candidate at speed Hellinger 0.09 is within desync 0.06 + 0.05, not shifted 0.01 + 0.05."""
-    from headmotion.evaluation.report import ruler_anchor
+    from headmotion.evaluation.reporting.report import ruler_anchor
 
     gt = {"speed_hellinger_pooled": 0.0}
     cand = {"speed_hellinger_pooled": 0.09}
@@ -148,7 +148,7 @@ def test_pooled_speed_histogram_over_k_samples():
     sample equal to the reference with three held-still ones after it scores 0 on the first sample
     alone and, over the four, the Hellinger distance of h and 0.25 h + 0.75 δ₀ (h the reference's
     histogram, δ₀ all mass in the first bin); the targets take the K-sample value when it is there."""
-    from headmotion.evaluation import realism as R
+    from headmotion.evaluation.measures import realism as R
 
     ref = Motion(np.radians(5.0) * np.column_stack([np.sin(np.arange(3000) / 13.0)] * 3), 30.0)
     still = np.zeros_like(ref.rotvec)
@@ -306,7 +306,7 @@ def test_pause_ratio_over_k_samples():
     motion's ratio; a sample still in its pauses (ratio 0) and one moving in its pauses at the
     speech speed (ratio 1), with equal speeds in speech, pool to 1/2 exactly; without samples it
     is left out; the pause target takes the K-sample value when it is there."""
-    from headmotion.evaluation import realism as R
+    from headmotion.evaluation.measures import realism as R
 
     fps, n = 25.0, 500
     mask = np.ones(n, bool)

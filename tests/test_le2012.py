@@ -41,8 +41,8 @@ def test_le2012_fits_predicts_and_round_trips(corpus, joint, tmp_path):
 def test_le2012_learns_the_planted_relation():
     """FCCA (thesis eq 4.5) of le2012's motion on a held-out planted recording is above that of
     head-motion-shaped noise: it learned how the planted motion follows the speech."""
-    from headmotion.evaluation.anchors import create_anchor
-    from headmotion.evaluation.metrics import fcca
+    from headmotion.evaluation.protocol.anchors import create_anchor
+    from headmotion.evaluation.measures.metrics import fcca
     from headmotion.features import FeatureConfig
 
     corpus = planted_corpus(minutes=4.0, n_recordings=4, seed=3)

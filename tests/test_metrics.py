@@ -1,4 +1,4 @@
-"""Known-answer tests of headmotion.evaluation.metrics (thesis §4.3, Table 3.4; paper §4.3)."""
+"""Known-answer tests of headmotion.evaluation.measures.metrics (thesis §4.3, Table 3.4; paper §4.3)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from headmotion.errors import LengthMismatchError, ParameterError
-from headmotion.evaluation import metrics as M
+from headmotion.evaluation.measures import metrics as M
 from headmotion.types import FeatureTrack, Motion
 
 

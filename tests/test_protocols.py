@@ -1,4 +1,4 @@
-"""Cross-validation protocols (headmotion.evaluation.protocols) with tiny systems of our own."""
+"""Cross-validation protocols (headmotion.evaluation.protocol.protocols) with tiny systems of our own."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import pytest
 
 from headmotion.corpus import Corpus, Recording
 from headmotion.errors import ParameterError
-from headmotion.evaluation import protocols as P
-from headmotion.evaluation.folds import longest_held_out
+from headmotion.evaluation.protocol import protocols as P
+from headmotion.evaluation.protocol.folds import longest_held_out
 from headmotion.systems.base import Synthesizer
 from headmotion.types import Audio, FeatureTrack, Motion
 
@@ -214,7 +214,7 @@ def test_evaluate_cli_writes_report(corpus, tmp_path):
     assert main(["evaluate", str(tmp_path / "corpus"), "--systems", "nonsense", "-o", str(out)]) != 0
 
 
-# -- corpus-wide feature extraction and paper Table 1 (evaluation/feature_table.py) ----------------------
+# -- corpus-wide feature extraction and paper Table 1 (evaluation/protocol/feature_table.py) ----------------------
 @pytest.fixture(scope="module")
 def dask_cluster():
     distributed = pytest.importorskip("distributed")
@@ -232,7 +232,7 @@ def _assert_same_features(a, b, ids, names):
 
 
 def test_extract_corpus_features_local_joblib_and_dask(corpus, dask_cluster):
-    from headmotion.evaluation.feature_table import extract_corpus_features
+    from headmotion.evaluation.protocol.feature_table import extract_corpus_features
 
     fsets = ["fbank", envelope]
     local = extract_corpus_features(corpus, fsets)
@@ -250,7 +250,7 @@ def test_extract_corpus_features_local_joblib_and_dask(corpus, dask_cluster):
 
 def test_extract_corpus_features_from_disk_on_dask(corpus, dask_cluster, tmp_path):
     """An on-disk corpus travels to the workers as manifest entries and is read there."""
-    from headmotion.evaluation.feature_table import extract_corpus_features
+    from headmotion.evaluation.protocol.feature_table import extract_corpus_features
 
     corpus.subset([0, 1, 3]).save(tmp_path / "c")
     disk = Corpus.load(tmp_path / "c", sample_rate=SR)
@@ -260,7 +260,7 @@ def test_extract_corpus_features_from_disk_on_dask(corpus, dask_cluster, tmp_pat
 
 
 def test_extract_corpus_features_errors(corpus):
-    from headmotion.evaluation.feature_table import extract_corpus_features
+    from headmotion.evaluation.protocol.feature_table import extract_corpus_features
 
     def broken(audio, *, fps, n_frames):
         raise ValueError("no such thing")
@@ -292,8 +292,8 @@ def test_feature_table_on_dask_equals_local(corpus, dask_cluster):
 
 def test_table1_train_valid_test_columns(corpus):
     from headmotion.corpus import paper_split
-    from headmotion.evaluation import metrics as M
-    from headmotion.evaluation.report import render_report
+    from headmotion.evaluation.measures import metrics as M
+    from headmotion.evaluation.reporting.report import render_report
 
     res = P.evaluate(corpus, SYSTEMS[:1], feature_sets=[envelope], **TABLE_KW)
     split = paper_split(corpus, seed=5)
@@ -314,7 +314,7 @@ def test_table1_train_valid_test_columns(corpus):
 
 
 def test_table1_says_when_a_split_is_empty():
-    from headmotion.evaluation.report import render_report
+    from headmotion.evaluation.reporting.report import render_report
 
     small = make_corpus(n_per_speaker=2, seconds=8.0, seed=4)  # 2 recordings per speaker: train + test
     res = P.evaluate(small, SYSTEMS[1:], protocol="loo", features=envelope, n_shifts=10, seed=0, window_s=0.6,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from headmotion.errors import ParameterError
-from headmotion.evaluation import realism as R
+from headmotion.evaluation.measures import realism as R
 from headmotion.types import Motion
 
 FPS = 30.0
@@ -176,7 +176,7 @@ def test_realism_row_and_rows(rng):
 
 
 def test_figures(tmp_path):
-    from headmotion.evaluation import realism_figures as RF
+    from headmotion.evaluation.reporting import realism_figures as RF
 
     conds = {"ground-truth": [sine(0.3, seconds=30)], "bob": [sine(2.5, seconds=30)]}
     p = RF.mean_psd(conds["bob"])

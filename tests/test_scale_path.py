@@ -22,7 +22,7 @@ from headmotion.corpus import Corpus
 from headmotion.datasets import import_dataset
 from headmotion.datasets.planted import write_planted_beat2
 from headmotion.errors import ParameterError
-from headmotion.evaluation.dataset_split import dataset_split_folds
+from headmotion.evaluation.protocol.dataset_split import dataset_split_folds
 from headmotion.features import FeatureConfig
 from headmotion.feature_cache import build_feature_cache, features_for
 from headmotion.stored_audio import StoredAudio

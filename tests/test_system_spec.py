@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from headmotion.errors import ParameterError
-from headmotion.evaluation import protocols as P
+from headmotion.evaluation.protocol import protocols as P
 from headmotion.systems.spec import SystemFactory, label, parse_system, split_systems
 
 from test_protocols import make_corpus

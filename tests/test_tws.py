@@ -5,11 +5,11 @@ import pytest
 
 from headmotion.corpus import Corpus, Recording
 from headmotion.errors import ModelFileError, NotFittedError, ParameterError
-from headmotion.evaluation.metrics import fcca
+from headmotion.evaluation.measures.metrics import fcca
 from headmotion.features import FeatureConfig
 from headmotion.synthetic import planted_corpus
 from headmotion.systems import create, load_model
-from headmotion.evaluation.anchors import create_anchor
+from headmotion.evaluation.protocol.anchors import create_anchor
 from headmotion.rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
 from headmotion.systems.tws.basic import TwsBasic, speed_class
 from headmotion.systems.tws.hier import TwsHier
@@ -319,7 +319,7 @@ def test_speed_shaping_moves_the_speeds_onto_the_training_heads(name, request, t
     """The map is fitted on the system's own synthesis of its training speech; shaped, that
     synthesis's speed histogram is nearer the training heads' (Hellinger) than unshaped, and the
     map survives saving."""
-    from headmotion.evaluation.realism import hellinger_values, speed
+    from headmotion.evaluation.measures.realism import hellinger_values, speed
     from headmotion.motion.post.speed_shaping import SPEED_QUANTILES
 
     model = request.getfixturevalue(name)

@@ -9,8 +9,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from headmotion.evaluation.realism import speech_mask_for
-from headmotion.evaluation.waiting import pause_segment_speeds, waiting
+from headmotion.evaluation.measures.realism import speech_mask_for
+from headmotion.evaluation.measures.waiting import pause_segment_speeds, waiting
 from headmotion.motion.pauses import pause_mask
 from headmotion.systems import create
 from headmotion.types import Motion

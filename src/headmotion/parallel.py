@@ -3,7 +3,7 @@
 :func:`run_map` runs ``[fn(item) for item in items]`` serially, with joblib (``n_jobs``) or on a
 Dask cluster (``scheduler`` = address or ``distributed.Client``); :func:`dask_client` opens the
 connection.  Used for cross-validation folds, per-recording measures
-(:mod:`headmotion.evaluation.parallel`) and the corpus feature cache
+(:mod:`headmotion.evaluation.protocol.parallel`) and the corpus feature cache
 (:mod:`headmotion.feature_cache`).
 
 Libraries considered: joblib (local processes) and dask.distributed (clusters) do the scheduling;

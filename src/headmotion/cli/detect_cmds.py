@@ -1,6 +1,6 @@
 """``headmotion detect``: can a classifier tell generated head motion from recorded head motion?
 
-A thin wrapper over :func:`headmotion.evaluation.detectability.detectability` (the classifier
+A thin wrapper over :func:`headmotion.evaluation.detection.detectability.detectability` (the classifier
 two-sample test that ``headmotion evaluate`` runs for every condition).
 """
 
@@ -44,7 +44,7 @@ def detect_cmd(
     figure: Optional[Path] = typer.Option(None, "--figure", help="PNG of the statistics that separate most"),
 ):
     """Classifier two-sample test of generated against recorded head motion (detectability)."""
-    from ..evaluation import detectability as D
+    from ..evaluation.detection import detectability as D
 
     rm, gm = _motions(real), _motions(generated)
     res = D.detectability(rm, gm, seed=seed, chunk_s=chunk or None,
@@ -58,7 +58,7 @@ def detect_cmd(
     console.print("separates most (AUC of the statistic alone): "
                   + ", ".join(f"{n} {v:.2f}" for n, v in res.top_statistics(5)), highlight=False, soft_wrap=True)
     if figure is not None:
-        from ..evaluation.detectability_figures import statistics_figure
+        from ..evaluation.reporting.detectability_figures import statistics_figure
 
         statistics_figure(rm, gm, path=figure)
         console.print(f"figure → {figure}", highlight=False)

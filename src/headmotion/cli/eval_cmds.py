@@ -1,8 +1,8 @@
 """``headmotion evaluate`` and ``headmotion stats`` (thesis §4.3, §5.9, §3.5; paper §4.3).
 
-Thin wrappers over :func:`headmotion.evaluation.protocols.evaluate` / :mod:`.report` and
+Thin wrappers over :func:`headmotion.evaluation.protocol.protocols.evaluate` / :mod:`.report` and
 :func:`headmotion.evaluation.corpus_stats.corpus_stats`; the heavy modules are imported inside
-the commands.  ``--systems`` names conditions as :mod:`headmotion.evaluation.condition_specs`
+the commands.  ``--systems`` names conditions as :mod:`headmotion.evaluation.protocol.condition_specs`
 resolves them: ``headmotion evaluate corpus/ --systems default,stream,mine.hmz,desync -o r/`` scores
 the shipped models and a model file on every held-out recording, without retraining, beside the
 desync anchor.
@@ -65,8 +65,8 @@ def evaluate_cmd(
     Trained models (the shipped 'default' and 'stream', or a .hmz file) are scored as they are on
     every held-out recording of every fold, so they line up with the systems trained per fold."""
     from ..corpus import Corpus
-    from ..evaluation.protocols import evaluate
-    from ..evaluation.report import write_report
+    from ..evaluation.protocol.protocols import evaluate
+    from ..evaluation.reporting.report import write_report
 
     from ..systems.spec import split_systems
 
@@ -89,7 +89,7 @@ def evaluate_cmd(
         raise ParameterError(f"no recordings of {corpus_dir} left to evaluate after --speaker/--exclude/--min-seconds")
     pause_warns: list[str] = []
     if folds_at_pauses:
-        from ..evaluation.pause_folds import split_corpus_at_pauses
+        from ..evaluation.protocol.pause_folds import split_corpus_at_pauses
 
         corpus, pause_warns = split_corpus_at_pauses(corpus, folds_at_pauses)
         console.print(f"folds at pauses: {', '.join(f'{r.id} {r.duration:.1f} s' for r in corpus)}", highlight=False,
@@ -113,7 +113,7 @@ def evaluate_cmd(
         console.print(f"  {s:16s} NMSE {result.mean(s, 'nmse'):6.3f}  local CCA {result.mean(s, 'cca_local'):5.3f} "
                       f"(chance {result.mean(s, 'cca_local_null_mean'):5.3f})  FCCA {result.mean(s, 'fcca'):5.3f} "
                       f"(chance {result.mean(s, 'fcca_null_mean'):5.3f})", highlight=False, soft_wrap=True)
-    from ..evaluation.report import coupling_line, realism_summary
+    from ..evaluation.reporting.report import coupling_line, realism_summary
 
     summ = realism_summary(result)
     for s in result.systems:
@@ -174,7 +174,7 @@ def stats_cmd(
     and the feature ↔ motion local CCA of every feature set (paper Table 1)."""
     from ..corpus import Corpus
     from ..evaluation.corpus_stats import corpus_stats
-    from ..evaluation.stats_report import write_stats
+    from ..evaluation.reporting.stats_report import write_stats
 
     fsets = None
     if feature_table is not None:

@@ -18,8 +18,8 @@
   (Table 3.6).
 * Feature ↔ motion correlation for every registered feature set (paper Table 1, thesis §5.7.1):
   local CCA of each feature set with the recorded motion and its circular-shift chance level, by
-  :func:`headmotion.evaluation.feature_table.feature_table` (the same computation as ``headmotion
-  evaluate``) and written by :func:`headmotion.evaluation.report.feature_table_section` (the same
+  :func:`headmotion.evaluation.protocol.feature_table.feature_table` (the same computation as ``headmotion
+  evaluate``) and written by :func:`headmotion.evaluation.reporting.report.feature_table_section` (the same
   table layout).
 
 Libraries considered: Praat's own ``syllable nuclei`` script (de Jong & Wempe) needs Praat
@@ -39,7 +39,7 @@ import numpy as np
 from ..corpus import Corpus
 from ..errors import ParameterError
 from ..types import Audio
-from . import metrics as M
+from .measures import metrics as M
 
 N_BINS = 50
 
@@ -398,7 +398,7 @@ def _feature_table(corpus: Corpus, feature_sets, *, window_s: float, n_shifts: i
     """Paper Table 1 of the whole corpus: ``(table, settings, warnings)``; empty when there are no
     feature sets."""
     from ..corpus import paper_split
-    from .feature_table import feature_set_name, feature_table
+    from .protocol.feature_table import feature_set_name, feature_table
 
     if feature_sets is None:
         from .. import features as F

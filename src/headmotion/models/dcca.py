@@ -35,7 +35,7 @@ Regulariser and batch size (our choices; the paper states neither)
 
 Library considered: scikit-learn's ``CCA`` (NIPALS, numpy, not differentiable) — used only as the
 closed-form reference in the tests; the evaluation metrics (local/global CCA) live in
-:mod:`headmotion.evaluation.metrics`, not here.
+:mod:`headmotion.evaluation.measures.metrics`, not here.
 """
 
 from __future__ import annotations

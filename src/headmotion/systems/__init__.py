@@ -1,5 +1,5 @@
 """Synthesis systems (thesis ch. 5, paper §3) behind one contract (:mod:`.base`); the evaluation
-anchors are in :mod:`headmotion.evaluation.anchors`."""
+anchors are in :mod:`headmotion.evaluation.protocol.anchors`."""
 
 from .base import (CAUSAL, EMBEDDING, NEEDS_OTHER_SPEAKERS, STOCHASTIC, STREAMING, SYSTEMS, MotionStream, Synthesizer,
                    create, load_model, system_class)

@@ -32,8 +32,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import ParameterError
-from ..types import Motion
+from ...errors import ParameterError
+from ...types import Motion
 
 #: the name of the reference condition, the recording's own motion
 GROUND_TRUTH = "ground-truth"
@@ -94,7 +94,7 @@ class SystemCondition(Condition):
 
     @property
     def needs_other_speakers(self) -> bool:  # type: ignore[override]
-        from ..systems.base import NEEDS_OTHER_SPEAKERS
+        from ...systems.base import NEEDS_OTHER_SPEAKERS
 
         return NEEDS_OTHER_SPEAKERS in self.model.capabilities
 
@@ -105,7 +105,7 @@ class SystemCondition(Condition):
 
     @property
     def embedding(self) -> bool:  # type: ignore[override]
-        from ..systems.base import EMBEDDING
+        from ...systems.base import EMBEDDING
 
         return EMBEDDING in self.model.capabilities
 
@@ -138,7 +138,7 @@ class ModelFileCondition(SystemCondition):
     """
 
     def __init__(self, name: str, path):
-        from ..systems.base import load_model
+        from ...systems.base import load_model
 
         self.path = path
         super().__init__(name, lambda: load_model(path))

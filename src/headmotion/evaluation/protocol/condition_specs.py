@@ -27,9 +27,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import ParameterError
-from ..shipped import SHIPPED_FILES as SHIPPED_MODELS  # shipped name → file (the one registry)
-from ..shipped import shipped_path as shipped_model_path  # the file of a shipped model, by name
+from ...errors import ParameterError
+from ...shipped import SHIPPED_FILES as SHIPPED_MODELS  # shipped name → file (the one registry)
+from ...shipped import shipped_path as shipped_model_path  # the file of a shipped model, by name
 
 
 @dataclass(frozen=True)
@@ -58,7 +58,7 @@ class ConditionSpec:
 
 
 def _model_file(name: str, path: Path) -> ConditionSpec:
-    from ..systems.base import load_model
+    from ...systems.base import load_model
 
     if not path.is_file():
         raise ParameterError(f"model file {path} not found (a --systems entry that is neither a system, an "
@@ -70,8 +70,8 @@ def _model_file(name: str, path: Path) -> ConditionSpec:
 def condition_spec(entry) -> ConditionSpec:
     """The condition an entry of ``evaluate``'s ``systems`` names (see the module docstring);
     ParameterError for an unknown name, naming what is accepted."""
-    from ..systems.base import SYSTEMS
-    from ..systems.spec import SystemFactory, label, parse_system
+    from ...systems.base import SYSTEMS
+    from ...systems.spec import SystemFactory, label, parse_system
 
     from .anchors import ANCHORS
 

@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..corpus import Corpus, Recording
-from ..errors import ParameterError
+from ...corpus import Corpus, Recording
+from ...errors import ParameterError
 
 #: shortest non-speech run (s) whose middle may be a cut
 MIN_PAUSE_S = 0.3
@@ -35,7 +35,7 @@ MIN_FOLD_S = 5.0
 
 def pause_cut_candidates(speech_mask, *, fps: float, min_pause_s: float = MIN_PAUSE_S) -> np.ndarray:
     """Frame indices of the middles of the non-speech runs ≥ ``min_pause_s`` inside the take."""
-    from ..features.vad import runs as _runs
+    from ...features.vad import runs as _runs
 
     s = np.asarray(speech_mask, bool)
     n = max(1, int(round(min_pause_s * fps)))
@@ -66,7 +66,7 @@ def choose_cuts(candidates, n_frames: int, n_folds: int, *, fps: float, min_fold
 def split_at_pauses(recording: Recording, n_folds: int, *, min_pause_s: float = MIN_PAUSE_S,
                     min_fold_s: float = MIN_FOLD_S) -> list[Recording]:
     """The recording cut at pauses into (up to) ``n_folds`` parts ``<id>_p0``, ``<id>_p1``, …"""
-    from ..features.vad import speaking_mask
+    from ...features.vad import speaking_mask
 
     m = recording.motion
     fps = float(m.fps)

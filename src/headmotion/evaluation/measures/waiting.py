@@ -3,7 +3,7 @@ pauses (docs/decisions/amount-and-adapt.md).
 
 Recorded heads in pauses move about half as fast as in speech, drift slowly and shift posture now
 and then; a synthesised head should neither freeze nor keep nodding.  The measures, on the same
-footing as the detectability test's (:func:`~headmotion.evaluation.detectability.prepare`: a
+footing as the detectability test's (:func:`~headmotion.evaluation.detection.detectability.prepare`: a
 zero-phase 6 Hz low-pass at 25 fps, degrees):
 
 * :func:`pause_segment_speeds` — the mean speed (°/s, the norm over pitch, yaw and roll) of every
@@ -11,7 +11,7 @@ zero-phase 6 Hz low-pass at 25 fps, degrees):
   and the pooled pause/speech speed ratio of the recordings;
 * :func:`waiting` — a model on ``seconds`` of digital silence: its speed, its speed over its own
   speed in speech (given speech files), and its limit-cycle index
-  (:func:`~headmotion.evaluation.realism.limit_cycle_index`: the highest peak of the velocity
+  (:func:`~headmotion.evaluation.measures.realism.limit_cycle_index`: the highest peak of the velocity
   autocorrelation between 0.25 and 2 s — a head that repeats one movement every decision scores high).
 """
 
@@ -22,9 +22,9 @@ from typing import Sequence
 
 import numpy as np
 
-from ..motion.pauses import pause_mask, runs
-from ..types import Audio
-from .detectability import FPS, prepare
+from ...motion.pauses import pause_mask, runs
+from ...types import Audio
+from ..detection.detectability import FPS, prepare
 from .realism import limit_cycle_index, speech_mask_for
 
 
@@ -82,7 +82,7 @@ def waiting(model, *, seconds: float = 20.0, seeds: Sequence[int] = (0, 1, 2, 3)
             min_pause_s: float = 0.5) -> Waiting:
     """``model`` (anything :func:`headmotion.synthesis.synthesize` takes) on ``seconds`` of silence
     with each seed; its speed in speech is measured on the speech frames of ``speech`` (seed 0)."""
-    from ..synthesis import synthesize
+    from ...synthesis import synthesize
 
     silence = Audio(np.zeros(int(seconds * 16000), np.float32), 16000)
     speeds, loops = [], []

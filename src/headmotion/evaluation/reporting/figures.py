@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.atomic import atomic_path
-from .protocols import GROUND_TRUTH, EvaluationResult
+from ...io.atomic import atomic_path
+from ..protocol.protocols import GROUND_TRUTH, EvaluationResult
 
 
 def _plt():

@@ -18,8 +18,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..io.atomic import atomic_path
-from . import detectability as D
+from ...io.atomic import atomic_path
+from ..detection import detectability as D
 
 GROUND_TRUTH = "ground-truth"
 
@@ -109,7 +109,7 @@ def _cell(d: dict, key: str) -> str:
 
 def detectability_section(rows: Sequence[Mapping], systems: Sequence[str], *, top: int = 3) -> str:
     """Markdown: the detectability table (``recording == "ALL"`` rows of
-    :func:`~headmotion.evaluation.detectability.detectability_rows`), '' when there are none."""
+    :func:`~headmotion.evaluation.detection.detectability.detectability_rows`), '' when there are none."""
     per: dict[str, dict[str, float]] = {}
     for r in rows:
         if r["recording"] == "ALL" and str(r["metric"]).startswith("detect"):

@@ -30,8 +30,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ..corpus import Corpus, leave_one_out, paper_split
-from ..errors import ParameterError
+from ...corpus import Corpus, leave_one_out, paper_split
+from ...errors import ParameterError
 
 
 def _with_split(corpus: Corpus, idx: Sequence[int], split: dict[str, str]) -> Corpus:
@@ -102,8 +102,8 @@ def longest_held_out(folds) -> str:
     """The held-out recording with the longest motion (the first of equals).  Recordings of an
     on-disk corpus are not loaded for this (only their motion files are read), so the fold tasks
     still ship lazy manifest entries to the workers."""
-    from ..errors import HeadMotionError
-    from ..io import load_motion
+    from ...errors import HeadMotionError
+    from ...io import load_motion
 
     best, best_s = None, -1.0
     for _, _, test, _ in folds:

@@ -34,8 +34,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..errors import ParameterError
-from ..types import Motion
+from ...errors import ParameterError
+from ...types import Motion
 
 #: common frame rate (Hz), low-pass cut-off (Hz), window and hop (s)
 FPS = 25.0
@@ -127,7 +127,7 @@ def reversal_rate(motion, *, fps: float | None = None, cutoff_hz: float = CUTOFF
 
     Examples
     --------
-    >>> from headmotion.evaluation.detectability import reversal_rate
+    >>> from headmotion.evaluation.detection.detectability import reversal_rate
     >>> reversal_rate(recording.motion)              # a Motion carries its rate
     >>> reversal_rate(rotvec, fps=30.0)
     """

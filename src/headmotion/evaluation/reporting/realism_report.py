@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .conditions import GROUND_TRUTH
+from ..protocol.conditions import GROUND_TRUTH
 from .md_tables import table as _table
 from .md_tables import vals as _vals
-from .results import EvaluationResult
+from ..protocol.results import EvaluationResult
 
 
 # -- realism -----------------------------------------------------------------------------------------
@@ -63,7 +63,7 @@ def realism_summary(result: EvaluationResult) -> dict[str, dict[str, float]]:
 def _pooled_l1_from_rows(result: EvaluationResult, system: str, recs) -> float:
     """``spectral_l1_pooled`` from the per-recording band shares of metrics.csv (the mean shares of
     the recordings scored, the system's and their ground truths'); nan when they are missing."""
-    from .realism import BAND_NAMES, mean_shares_distance
+    from ..measures.realism import BAND_NAMES, mean_shares_distance
 
     by_rec: dict = {}
     for r in result.rows:
@@ -246,7 +246,7 @@ def realism_figures_for(result: EvaluationResult, out_dir) -> list[Path]:
     measures (:mod:`.realism_figures`), if the result kept its motions."""
     if not result.motions or GROUND_TRUTH not in result.motions:
         return []
-    from ..types import Motion
+    from ...types import Motion
     from . import realism_figures as RF
 
     out = Path(out_dir)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .results import EvaluationResult
+from ..protocol.results import EvaluationResult
 
 
 def vals(result: EvaluationResult, system: str, metric: str, recordings=None) -> np.ndarray:

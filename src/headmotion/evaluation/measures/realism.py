@@ -46,7 +46,7 @@ roll for small angles) with ``fps`` given.
   at 30 fps (≈ 0.23 s) follow EMAGE's evaluation setting; both are parameters.
 * :func:`coupling` and :func:`pooled_coupling` — FCCA and local CCA of the candidate with the
   speech features, each with its circular-shift chance level
-  (:mod:`headmotion.evaluation.chance`); the excesses of all held-out recordings are combined
+  (:mod:`headmotion.evaluation.measures.chance`); the excesses of all held-out recordings are combined
   into one p-value by Stouffer's method (z_i = Φ⁻¹(1 − p_i), Z = Σ z_i / √n).
 * :func:`realism_rows` — the one-liner for ``evaluate``: ``{condition: [motion per recording]}``
   and the ground truths → a list of metrics.csv rows (one per condition and recording) plus one
@@ -66,10 +66,10 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..errors import ParameterError
-from ..motion.bands import BAND_EDGES_HZ
-from ..motion.pauses import pause_mask, pause_speech_speeds, pooled_pause_ratio
-from ..types import Motion
+from ...errors import ParameterError
+from ...motion.bands import BAND_EDGES_HZ
+from ...motion.pauses import pause_mask, pause_speech_speeds, pooled_pause_ratio
+from ...types import Motion
 from . import metrics as M
 
 BANDS: tuple[tuple[float, float], ...] = tuple(zip((0.0, *BAND_EDGES_HZ), (*BAND_EDGES_HZ, 10.0)))
@@ -260,7 +260,7 @@ def saturation(motion, limits_deg, *, fps: float | None = None, tol_deg: float =
 # -- pauses -------------------------------------------------------------------------------------------
 def speech_mask_for(audio, motion) -> np.ndarray:
     """The package's VAD (:func:`headmotion.features.vad.speaking_mask`) at the motion's frames."""
-    from ..features.vad import speaking_mask
+    from ...features.vad import speaking_mask
 
     return speaking_mask(audio, fps=float(motion.fps), n_frames=len(motion))
 
@@ -370,7 +370,7 @@ def stouffer(p_values, *, n_shifts: int | None = None) -> float:
     """One-sided combined p-value of independent tests (Stouffer's Z).
 
     With ``n_shifts``, the p-values are circular-shift p-values ``(1 + k) / (n_shifts + 1)``
-    (:mod:`headmotion.evaluation.chance`; ``k`` shifts scored at least as high) and each is
+    (:mod:`headmotion.evaluation.measures.chance`; ``k`` shifts scored at least as high) and each is
     replaced by its mid-p ``(k + 0.5) / (n_shifts + 1)`` before the normal quantile: a discrete
     p-value of 1 (every shift scored higher) then counts as z = −Φ⁻¹(1 − 0.5/(n + 1)), the mirror
     of the best possible recording, instead of the −7 that clipping at 1 − 1e-12 gave it (one

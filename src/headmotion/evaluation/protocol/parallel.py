@@ -26,8 +26,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..corpus import Corpus
-from ..parallel import dask_client, run_map  # noqa: F401  (re-exported: the folds and the feature table use them)
+from ...corpus import Corpus
+from ...parallel import dask_client, run_map  # noqa: F401  (re-exported: the folds and the feature table use them)
 
 
 def _one_recording_corpora(corpus: Corpus) -> list[Corpus]:

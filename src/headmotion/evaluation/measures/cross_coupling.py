@@ -36,8 +36,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import NotFittedError, ParameterError
-from ..types import FeatureTrack, Motion
+from ...errors import NotFittedError, ParameterError
+from ...types import FeatureTrack, Motion
 from . import chance as C
 
 #: analysis rate (Hz), speech context (frames each side), relative ridge of the covariances
@@ -282,7 +282,7 @@ def cross_speaker_coupling(train_motions: Sequence, train_features: Sequence, te
 
     Examples
     --------
-    >>> from headmotion.evaluation.cross_coupling import cross_speaker_coupling
+    >>> from headmotion.evaluation.measures.cross_coupling import cross_speaker_coupling
     >>> cross_speaker_coupling(train_heads, train_feats, generated, test_feats, fps=25.0, n_shifts=100)
     """
     model = CrossSpeakerCCA(context=context, ridge=ridge).fit(train_motions, train_features, fps=fps)

@@ -9,7 +9,7 @@ Per recording, a condition's motion passes through :data:`RECORDING_MEASURES` in
   CCA, SD, jerk; every CCA-type score with its circular-shift chance level from :mod:`.chance`);
 * ``paper chance`` — the reference condition only (the recording's own motion): the paper's
   chance score, local CCA with another speaker's randomised motion (paper §4.3.2);
-* ``realism measures`` — :func:`headmotion.evaluation.realism.realism` (band shares, amplitude,
+* ``realism measures`` — :func:`headmotion.evaluation.measures.realism.realism` (band shares, amplitude,
   drift, speed / acceleration Hellinger, limit cycles, saturation in the condition's declared
   range, pauses, beat consistency, diversity of its samples);
 * ``embedding`` — conditions with a learned speech embedding: its local CCA with the motion.
@@ -31,11 +31,11 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ..align import fit_length
-from ..errors import LengthMismatchError, ParameterError
-from ..types import Motion
-from . import chance as C
-from . import metrics as M
+from ...align import fit_length
+from ...errors import LengthMismatchError, ParameterError
+from ...types import Motion
+from ..measures import chance as C
+from ..measures import metrics as M
 from .conditions import GROUND_TRUTH, Condition
 
 #: local CCA window (paper §4.3: 300 frames = 3 s at 100 fps)
@@ -129,7 +129,7 @@ class RecordingScoring:
     pred: np.ndarray
     #: speech features of the recording's audio (the FCCA feature set)
     features: Any
-    #: the seed of this (recording, condition) (:func:`~headmotion.evaluation.parallel.sub_seed`)
+    #: the seed of this (recording, condition) (:func:`~headmotion.evaluation.protocol.parallel.sub_seed`)
     seed: int
     #: the evaluation's seed
     base_seed: int
@@ -176,7 +176,7 @@ _REALISM_SKIP = ("n_frames", "seconds")
 
 def realism_measures(s: RecordingScoring) -> dict[str, float]:
     """The realism measures of :mod:`.realism` (nothing without a realism context)."""
-    from . import realism as R
+    from ..measures import realism as R
 
     if s.context is None:
         return {}
@@ -208,7 +208,7 @@ def beat_alignment(s: RecordingScoring) -> dict[str, float]:
     """Beat consistency (BC of BEAT / EMAGE: head angular-speed minima against the speech onsets,
     :func:`~.realism.beat_consistency`) against the same bridge shift null as the coupling scores
     (``bc_null_mean``, ``bc_null_p95``, ``bc_p``, ``bc_excess``; the score itself is ``bc``)."""
-    from . import realism as R
+    from ..measures import realism as R
     from .parallel import sub_seed
 
     onsets = None if s.context is None else s.context.get("onsets")
@@ -266,7 +266,7 @@ RECORDING_MEASURES: tuple[Measure, ...] = (
 def realism_context(rec, warnings: list[str]) -> dict:
     """Speech mask at the motion's frames and speech onsets of one held-out recording (a failure
     leaves that part None and a warning)."""
-    from . import realism as R
+    from ..measures import realism as R
 
     ctx: dict = {"mask": None, "onsets": None}
     try:
@@ -314,7 +314,7 @@ def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references:
     histograms pooled over every held-out recording (``speed_hellinger_pooled``,
     ``accel_hellinger_pooled``) — the GENEA numerical evaluations' form, one histogram per
     condition over the whole test set — and the spectral L1 between the test set's mean band
-    shares (``spectral_l1_pooled``, :func:`~headmotion.evaluation.realism.pooled_spectral_distance`),
+    shares (``spectral_l1_pooled``, :func:`~headmotion.evaluation.measures.realism.pooled_spectral_distance`),
     next to the per-recording medians.
 
     With ``samples`` (``{condition: {recording: [K motions]}}``, the diversity measure's K
@@ -325,7 +325,7 @@ def pooled_histogram_rows(motions: dict[str, dict[str, np.ndarray]], references:
     sampling noise of one draw (on small test sets about as large as the realism target's
     tolerance); K draws with 1/K of its variance.  Conditions that are not sampled (the anchors:
     one motion each) have no such row."""
-    from . import realism as R
+    from ..measures import realism as R
 
     out = []
     for cond, d in motions.items():
@@ -352,9 +352,9 @@ def pooled_rows(rows: list[dict], systems: Sequence[str], *, n_shifts: int | Non
     """Per system, recording ``ALL``: mean FCCA / local-FCCA / cross-speaker coupling / beat
     alignment excess over the held-out recordings and the Stouffer-combined p-value of their
     circular-shift tests (their mid-p values with ``n_shifts``,
-    :func:`~headmotion.evaluation.realism.stouffer`): ``<m>_excess_pooled``, ``<m>_p_pooled``,
+    :func:`~headmotion.evaluation.measures.realism.stouffer`): ``<m>_excess_pooled``, ``<m>_p_pooled``,
     ``<m>_n_pooled`` for ``m`` in ``fcca``, ``fcca_local``, ``xcca``, ``bc``."""
-    from .realism import stouffer
+    from ..measures.realism import stouffer
 
     out = []
     for s in systems:
@@ -429,7 +429,7 @@ def _pooled_detectability(p: PooledScoring) -> list[dict]:
     (:mod:`.detectability`), with the ruler's anchors under the ground truth's name."""
     if not p.options.get("detectability", True) or not p.motions or GROUND_TRUTH not in p.motions:
         return []
-    from .detectability import detectability_rows, floor_rows, low_pass_rows
+    from ..detection.detectability import detectability_rows, floor_rows, low_pass_rows
 
     real = p.motions[GROUND_TRUTH]
     gen = {c: d for c, d in p.motions.items() if c != GROUND_TRUTH}
@@ -445,7 +445,7 @@ def _pooled_reversals(p: PooledScoring) -> list[dict]:
     heads'), :func:`~.detectability.reversal_rows`."""
     if not p.motions:
         return []
-    from .detectability import reversal_rows
+    from ..detection.detectability import reversal_rows
 
     return reversal_rows(p.motions, p.fps)
 

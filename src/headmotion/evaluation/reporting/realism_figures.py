@@ -2,12 +2,12 @@
 
 * :func:`spectra_figure` — per-axis power spectra (Welch, pooled over recordings by averaging the
   per-recording PSDs interpolated on a common 0–10 Hz grid) of every condition drawn over the
-  ground truth's, log power, with the band edges of :data:`~headmotion.evaluation.realism.BANDS`.
+  ground truth's, log power, with the band edges of :data:`~headmotion.evaluation.measures.realism.BANDS`.
 * :func:`speed_histogram_figure` — histograms of the angular speed (°/s) of every condition over
   the ground truth's, on the ground truth's bins.
 * :func:`realism_coupling_scatter` — one point per condition: x = spectral L1 distance to the
   ground truth (or speed Hellinger), y = pooled FCCA excess over chance, from
-  :func:`~headmotion.evaluation.realism.realism_rows` rows (``recording == "ALL"``).
+  :func:`~headmotion.evaluation.measures.realism.realism_rows` rows (``recording == "ALL"``).
 
 Inputs are ``{condition: [Motion per recording]}``; ``"ground-truth"`` is the reference.
 Library: matplotlib (Agg backend); PNGs written atomically.
@@ -20,8 +20,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..io.atomic import atomic_path
-from . import realism as R
+from ...io.atomic import atomic_path
+from ..measures import realism as R
 
 GROUND_TRUTH = "ground-truth"
 GRID = np.linspace(0.0, 10.0, 201)

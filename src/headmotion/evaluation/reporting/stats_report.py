@@ -15,8 +15,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ..io.atomic import atomic_path, atomic_write_text
-from .corpus_stats import N_BINS, CorpusStats, speaker_means
+from ...io.atomic import atomic_path, atomic_write_text
+from ..corpus_stats import N_BINS, CorpusStats, speaker_means
 
 
 # -- writing --------------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 """Evaluation anchors (thesis §4.2.4, §4.3.1, §5.9 Table 5.8): ground truth, desynchronised,
 other speaker, head-motion-shaped noise, still head.
 
-Anchors are evaluation conditions (:class:`~headmotion.evaluation.conditions.Condition`) that make
+Anchors are evaluation conditions (:class:`~headmotion.evaluation.protocol.conditions.Condition`) that make
 their motion from the corpus's recorded motion, not from speech: ``fit(corpus)`` stores the
 reference motions (and, for shaped noise, the average magnitude spectrum of their motion);
 ``motion_for(recording, *, seed=None)`` makes the anchor's motion for one recording, with exactly
@@ -45,8 +45,8 @@ import numpy as np
 from abc import abstractmethod
 from typing import ClassVar
 
-from ..errors import NotFittedError, ParameterError
-from ..types import Motion
+from ...errors import NotFittedError, ParameterError
+from ...types import Motion
 from .conditions import GROUND_TRUTH, Condition
 
 

@@ -44,8 +44,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import LengthMismatchError, ParameterError
-from ..types import FeatureTrack, Motion
+from ...errors import LengthMismatchError, ParameterError
+from ...types import FeatureTrack, Motion
 
 #: ridge added to covariances before whitening, relative to the mean variance
 RIDGE = 1e-10

@@ -34,7 +34,7 @@ plain score.  ``null="circular"`` is the former test (plain shifts, offsets from
   concatenated motion, averaged over draws).
 
 Libraries considered: no maintained library computes circular-shift nulls of CCA; the shifts are a
-few lines on top of :mod:`headmotion.evaluation.metrics`.
+few lines on top of :mod:`headmotion.evaluation.measures.metrics`.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
-from ..errors import ParameterError
+from ...errors import ParameterError
 from . import metrics as M
 
 DEFAULT_SHIFTS = 200
@@ -175,7 +175,7 @@ def global_cca_null(x, y, *, n_shifts: int = DEFAULT_SHIFTS, seed=0, min_shift: 
 def local_cca_null(x, y, *, window: int = M.DEFAULT_WINDOW, window_s: float | None = None, hop: int | None = None,
                    fps: float | None = None, n_shifts: int = DEFAULT_SHIFTS, seed=0, min_shift: int | None = None,
                    ridge: float = M.RIDGE, chunk: int = 16, null: str = "bridge") -> NullResult:
-    """Local CCA of ``x`` and ``y`` (see :func:`~headmotion.evaluation.metrics.local_cca`) and its
+    """Local CCA of ``x`` and ``y`` (see :func:`~headmotion.evaluation.measures.metrics.local_cca`) and its
     null with ``x`` (its bridge by default) circularly shifted (windows batched, ``chunk`` shifts at
     a time)."""
     a, b, f = M._pair(x, y)

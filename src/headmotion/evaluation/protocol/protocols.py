@@ -82,9 +82,9 @@ from __future__ import annotations
 import time
 from typing import Callable, Sequence
 
-from ..corpus import Corpus, paper_split
-from ..errors import ParameterError
-from . import chance as C
+from ...corpus import Corpus, paper_split
+from ...errors import ParameterError
+from ..measures import chance as C
 from .condition_specs import condition_spec
 from .conditions import GROUND_TRUTH
 from .feature_table import feature_set_name, feature_table
@@ -100,7 +100,7 @@ from .scoring import (DEFAULT_WINDOW_S, FIG48_WINDOWS_S, FLOOR, pooled_histogram
 def _feature_sets(feature_sets) -> tuple:
     if feature_sets is None:
         try:
-            from .. import features as F
+            from ... import features as F
 
             feature_sets = tuple(F.available())
         except ImportError:

@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.atomic import atomic_write_text
-from .conditions import GROUND_TRUTH
+from ...io.atomic import atomic_write_text
+from ..protocol.conditions import GROUND_TRUTH
 from .md_tables import mean as _m
 from .md_tables import mean_sd as _ms
 from .md_tables import speakers as _speakers
@@ -39,7 +39,7 @@ from .md_tables import table as _table
 from .md_tables import vals as _vals
 from .realism_report import (REALISM_COLUMNS, RULER, coupling_line, realism_figures_for,  # noqa: F401
                              realism_md, realism_summary, realism_targets, ruler_anchor)
-from .results import EvaluationResult
+from ..protocol.results import EvaluationResult
 
 #: paper Table 1 display names of feature sets
 FEATURE_LABELS = {"f0e": "F0+Energy", "fbank": "FBank", "mfcc": "MFCC", "wav": "waveform", "lsp": "LSP",
@@ -351,8 +351,8 @@ def write_motions(result: EvaluationResult, out_dir) -> list[Path]:
     ``headmotion plot`` and ``render``); condition names are made safe as folder names."""
     import re
 
-    from ..io.native import save_npz
-    from ..types import Motion
+    from ...io.native import save_npz
+    from ...types import Motion
 
     paths: list[Path] = []
     for cond, recs in result.motions.items():

@@ -14,7 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..types import Motion
+from ...types import Motion
 from .conditions import GROUND_TRUTH
 from . import scoring as S
 from .scoring import PooledScoring, fig48_rows, rows_of

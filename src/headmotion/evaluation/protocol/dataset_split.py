@@ -5,15 +5,15 @@ Public corpora ship a train / validation / test split (BEAT2's ``train_test_spli
 its test recordings.  This protocol trains each system once, on every ``train`` and ``valid``
 recording of all speakers (the networks keep ``valid`` for early stopping, as the labels say), and
 scores it on every ``test`` recording.  The per-speaker paper protocol is ``split``
-(:func:`headmotion.evaluation.protocols.make_folds`).
+(:func:`headmotion.evaluation.protocol.protocols.make_folds`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 
-from ..corpus import Corpus
-from ..errors import ParameterError
+from ...corpus import Corpus
+from ...errors import ParameterError
 
 
 def dataset_split_folds(corpus: Corpus) -> list[tuple[str, Corpus, Corpus, Corpus | None]]:

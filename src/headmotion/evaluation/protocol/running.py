@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from ..corpus import Corpus
-from . import metrics as M
+from ...corpus import Corpus
+from ..measures import metrics as M
 from .condition_specs import ConditionSpec
 from .conditions import GROUND_TRUTH
 from .feature_table import extract_one
@@ -106,7 +106,7 @@ def fit_cross_coupling(task: FoldTask, warns: list[str]):
     on the recorded heads and speech of the speakers the fold does not hold out (``task.others``:
     the training folds' recordings under ``--protocol speakers``), or None (no other speaker; a
     failure leaves a warning)."""
-    from .cross_coupling import CrossSpeakerCCA
+    from ..measures.cross_coupling import CrossSpeakerCCA
 
     if task.others is None or not len(task.others):
         return None

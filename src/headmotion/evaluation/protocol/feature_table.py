@@ -18,9 +18,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..corpus import Corpus
-from ..errors import ParameterError
-from ..types import FeatureTrack
+from ...corpus import Corpus
+from ...errors import ParameterError
+from ...types import FeatureTrack
 from .parallel import map_recordings, sub_seed
 
 
@@ -38,7 +38,7 @@ def extract_one(fs, audio, *, fps: float, n_frames: int | None) -> FeatureTrack:
             a = np.asarray(out, dtype=np.float32)
             out = FeatureTrack(a if a.ndim == 2 else a[:, None], fps, tuple(f"f{i}" for i in range(a.shape[-1])))
         return out
-    from .. import features as F
+    from ... import features as F
 
     return F.extract(fs, audio, fps=fps, n_frames=n_frames)
 
@@ -46,7 +46,7 @@ def extract_one(fs, audio, *, fps: float, n_frames: int | None) -> FeatureTrack:
 def _frames_for(rec, fps: float | None) -> tuple[float, int]:
     if fps is None:
         return float(rec.motion.fps), len(rec.motion)
-    from ..align import n_frames
+    from ...align import n_frames
 
     return float(fps), n_frames(len(rec.audio.samples), rec.audio.sample_rate, float(fps))
 
@@ -118,8 +118,8 @@ def extract_corpus_features(corpus: Corpus, feature_sets: Sequence, *, fps: floa
 
 # -- paper Table 1 ----------------------------------------------------------------------------------
 def _recording_table(rec, feature_sets: tuple, window_s: float, n_shifts: int, seed: int):
-    from . import chance as C
-    from . import metrics as M
+    from ..measures import chance as C
+    from ..measures import metrics as M
 
     vals: dict[str, float] = {}
     warns: list[str] = []

@@ -1,0 +1,1 @@
+"""What an evaluation writes: metrics.csv and report.md (:mod:`.report`, :mod:`.md_tables`, :mod:`.realism_report`), figures (:mod:`.figures`, :mod:`.realism_figures`, :mod:`.detectability_figures`) and the corpus statistics' report (:mod:`.stats_report`)."""
