@@ -55,12 +55,12 @@ import numpy as np
 from ..errors import FormatError, ParameterError
 from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
 from ..types import Motion
-from .bands import BAND_EDGES_HZ
+from .bands import BAND_EDGES_HZ, band_names
 
 #: Crossover frequencies (Hz) between the bands (:mod:`headmotion.motion.bands`).
 BAND_EDGES = BAND_EDGES_HZ
 #: Names of the bands, low to high.
-BAND_NAMES = ("0-0.5Hz", "0.5-1.5Hz", "1.5-4Hz", ">=4Hz")
+BAND_NAMES = band_names()  # ("0_0.5", "0.5_1.5", "1.5_4", "4_up"): the realism measure's spelling
 #: A reference must be at least this long (s) for its slowest band to mean anything.
 MIN_REFERENCE_SECONDS = 2.0
 #: Extensions read as a talking video (through :mod:`headmotion.video`) by

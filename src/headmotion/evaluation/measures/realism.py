@@ -67,13 +67,13 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ...errors import ParameterError
-from ...motion.bands import BAND_EDGES_HZ
+from ...motion.bands import BAND_EDGES_HZ, band_names
 from ...motion.pauses import pause_mask, pause_speech_speeds, pooled_pause_ratio
 from ...types import Motion
 from . import metrics as M
 
 BANDS: tuple[tuple[float, float], ...] = tuple(zip((0.0, *BAND_EDGES_HZ), (*BAND_EDGES_HZ, 10.0)))
-BAND_NAMES = ("0_0.5", "0.5_1.5", "1.5_4", "4_10")
+BAND_NAMES = band_names(top=10.0)  # ("0_0.5", "0.5_1.5", "1.5_4", "4_10"): metrics.csv's band columns
 AXES = ("pitch", "yaw", "roll")
 DEG = 180.0 / np.pi
 
