@@ -67,6 +67,12 @@ def _triple(value, what: str, *, degrees: bool = False) -> tuple[float, float, f
     return tuple(math.radians(v) if degrees else float(v) for v in a)
 
 
+def _is_triple(value) -> bool:
+    """A value already normalised: a tuple of three finite floats."""
+    return (isinstance(value, tuple) and len(value) == 3
+            and all(type(v) is float and math.isfinite(v) for v in value))
+
+
 def _per_axis(base: tuple, axes, what: str, *, degrees: bool = False) -> tuple[float, float, float]:
     """``base`` with the axes given in ``axes`` (pitch, yaw, roll; None = keep) replaced."""
     out = list(base)
@@ -127,8 +133,10 @@ class Controls:
 
     def __post_init__(self):
         set_ = object.__setattr__
-        set_(self, "gain", _triple(self.gain, "gain"))
-        set_(self, "offset", _triple(self.offset, "offset"))
+        for name in ("gain", "offset"):  # parse's triples are final; anything else is parsed here, once
+            v = getattr(self, name)
+            if not _is_triple(v):
+                set_(self, name, _triple(v, name))
         _check_range(self.gain, GAIN_RANGE, "gain (--gain)", "")
         _check_range(tuple(math.degrees(v) for v in self.offset), OFFSET_RANGE_DEG, "offset (--offset)", " degrees")
         set_(self, "still", bool(self.still))
