@@ -27,16 +27,16 @@ from .app import app, console, progress_bar
 
 def default_model_path() -> Path:
     """The file of the shipped model ``default``."""
-    from ..shipped import data_dir, SHIPPED_FILES
+    from ..shipped import shipped_path
 
-    return data_dir() / SHIPPED_FILES["default"]
+    return shipped_path("default")
 
 
 def default_stream_model_path() -> Path:
     """The file of the shipped causal model ``stream`` (the default model is not causal)."""
-    from ..shipped import data_dir, SHIPPED_FILES
+    from ..shipped import shipped_path
 
-    return data_dir() / SHIPPED_FILES["stream"]
+    return shipped_path("stream")
 
 
 def load_cli_model(model, default: str = "default"):
