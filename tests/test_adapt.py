@@ -133,3 +133,22 @@ def test_the_adapted_model_keeps_the_bases_settings_unless_told(corpus, base):
     assert {k: v for k, v in m.get_params().items() if k != "base_cost"} == \
         {k: v for k, v in base.get_params().items() if k != "base_cost"}
     assert adapt(speaker(corpus, "b"), base, min_speech_s=0, repeat_cost=3.0).repeat_cost == 3.0
+
+
+def test_the_command_takes_audio_and_motion_files_paired_by_stem(corpus, base, tmp_path):
+    folder = tmp_path / "spk"
+    speaker(corpus, "b").save(folder)
+    saved = Corpus.load(folder)
+    files = [p for e in saved.entries for p in (folder / e.audio, folder / e.motion)]
+    path = base.save(tmp_path / "base.hmz")
+    runner = CliRunner()
+    ok = runner.invoke(app, ["adapt", *map(str, files), "-o", str(tmp_path / "f.hmz"), "--base", str(path),
+                             "--speaker", "bee"])
+    assert ok.exit_code == 0, ok.output
+    from_folder = adapt(saved, str(path))
+    audio = corpus[0].audio.slice_seconds(0, 6.0)
+    np.testing.assert_array_equal(load_model(tmp_path / "f.hmz").predict(audio, seed=2).rotvec,
+                                  from_folder.predict(audio, seed=2).rotvec)
+    assert "bee" in (tmp_path / "f.md").read_text()
+    lone = runner.invoke(app, ["adapt", str(files[0]), str(tmp_path / "other.bvh"), "-o", str(tmp_path / "g.hmz")])
+    assert lone.exit_code != 0 and not (tmp_path / "g.hmz").exists()

@@ -1,11 +1,11 @@
-"""``headmotion adapt CORPUS -o MINE.hmz [--base default|MODEL]``: a model adapted to one speaker
-from their recordings (:mod:`headmotion.systems.adapt`), with its model card beside it."""
+"""``headmotion adapt CORPUS|AUDIO MOTION… -o MINE.hmz [--base default|MODEL]``: a model adapted to
+one speaker from their recordings (:mod:`headmotion.systems.adapt`), with its model card beside it."""
 
 from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Optional
+from typing import List, Optional
 
 import typer
 
@@ -13,7 +13,7 @@ from ..errors import ParameterError
 from .app import app, console, progress_bar
 
 
-def card_text(model, corpus_dir: Path, output: Path) -> str:
+def card_text(model, corpus_dir, output: Path) -> str:
     """The model card of an adapted model: what it was adapted from, on what, and how to use it."""
     a = model.adapted_from_ or {}
     base_corpus = a.get("base_corpus") or {}
@@ -39,42 +39,57 @@ def card_text(model, corpus_dir: Path, output: Path) -> str:
 
 @app.command()
 def adapt(
-    corpus: Path = typer.Argument(..., help="The speaker's recordings with motion: a corpus folder (from "
-                                  "`headmotion corpus import`, `corpus from-video` or an imported dataset)."),
+    sources: List[Path] = typer.Argument(..., metavar="CORPUS | AUDIO MOTION ...", help="The speaker's recordings "
+                                         "with motion: a corpus folder (from `headmotion corpus import`, `corpus "
+                                         "from-video` or an imported dataset), or audio and motion files paired by "
+                                         "stem (take1.wav take1.bvh …)."),
     output: Path = typer.Option(..., "-o", "--output", help="Model file to write (.hmz); its card goes beside it (.md)."),
     base: str = typer.Option("default", "--base", metavar="NAME|FILE", help="The model adapted: 'default', "
                              "'stream' or a motion-match model file."),
     base_cost: Optional[float] = typer.Option(None, "--base-cost", help="How strongly the speaker's own movements "
                                               "are preferred over the base's (default 2; 0: no preference)."),
-    speaker: Optional[str] = typer.Option(None, "--speaker", help="Only this speaker's recordings of the corpus."),
+    speaker: Optional[str] = typer.Option(None, "--speaker", help="A corpus folder: only this speaker's recordings; "
+                                          "files: the speaker's name for the card."),
 ):
     """Adapt a model to a speaker from their recordings (at least 20 s of speech with motion; a
     minute or more is better): their movements join the model's and are preferred, and its range
     and posture follow theirs."""
-    from ..corpus import Corpus
+    import tempfile
+
+    from ..corpus import Corpus, CorpusEntry
     from ..systems.adapt import BASE_COST
     from ..systems.adapt import adapt as adapt_model
+    from .corpus_cmds import pair_by_stem
 
     if output.suffix.lower() != ".hmz":
         raise ParameterError(f"-o {output}: a model file must end in .hmz")
-    if corpus.is_file() and corpus.name == "corpus.csv":  # the folder's manifest: the folder
-        corpus = corpus.parent
-    if corpus.is_file():
-        raise ParameterError(f"{corpus}: is a file; adapt reads a corpus folder — import a take first with "
-                             f"`headmotion corpus import MOTION AUDIO -o FOLDER`")
-    if not corpus.is_dir():
-        raise ParameterError(f"{corpus}: no such corpus folder")
-    c = Corpus.load(corpus)
-    if speaker is not None:
-        c = c.filter(speaker=speaker)
-    t0 = time.perf_counter()
-    with progress_bar("adapting") as update:
-        model = adapt_model(c, base, base_cost=BASE_COST if base_cost is None else base_cost,
-                            progress=lambda done, total, desc: update(done, total=total, description=desc))
+    folder = sources[0] if len(sources) == 1 else None
+    if folder is not None and folder.is_file() and folder.name == "corpus.csv":  # the folder's manifest
+        folder = folder.parent
+    with tempfile.TemporaryDirectory(prefix="headmotion-adapt-") as tmp:
+        if folder is not None and folder.is_dir():
+            c = Corpus.load(folder)
+            if speaker is not None:
+                c = c.filter(speaker=speaker)
+            where = str(folder)
+        elif folder is not None and not folder.exists():
+            raise ParameterError(f"{folder}: no such corpus folder or file")
+        else:  # audio and motion files: a corpus of them, read where they are
+            pairs = pair_by_stem(sources)
+            who = speaker or "speaker"
+            entries = [CorpusEntry(stem, who, "speech", d["audio"].resolve(), d["motion"].resolve())
+                       for stem, d in sorted(pairs.items())]
+            Corpus(root=Path(tmp), entries=entries).save(Path(tmp))
+            c = Corpus.load(tmp)
+            where = ", ".join(f.name for f in sources)
+        t0 = time.perf_counter()
+        with progress_bar("adapting") as update:
+            model = adapt_model(c, base, base_cost=BASE_COST if base_cost is None else base_cost,
+                                progress=lambda done, total, desc: update(done, total=total, description=desc))
     out = model.save(output)
     card = out.with_suffix(".md")
     try:
-        card.write_text(card_text(model, corpus, out), encoding="utf-8")
+        card.write_text(card_text(model, where, out), encoding="utf-8")
     except OSError:
         out.unlink(missing_ok=True)  # no model without its card
         raise

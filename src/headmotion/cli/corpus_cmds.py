@@ -133,6 +133,21 @@ def features_cmd(
                   f"({len(corpus)} recordings × {len(configs)} set(s))")
 
 
+def pair_by_stem(files) -> dict[str, dict[str, Path]]:
+    """Audio and motion files paired by file stem (``take1.wav`` + ``take1.bvh``): stem →
+    ``{"audio": path, "motion": path}``; ParameterError for a missing file or an unpaired stem."""
+    by_stem: dict[str, dict[str, Path]] = {}
+    for f in files:
+        if not f.exists():
+            raise ParameterError(f"{f}: file not found")
+        kind = "audio" if f.suffix.lower() in AUDIO_EXT else "motion"
+        by_stem.setdefault(f.stem, {})[kind] = f
+    unpaired = [s for s, d in by_stem.items() if len(d) != 2]
+    if unpaired:
+        raise ParameterError(f"these stems lack an audio or a motion file: {unpaired}")
+    return by_stem
+
+
 @corpus_app.command("import")
 def import_files(
     files: List[Path] = typer.Argument(..., help="audio and motion files, paired by file stem"),
@@ -147,15 +162,7 @@ def import_files(
     from ..corpus import Corpus, CorpusEntry, MANIFEST
     from ..datasets import check_pair
 
-    by_stem: dict[str, dict[str, Path]] = {}
-    for f in files:
-        if not f.exists():
-            raise ParameterError(f"{f}: file not found")
-        kind = "audio" if f.suffix.lower() in AUDIO_EXT else "motion"
-        by_stem.setdefault(f.stem, {})[kind] = f
-    unpaired = [s for s, d in by_stem.items() if len(d) != 2]
-    if unpaired:
-        raise ParameterError(f"these stems lack an audio or a motion file: {unpaired}")
+    by_stem = pair_by_stem(files)
     checks = {stem: check_pair(d["audio"], d["motion"], recording=stem) for stem, d in sorted(by_stem.items())}
     output.mkdir(parents=True, exist_ok=True)
     existing = Corpus.load(output).entries if (output / MANIFEST).exists() else ()
