@@ -21,22 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-#: small settings per system (as the contract tests train them)
-_DNN = dict(ae_hidden=(16,), embedding_dim=4, regressor_hidden=(16,), context=3, postfilter_hidden=(16,),
-            postfilter_code=4, segment=10, max_epochs=1, ae_max_epochs=1, pretrain_epochs=0, patience=1,
-            cca_batch_size=200, batch_size=256, n_threads=1, random_state=0)
-TINY = {
-    "tws-basic": dict(n_components=1, n_init=1),
-    "tws-hier": dict(n_clusters=2, hmm_iter=2, n_init=2),
-    "le2012": dict(n_components=2, max_train_frames=2000, n_steps=4),
-    **{name: dict(_DNN) for name in ("cccae", "ae-dnn", "mfcc-dnn", "fbank-dnn", "f0e-dnn", "wav-dnn")},
-    "motion-flow": dict(window=24, prefix=6, hidden=16, n_blocks=2, train_steps=20, batch_size=8, eval_every=10,
-                        sampling_steps=2, n_threads=1),
-    "motion-match": dict(prosody="f0e-live"),
-    "motion-match-f0e": dict(),
-    "motion-match-live": dict(live=True, hop=4),
-    "adapt": dict(min_speech_s=0.0),
-}
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+from test_contract import TINY as CONTRACT_TINY  # noqa: E402  (the contract tests' small settings)
+
+#: every registered system with the contract tests' small settings, motion-match on both prosodies
+#: and live
+TINY = {**CONTRACT_TINY, "motion-match": dict(prosody="f0e-live"), "motion-match-f0e": CONTRACT_TINY["motion-match"],
+        "motion-match-live": dict(live=True, hop=4)}
 
 
 def digest(motion) -> str:

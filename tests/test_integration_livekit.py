@@ -12,17 +12,18 @@ from __future__ import annotations
 import asyncio
 import json
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 pytest.importorskip("livekit.agents", reason="livekit-agents is not installed (pip install \"headmotion[livekit]\")")
 
-import soundfile as sf  # noqa: E402
 from livekit import rtc  # noqa: E402
 from livekit.agents import AgentSession  # noqa: E402
 from livekit.agents.voice import io  # noqa: E402
+
+from agent_helpers import FPS, TOL, check_settling, reference, utterances  # noqa: E402
+from agent_helpers import speech_pcm as _speech  # noqa: E402
 
 from headmotion.integrations.livekit import (  # noqa: E402
     TOPIC,
@@ -30,12 +31,7 @@ from headmotion.integrations.livekit import (  # noqa: E402
     attach_head_motion,
     room_sender,
 )
-from headmotion.io.resampler import Resampler  # noqa: E402
-from headmotion.synthesis import load_model  # noqa: E402
 
-SPEECH = Path(__file__).resolve().parents[1] / "examples" / "speech" / "short.wav"
-FPS = 25.0
-TOL = 1e-6
 
 
 class PlayingOutput(io.AudioOutput):
@@ -84,13 +80,6 @@ class Publisher:
         return [m for _, m in self.sent]
 
 
-def _speech(rate: int = 16000) -> np.ndarray:
-    x, sr = sf.read(SPEECH, dtype="float32")
-    if rate != sr:
-        import soxr
-
-        x = soxr.resample(x, sr, rate, quality="HQ").astype(np.float32)
-    return np.clip(np.round(x * 32767), -32768, 32767).astype(np.int16)
 
 
 def _audio_frames(pcm: np.ndarray, rate: int, chunk_s: float = 0.05, channels: int = 1) -> list[rtc.AudioFrame]:
@@ -104,45 +93,10 @@ def _audio_frames(pcm: np.ndarray, rate: int, chunk_s: float = 0.05, channels: i
     return out
 
 
-def _reference(pcm: np.ndarray, rate: int, chunk_s: float = 0.05, flush: bool = True) -> np.ndarray:
-    model = load_model("stream")
-    stream = model.stream(seed=0)
-    resample = Resampler(rate, int(model.sample_rate), quality="HQ")
-    x = pcm.astype(np.float32) / np.float32(32768.0)
-    n = int(rate * chunk_s)
-    out = [np.asarray(stream.push(resample(x[i:i + n])).rotvec).reshape(-1, 3) for i in range(0, len(x), n)]
-    if flush:
-        out.append(np.asarray(stream.push(resample(np.zeros(0, np.float32), last=True)).rotvec).reshape(-1, 3))
-        out.append(np.asarray(stream.flush().rotvec).reshape(-1, 3))
-    return np.vstack(out)
 
 
-def _utterances(messages: list[dict]) -> list[dict]:
-    out, cur = [], {"numbers": [], "rotvec": []}
-    for m in messages:
-        if m["type"] == "frames":
-            assert m["fps"] == FPS
-            for f in m["frames"]:
-                cur["numbers"].append(f["frame"])
-                cur["rotvec"].append(f["rotvec"])
-                assert f["time"] == pytest.approx(f["frame"] / FPS, abs=1e-4)
-        else:
-            assert m["type"] == "end"
-            cur["end"] = m
-            cur["rotvec"] = np.asarray(cur["rotvec"], dtype=np.float64).reshape(-1, 3)
-            out.append(cur)
-            cur = {"numbers": [], "rotvec": []}
-    assert not cur["numbers"], "frames after the last end message"
-    return out
 
 
-def _check_settling(before: np.ndarray, settle: np.ndarray, n_settle: int) -> None:
-    assert len(settle) == n_settle
-    np.testing.assert_allclose(settle[-1], 0.0, atol=TOL)
-    steps = np.linalg.norm(np.diff(np.vstack([before[-1:], settle]), axis=0), axis=1)
-    last_step = np.linalg.norm(before[-1] - before[-2]) if len(before) > 1 else 0.0
-    assert steps.max() <= 1.5 * np.linalg.norm(before[-1]) / n_settle + last_step + 2 * TOL
-    assert steps.max() < np.radians(2.0)
 
 
 def _assert_passed_on(sent: list, received: list) -> None:
@@ -175,13 +129,13 @@ def test_reply_frames_equal_the_stream_and_audio_passes_unchanged(rate, channels
     sink, pub, out = asyncio.run(main())
     _assert_passed_on(frames, sink.frames)
     assert sink.events == ["flush"]
-    (utt,) = _utterances(pub.messages)
-    ref = _reference(pcm, rate)
+    (utt,) = utterances(pub.messages)
+    ref = reference(pcm, rate)
     n, n_settle = len(ref), out.core.settle_frames
     assert n == pytest.approx(len(pcm) / rate * FPS, abs=2)
     assert utt["numbers"] == list(range(n + n_settle))
     np.testing.assert_allclose(utt["rotvec"][:n], ref, atol=TOL, rtol=0)
-    _check_settling(ref, utt["rotvec"][n:], n_settle)
+    check_settling(ref, utt["rotvec"][n:], n_settle)
     assert utt["end"] == {"type": "end", "frames": n + n_settle, "audio_seconds": round(len(pcm) / rate, 4)}
 
 
@@ -203,17 +157,17 @@ def test_interruption_settles_and_the_next_reply_starts_fresh():
 
     sink, pub, out = asyncio.run(main())
     _assert_passed_on(frames[:k] + frames, sink.frames)
-    first, second = _utterances(pub.messages)
-    cut = _reference(pcm[:k * 1200], 24000, flush=False)
+    first, second = utterances(pub.messages)
+    cut = reference(pcm[:k * 1200], 24000, flush=False)
     m, n_settle = len(cut), out.core.settle_frames
     assert first["numbers"] == list(range(m + n_settle))
     np.testing.assert_allclose(first["rotvec"][:m], cut, atol=TOL, rtol=0)
-    _check_settling(cut, first["rotvec"][m:], n_settle)
+    check_settling(cut, first["rotvec"][m:], n_settle)
     assert first["end"]["frames"] == m + n_settle
-    ref = _reference(pcm, 24000)
+    ref = reference(pcm, 24000)
     assert second["numbers"] == list(range(len(ref) + n_settle))
     np.testing.assert_allclose(second["rotvec"][:len(ref)], ref, atol=TOL, rtol=0)
-    _check_settling(ref, second["rotvec"][len(ref):], n_settle)
+    check_settling(ref, second["rotvec"][len(ref):], n_settle)
 
 
 def test_paced_frames_go_out_as_the_audio_plays_and_settle_on_interruption():
@@ -234,14 +188,14 @@ def test_paced_frames_go_out_as_the_audio_plays_and_settle_on_interruption():
 
     t0, sink, pub, out = asyncio.run(main())
     _assert_passed_on(frames, sink.frames)
-    (utt,) = _utterances(pub.messages)
+    (utt,) = utterances(pub.messages)
     n_settle = out.core.settle_frames
     shown = len(utt["numbers"]) - n_settle
     assert 0.6 * FPS <= shown <= 1.6 * FPS  # about the second of audio that played
     assert utt["numbers"] == list(range(shown + n_settle))
-    ref = _reference(pcm, 24000)
+    ref = reference(pcm, 24000)
     np.testing.assert_allclose(utt["rotvec"][:shown], ref[:shown], atol=TOL, rtol=0)
-    _check_settling(ref[:shown], utt["rotvec"][shown:], n_settle)
+    check_settling(ref[:shown], utt["rotvec"][shown:], n_settle)
     for t, msg in pub.sent:
         if msg["type"] == "frames" and msg["first"] < shown:
             due = msg["first"] / FPS
@@ -273,8 +227,8 @@ def test_pause_holds_the_frames_with_the_audio():
 
     pub, n_paused, paused = asyncio.run(main())
     assert 0 < n_paused < len(pub.sent)
-    (utt,) = _utterances(pub.messages)
-    np.testing.assert_allclose(utt["rotvec"][0], _reference(pcm[:16000], 16000)[0], atol=TOL)
+    (utt,) = utterances(pub.messages)
+    np.testing.assert_allclose(utt["rotvec"][0], reference(pcm[:16000], 16000)[0], atol=TOL)
     t0 = pub.sent[0][0]  # frame 0 went out as the audio began
     for t, m in pub.sent[n_paused:]:  # the frames after the pause went out that much later
         if m["type"] == "frames":

@@ -10,14 +10,12 @@ from __future__ import annotations
 
 import asyncio
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 pytest.importorskip("pipecat", reason="pipecat-ai is not installed (pip install \"headmotion[pipecat]\")")
 
-import soundfile as sf  # noqa: E402
 from loguru import logger  # noqa: E402
 from pipecat.frames.frames import (  # noqa: E402
     InterruptionFrame,
@@ -30,13 +28,11 @@ from pipecat.frames.frames import (  # noqa: E402
 from pipecat.observers.base_observer import BaseObserver  # noqa: E402
 from pipecat.tests.utils import SleepFrame, run_test  # noqa: E402
 
-from headmotion.integrations.pipecat import HeadMotionProcessor  # noqa: E402
-from headmotion.io.resampler import Resampler  # noqa: E402
-from headmotion.synthesis import load_model  # noqa: E402
+from agent_helpers import FPS, TOL, check_settling, reference, utterances  # noqa: E402
+from agent_helpers import speech_pcm as _speech  # noqa: E402
 
-SPEECH = Path(__file__).resolve().parents[1] / "examples" / "speech" / "short.wav"
-FPS = 25.0
-TOL = 1e-6  # the messages carry rotation vectors to 6 decimals
+from headmotion.integrations.pipecat import HeadMotionProcessor  # noqa: E402
+
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -46,14 +42,6 @@ def _quiet_pipecat():
     yield
 
 
-def _speech(rate: int = 16000) -> np.ndarray:
-    """short.wav as int16 at ``rate`` (resampled offline with soxr when not 16 kHz)."""
-    x, sr = sf.read(SPEECH, dtype="float32")
-    if rate != sr:
-        import soxr
-
-        x = soxr.resample(x, sr, rate, quality="HQ").astype(np.float32)
-    return np.clip(np.round(x * 32767), -32768, 32767).astype(np.int16)
 
 
 def _tts_frames(pcm: np.ndarray, rate: int, chunk_s: float = 0.05) -> list:
@@ -62,56 +50,14 @@ def _tts_frames(pcm: np.ndarray, rate: int, chunk_s: float = 0.05) -> list:
             for i in range(0, len(pcm), n)]
 
 
-def _reference(pcm: np.ndarray, rate: int, chunk_s: float = 0.05, flush: bool = True) -> np.ndarray:
-    """What ``load_model("stream").stream()`` gives for the same samples pushed directly (resampled
-    to the model's rate as the integration's default ``exact`` does)."""
-    model = load_model("stream")
-    stream = model.stream(seed=0)
-    resample = Resampler(rate, int(model.sample_rate), quality="HQ")
-    x = pcm.astype(np.float32) / np.float32(32768.0)
-    n = int(rate * chunk_s)
-    out = [np.asarray(stream.push(resample(x[i:i + n])).rotvec).reshape(-1, 3) for i in range(0, len(x), n)]
-    if flush:
-        out.append(np.asarray(stream.push(resample(np.zeros(0, np.float32), last=True)).rotvec).reshape(-1, 3))
-        out.append(np.asarray(stream.flush().rotvec).reshape(-1, 3))
-    return np.vstack(out)
 
 
 def _messages(frames, kind) -> list[dict]:
     return [f.message for f in frames if type(f) is kind]
 
 
-def _utterances(messages: list[dict]) -> list[dict]:
-    """Per utterance: its frames (numbers, rotvecs) and its end message."""
-    out, cur = [], {"numbers": [], "rotvec": []}
-    for m in messages:
-        if m["type"] == "frames":
-            assert m["fps"] == FPS
-            for f in m["frames"]:
-                cur["numbers"].append(f["frame"])
-                cur["rotvec"].append(f["rotvec"])
-                assert f["time"] == pytest.approx(f["frame"] / FPS, abs=1e-4)
-                assert len(f["pitch_yaw_roll_deg"]) == 3
-        else:
-            assert m["type"] == "end"
-            cur["end"] = m
-            cur["rotvec"] = np.asarray(cur["rotvec"], dtype=np.float64).reshape(-1, 3)
-            out.append(cur)
-            cur = {"numbers": [], "rotvec": []}
-    assert not cur["numbers"], "frames after the last end message"
-    return out
 
 
-def _check_settling(before: np.ndarray, settle: np.ndarray, n_settle: int) -> None:
-    """The settling starts where the head was, eases to the rest pose (0, 0, 0) and never jumps."""
-    assert len(settle) == n_settle
-    np.testing.assert_allclose(settle[-1], 0.0, atol=TOL)
-    path = np.vstack([before[-1:], settle])
-    steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
-    last_step = np.linalg.norm(before[-1] - before[-2]) if len(before) > 1 else 0.0
-    bound = 1.5 * np.linalg.norm(before[-1]) / n_settle + last_step + 2 * TOL  # settle_path's bound
-    assert steps.max() <= bound
-    assert steps.max() < np.radians(2.0)
 
 
 def _audio_out(down) -> list:
@@ -136,13 +82,13 @@ def test_utterance_frames_equal_the_stream_and_audio_passes_unchanged(rate):
     assert isinstance(down[0], TTSStartedFrame) and isinstance(down[-1], TTSStoppedFrame)
     msgs = _messages(down, OutputTransportMessageFrame)
     assert msgs and _messages(down, OutputTransportMessageUrgentFrame) == []
-    (utt,) = _utterances(msgs)
-    ref = _reference(pcm, rate)
+    (utt,) = utterances(msgs, angles=True)
+    ref = reference(pcm, rate)
     n = len(ref)
     assert n == pytest.approx(len(pcm) / rate * FPS, abs=2)  # 25 frames a second of speech
     assert utt["numbers"] == list(range(n + proc.core.settle_frames))
     np.testing.assert_allclose(utt["rotvec"][:n], ref, atol=TOL, rtol=0)
-    _check_settling(ref, utt["rotvec"][n:], proc.core.settle_frames)
+    check_settling(ref, utt["rotvec"][n:], proc.core.settle_frames)
     assert utt["end"] == {"type": "end", "frames": n + proc.core.settle_frames,
                           "audio_seconds": round(len(pcm) / rate, 4)}
     # each message follows the audio frame that completed its frames, before the next audio frame
@@ -160,12 +106,12 @@ def test_interruption_settles_and_the_next_utterance_starts_fresh():
     down, _ = asyncio.run(run_test(proc, frames_to_send=frames))
 
     _assert_audio_unchanged(audio[:k] + audio, _audio_out(down))
-    first, second = _utterances(_messages(down, OutputTransportMessageFrame))
-    cut = _reference(pcm[:k * 800], 16000, flush=False)  # what the stream had made when cut off
+    first, second = utterances(_messages(down, OutputTransportMessageFrame), angles=True)
+    cut = reference(pcm[:k * 800], 16000, flush=False)  # what the stream had made when cut off
     m = len(cut)
     assert first["numbers"] == list(range(m + proc.core.settle_frames))
     np.testing.assert_allclose(first["rotvec"][:m], cut, atol=TOL, rtol=0)
-    _check_settling(cut, first["rotvec"][m:], proc.core.settle_frames)
+    check_settling(cut, first["rotvec"][m:], proc.core.settle_frames)
     assert first["end"]["frames"] == m + proc.core.settle_frames
     assert first["end"]["audio_seconds"] == pytest.approx(k * 0.05)
     # the interruption went on downstream before the settling
@@ -174,7 +120,7 @@ def test_interruption_settles_and_the_next_utterance_starts_fresh():
                 and f.message["type"] == "frames" and f.message["first"] >= m]
     assert i_settle and min(i_settle) > i_int
 
-    ref = _reference(pcm, 16000)  # a fresh stream: the same frames as the first time it was heard
+    ref = reference(pcm, 16000)  # a fresh stream: the same frames as the first time it was heard
     assert second["numbers"][:len(ref)] == list(range(len(ref)))
     np.testing.assert_allclose(second["rotvec"][:len(ref)], ref, atol=TOL, rtol=0)
     np.testing.assert_allclose(second["rotvec"][-1], 0.0, atol=TOL)
@@ -202,10 +148,10 @@ def test_paced_frames_go_out_as_their_audio_plays():
                                    observers=[seen]))
     _assert_audio_unchanged(audio, _audio_out(down))
     assert _messages(down, OutputTransportMessageFrame) == []
-    (utt,) = _utterances(_messages(down, OutputTransportMessageUrgentFrame))
-    ref = _reference(pcm, 16000)
+    (utt,) = utterances(_messages(down, OutputTransportMessageUrgentFrame), angles=True)
+    ref = reference(pcm, 16000)
     np.testing.assert_allclose(utt["rotvec"][:len(ref)], ref, atol=TOL, rtol=0)
-    _check_settling(ref, utt["rotvec"][len(ref):], proc.core.settle_frames)
+    check_settling(ref, utt["rotvec"][len(ref):], proc.core.settle_frames)
 
     t0 = next(t for t, f in seen.times if isinstance(f, TTSAudioRawFrame))  # the audio starts playing
     assert all(t - t0 < 0.5 for t, f in seen.times if isinstance(f, TTSAudioRawFrame))  # faster than real time
@@ -223,14 +169,14 @@ def test_paced_interruption_settles_from_the_last_pose_sent():
     frames = [TTSStartedFrame(), *audio, SleepFrame(1.0), InterruptionFrame(), SleepFrame(0.8)]
     down, _ = asyncio.run(run_test(proc, frames_to_send=frames))
     _assert_audio_unchanged(audio, _audio_out(down))
-    (utt,) = _utterances(_messages(down, OutputTransportMessageUrgentFrame))
-    ref = _reference(pcm, 16000)
+    (utt,) = utterances(_messages(down, OutputTransportMessageUrgentFrame), angles=True)
+    ref = reference(pcm, 16000)
     n_settle = proc.core.settle_frames
     shown = len(utt["numbers"]) - n_settle  # frames that went out before the cut: about a second's
     assert 0.6 * FPS <= shown <= 1.6 * FPS
     assert utt["numbers"] == list(range(shown + n_settle))  # no gap, no repeat
     np.testing.assert_allclose(utt["rotvec"][:shown], ref[:shown], atol=TOL, rtol=0)
-    _check_settling(ref[:shown], utt["rotvec"][shown:], n_settle)
+    check_settling(ref[:shown], utt["rotvec"][shown:], n_settle)
     assert utt["end"]["frames"] == shown + n_settle
 
 
@@ -246,4 +192,4 @@ def test_rtvi_messages_and_other_frames_pass_through():
     assert down[0] is not None and isinstance(down[0], TextFrame) and down[1].audio == other[1].audio
     msgs = [f.data for f in down if isinstance(f, RTVIServerMessageFrame)]
     assert msgs and msgs[-1]["type"] == "end"
-    assert proc.core.frames_made == len(_reference(pcm[:8000], 16000))  # the non-TTS audio made no motion
+    assert proc.core.frames_made == len(reference(pcm[:8000], 16000))  # the non-TTS audio made no motion

@@ -54,8 +54,6 @@ def adapt(
     """Adapt a model to a speaker from their recordings (at least 20 s of speech with motion; a
     minute or more is better): their movements join the model's and are preferred, and its range
     and posture follow theirs."""
-    import tempfile
-
     from ..corpus import Corpus, CorpusEntry
     from ..systems.adapt import BASE_COST
     from ..systems.adapt import adapt as adapt_model
@@ -66,26 +64,22 @@ def adapt(
     folder = sources[0] if len(sources) == 1 else None
     if folder is not None and folder.is_file() and folder.name == "corpus.csv":  # the folder's manifest
         folder = folder.parent
-    with tempfile.TemporaryDirectory(prefix="headmotion-adapt-") as tmp:
-        if folder is not None and folder.is_dir():
-            c = Corpus.load(folder)
-            if speaker is not None:
-                c = c.filter(speaker=speaker)
-            where = str(folder)
-        elif folder is not None and not folder.exists():
-            raise ParameterError(f"{folder}: no such corpus folder or file")
-        else:  # audio and motion files: a corpus of them, read where they are
-            pairs = pair_by_stem(sources)
-            who = speaker or "speaker"
-            entries = [CorpusEntry(stem, who, "speech", d["audio"].resolve(), d["motion"].resolve())
-                       for stem, d in sorted(pairs.items())]
-            Corpus(root=Path(tmp), entries=entries).save(Path(tmp))
-            c = Corpus.load(tmp)
-            where = ", ".join(f.name for f in sources)
-        t0 = time.perf_counter()
-        with progress_bar("adapting") as update:
-            model = adapt_model(c, base, base_cost=BASE_COST if base_cost is None else base_cost,
-                                progress=lambda done, total, desc: update(done, total=total, description=desc))
+    if folder is not None and folder.is_dir():
+        c = Corpus.load(folder)
+        if speaker is not None:
+            c = c.filter(speaker=speaker)
+        where = str(folder)
+    elif folder is not None and not folder.exists():
+        raise ParameterError(f"{folder}: no such corpus folder or file")
+    else:  # audio and motion files: a corpus of them, read where they are
+        who = speaker or "speaker"
+        c = Corpus(root=Path.cwd(), entries=[CorpusEntry(stem, who, "speech", d["audio"].resolve(), d["motion"].resolve())
+                            for stem, d in sorted(pair_by_stem(sources).items())])
+        where = ", ".join(f.name for f in sources)
+    t0 = time.perf_counter()
+    with progress_bar("adapting") as update:
+        model = adapt_model(c, base, base_cost=BASE_COST if base_cost is None else base_cost,
+                            progress=lambda done, total, desc: update(done, total=total, description=desc))
     out = model.save(output)
     card = out.with_suffix(".md")
     try:

@@ -364,8 +364,10 @@ class MotionMatch(Synthesizer):
         self._ok = np.concatenate(ok)
         self._end = np.concatenate(end)  # where each frame's recording (copy) ends
         # an adapted model's range, posture and goal are the speaker's: fitted on their frames only
-        self._own = np.concatenate(mine)
-        fit = slice(None) if self._own.all() else self._own
+        own = np.concatenate(mine)
+        fit = slice(None) if own.all() else own
+        #: an adapted model: 1 on the base library's frames (the ones ``base_cost`` is paid on); else None
+        self._base_frames = None if own.all() else (~own).astype(np.float64)
         self._pose_sd = np.maximum(self._P[fit].std(axis=0), 1e-3)
         self._vel_sd = np.maximum(self._V[fit].std(axis=0), 1e-4)
         speed2 = (np.concatenate(Q) / self._vel_sd ** 2).sum(axis=1) / 3.0
@@ -423,8 +425,8 @@ class MotionMatch(Synthesizer):
             c = c + float(self.velocity_weight) / 3.0 * sq("V", (vel / self._vel_sd).astype(np.float32))
         if self.amount > 0 and self.amount != 1:  # lean to clips that move more (amount > 1) or less
             c = c - AMOUNT_LEAN * float(np.log2(self.amount)) * self._lively[at]
-        if self.base_cost > 0 and not self._own.all():  # an adapted model prefers the speaker's own
-            c = c + float(self.base_cost) * ~self._own[at]
+        if self.base_cost > 0 and self._base_frames is not None:  # an adapted model prefers the speaker's own
+            c = c + float(self.base_cost) * self._base_frames[at]
         return float(c[0]) if only is not None else np.where(self._ok, c, np.inf)
 
     def _draw(self, cost: np.ndarray, rng: np.random.Generator, *, distinct: bool = False) -> int:
@@ -607,8 +609,7 @@ class _Walk:
             base_pos = cost[pos] if 0 <= pos < len(cost) else np.inf
         if repeat > 0 and self.recent:  # clips started in the last REPEAT_S seconds cost more
             H = int(m.hop)
-            cost = cost.copy()
-            for _t0, j0 in self.recent:
+            for _t0, j0 in self.recent:  # ``cost`` is this decision's own array
                 lo, hi = max(0, j0 - H), j0 + H
                 cost[lo:hi] += repeat
             if 0 <= pos < len(cost) and pos + n <= m._end[pos - 1]:

@@ -22,7 +22,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ...motion.pauses import pause_mask, runs
+from ...motion.pauses import pause_mask, pause_speech_speeds, pooled_pause_ratio, runs
 from ...types import Audio
 from ..detection.detectability import FPS, prepare
 from .realism import limit_cycle_index, speech_mask_for
@@ -33,12 +33,11 @@ def _speed(x: np.ndarray) -> np.ndarray:
     return np.linalg.norm(np.diff(x, axis=0), axis=1) * FPS
 
 
-def _speech_and_pauses(motion, audio, min_pause_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(prepared degrees, speech mask, pause mask) of one motion and its speech, at 25 fps."""
+def _prepared(motion, audio) -> tuple[np.ndarray, np.ndarray]:
+    """(prepared degrees, speech mask) of one motion and its speech, at 25 fps."""
     x = prepare(motion)
     mask = speech_mask_for(audio, motion.resample(FPS))[:len(x)]
-    x = x[:len(mask)]
-    return x, mask, pause_mask(mask, fps=FPS, min_pause_s=min_pause_s)
+    return x[:len(mask)], mask
 
 
 @dataclass
@@ -55,16 +54,14 @@ class PauseSpeeds:
 
 def pause_segment_speeds(recordings: Sequence, *, min_pause_s: float = 0.5) -> PauseSpeeds:
     """The speeds of the recorded pauses of ``recordings`` (items with ``motion`` and ``audio``)."""
-    seg, p_all, s_all = [], [], []
+    seg, pairs = [], []
     for r in recordings:
-        x, mask, pm = _speech_and_pauses(r.motion, r.audio, min_pause_s)
+        x, mask = _prepared(r.motion, r.audio)
+        pairs.append(pause_speech_speeds(x, mask, fps=FPS, min_pause_s=min_pause_s))
         v = _speed(x)
-        both_p, both_s = pm[1:] & pm[:-1], mask[1:] & mask[:-1]
-        p_all.append(v[both_p])
-        s_all.append(v[both_s])
-        seg += [float(v[a:b - 1].mean()) for a, b in runs(pm) if b - a > 2]
-    p, s = np.concatenate(p_all) if p_all else np.zeros(0), np.concatenate(s_all) if s_all else np.zeros(0)
-    ratio = float(p.mean() / s.mean()) if len(p) and len(s) and s.mean() > 0 else float("nan")
+        seg += [float(v[a:b - 1].mean()) for a, b in runs(pause_mask(mask, fps=FPS, min_pause_s=min_pause_s))
+                if b - a > 2]
+    ratio = pooled_pause_ratio(pairs)
     return PauseSpeeds(np.asarray(seg), ratio)
 
 
@@ -93,9 +90,8 @@ def waiting(model, *, seconds: float = 20.0, seeds: Sequence[int] = (0, 1, 2, 3)
         loops.append(limit_cycle_index(np.radians(x), fps=FPS)[0] if speeds[-1] > 1e-6 else 0.0)
     in_speech = []
     for audio in speech:
-        m = synthesize(audio, model, seed=0)[0]
-        x, mask, _ = _speech_and_pauses(m, audio, min_pause_s)
-        in_speech.append(_speed(x)[mask[1:] & mask[:-1]])
+        x, mask = _prepared(synthesize(audio, model, seed=0)[0], audio)
+        in_speech.append(pause_speech_speeds(x, mask, fps=FPS, min_pause_s=min_pause_s)[1] * FPS)
     v = np.concatenate(in_speech) if in_speech else np.zeros(0)
     ratio = float(np.mean(speeds) / v.mean()) if len(v) and v.mean() > 0 else float("nan")
     return Waiting(np.asarray(speeds), ratio, np.asarray(loops))
