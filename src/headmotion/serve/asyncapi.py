@@ -28,6 +28,7 @@ def _number_or_triple(lo: float, hi: float, unit: str) -> dict:
 
 def start_schema() -> dict:
     """JSON schema of the start message (what :func:`headmotion.serve.stream.parse_start` accepts)."""
+    from ..listener import LISTENING_RANGE
     from .stream import ENCODINGS, RESAMPLE
 
     return {
@@ -52,6 +53,15 @@ def start_schema() -> dict:
                                         "~10 ms less delay, frames that may differ by a few degrees."},
             "api_key": {"type": ["string", "null"], "description": "For browsers, which cannot set headers on a WebSocket; "
                                                          "programs send Authorization: Bearer KEY."},
+            "hear": {"oneOf": [{"type": "boolean"}, {"type": "null"}, {
+                "type": "object", "additionalProperties": False, "properties": {
+                    "sample_rate": {"type": ["integer", "null"], "minimum": 8000, "maximum": 192000},
+                    "encoding": {"enum": sorted(ENCODINGS)}}}],
+                "description": "Rate and encoding of the other party's audio (hear messages); default: the "
+                               "speech's."},
+            "listening": {"type": "number", "minimum": LISTENING_RANGE[0], "maximum": LISTENING_RANGE[1], "default": 1,
+                          "description": "How much the head listens while the other speaks: 0 only waits, 1 an "
+                                         "attentive posture and back-channel nods at the other's cues, up to 3."},
         },
     }
 
@@ -71,6 +81,13 @@ def document(version: str = "0") -> dict:
                   "payload": {"type": "string", "format": "binary",
                               "description": "Mono PCM in the start message's encoding, any whole number of "
                                              "samples per message (at most 1 MiB)."}},
+        "hear": {"name": "hear", "title": "The other party's audio (text)", "contentType": "application/json",
+                 "payload": {"type": "object", "additionalProperties": False, "required": ["type", "audio"],
+                             "properties": {"type": {"const": "hear"}, "audio": {
+                                 "type": "string", "contentEncoding": "base64",
+                                 "description": "Mono PCM in the start message's hear encoding and rate, any "
+                                                "whole number of samples; heard sample k is at time k / rate "
+                                                "from the start, on the speech's timeline."}}}},
         "end": {"name": "end", "title": "End (text)", "contentType": "application/json",
                 "payload": {"type": "object", "additionalProperties": False, "required": ["type"],
                             "properties": {"type": {"const": "end"}}}},
@@ -79,7 +96,7 @@ def document(version: str = "0") -> dict:
                 "type": {"const": "ready"}, "model": {"type": "string"}, "system": {"type": "string"},
                 "fps": {"type": "number"}, "latency_ms": {"type": "number"}, "sample_rate": {"type": "integer"},
                 "model_sample_rate": {"type": "integer"}, "encoding": {"type": "string"},
-                "frames": {"type": "string"}}}},
+                "frames": {"type": "string"}, "hear": {"type": "object"}, "listening": {"type": "number"}}}},
         "frames": {"name": "frames", "title": "Frames (JSON)", "contentType": "application/json", "payload": {
             "type": "object", "required": ["type", "first", "fps", "audio_time", "frames"], "properties": {
                 "type": {"const": "frames"}, "first": {"type": "integer", "minimum": 0}, "fps": {"type": "number"},
@@ -119,7 +136,8 @@ def document(version: str = "0") -> dict:
         "operations": {
             "receiveStart": op("receive", ["start"], "The client's first message (Authorization: Bearer KEY on "
                                                      "the handshake, or api_key here)."),
-            "receiveAudio": op("receive", ["audio", "end"], "Audio chunks, then end."),
+            "receiveAudio": op("receive", ["audio", "hear", "end"], "Audio chunks (the speech, and what the "
+                                                                      "head hears), then end."),
             "sendReady": op("send", ["ready"], "The stream is open."),
             "sendFrames": op("send", ["frames", "framesBinary", "ended"], "Frames as they become final, then end."),
             "sendError": op("send", ["error"], "One error, then the close."),

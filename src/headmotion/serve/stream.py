@@ -53,7 +53,8 @@ HEADER = struct.Struct("<4sIIfd")
 MAGIC = b"HMF1"
 ENCODINGS = {"s16le": ("<i2", 32768.0), "f32le": ("<f4", 1.0)}
 START_FIELDS = {"type", "model", "sample_rate", "encoding", "seed", "frames", "gain", "offset", "still", "amount", "resample",
-                "api_key"}
+                "api_key", "hear", "listening"}
+HEAR_FIELDS = {"sample_rate", "encoding"}
 #: ``resample`` → soxr quality: ``exact`` resamples as ``POST /v1/motion`` does (the stream's frames
 #: are the offline answer's; ~20 ms of resampling delay), ``fast`` with less delay (~10 ms) and
 #: frames that may differ from the offline answer by a few degrees
@@ -78,6 +79,9 @@ class Start:
     controls: engine.Controls
     api_key: str | None
     resample: str = "exact"
+    hear_rate: int | None = None  # the other party's audio (hear messages); None: the speech's
+    hear_encoding: str | None = None
+    listening: float = 1.0
 
 
 def parse_start(text: str | None) -> Start:
@@ -126,7 +130,29 @@ def parse_start(text: str | None) -> Start:
                                          amount=_number(obj.get("amount", 1.0), "amount"))
     except HeadMotionError as exc:
         raise bad(str(exc)) from None
-    return Start(model, sr, enc, seed, frames, controls, key, resample)
+    hear_rate, hear_enc = _hear(obj.get("hear"), enc)
+    listening = _number(obj.get("listening", 1.0), "listening")
+    from ..listener import LISTENING_RANGE
+
+    if not (math.isfinite(listening) and LISTENING_RANGE[0] <= listening <= LISTENING_RANGE[1]):
+        raise bad(f"listening must be from {LISTENING_RANGE[0]:g} to {LISTENING_RANGE[1]:g}; got {listening!r:.40}")
+    return Start(model, sr, enc, seed, frames, controls, key, resample, hear_rate, hear_enc, float(listening))
+
+
+def _hear(v, speech_encoding: str) -> tuple[int | None, str]:
+    """(rate, encoding) of the hear messages from the start's ``hear`` field (true, null or an object)."""
+    if v is None or isinstance(v, bool):
+        return None, speech_encoding
+    if not isinstance(v, dict) or set(v) - HEAR_FIELDS:
+        raise ProtocolError("bad_start", f"hear must be true or an object with {sorted(HEAR_FIELDS)}; got {v!r:.60}")
+    sr = _whole(v.get("sample_rate"))
+    if sr is not None and (isinstance(sr, bool) or not isinstance(sr, int) or not 8000 <= sr <= 192000):
+        raise ProtocolError("bad_start", f"hear.sample_rate must be a whole number of Hz between 8000 and 192000; "
+                                         f"got {sr!r:.40}")
+    enc = v.get("encoding", speech_encoding)
+    if not isinstance(enc, str) or enc not in ENCODINGS:
+        raise ProtocolError("bad_start", f"hear.encoding must be one of {sorted(ENCODINGS)}; got {enc!r:.40}")
+    return sr, enc
 
 
 def _number(v, what):
@@ -170,6 +196,21 @@ def decode_chunk(data: bytes, encoding: str) -> np.ndarray:
     elif not np.all(np.isfinite(x)):
         raise ProtocolError("bad_audio", "the audio holds NaN or infinite samples", 1007)
     return x
+
+
+def decode_hear(obj: dict, encoding: str) -> np.ndarray:
+    """Float32 samples of a ``{"type": "hear", "audio": BASE64}`` message (ProtocolError
+    ``bad_message`` for other fields, ``bad_audio`` for bytes that are not base64 or not whole samples)."""
+    import base64
+    import binascii
+
+    if set(obj) != {"type", "audio"} or not isinstance(obj.get("audio"), str):
+        raise ProtocolError("bad_message", "a hear message is {\"type\": \"hear\", \"audio\": BASE64 PCM}")
+    try:
+        data = base64.b64decode(obj["audio"], validate=True)
+    except (binascii.Error, ValueError):
+        raise ProtocolError("bad_audio", "the hear message's audio is not base64", 1007) from None
+    return decode_chunk(data, encoding)
 
 
 def frames_message(rotvec: np.ndarray, fps: float, first: int, audio_time: float, fmt: str):
@@ -462,6 +503,6 @@ class Session:
             self.st.metrics.active_streams.dec()
 
 
-__all__ = ["stream_endpoint", "no_such_stream", "parse_start", "decode_chunk", "frames_message",
+__all__ = ["stream_endpoint", "no_such_stream", "parse_start", "decode_chunk", "decode_hear", "frames_message",
            "parse_binary_frames", "ProtocolError", "Start", "HEADER", "MAGIC", "RESAMPLE",
            "UNAUTHENTICATED_MESSAGE_BYTES"]
