@@ -101,10 +101,12 @@ def flow_loss(net: FlowNet, x1, cond, keep, prefix_mask, valid, generator: torch
     loss as in motion diffusion, MDM): it weighs the fast errors that a plain flow loss on a few
     minutes of data leaves as jitter.  ``predict="motion"``: the network's output is the clean window
     itself (its velocity ``(out − x_t)/(1 − t)``) and the loss is its squared error (the step loss
-    then weighs the steps of that error)."""
+    then weighs the steps of that error).  The noise and flow times are drawn with ``generator``
+    where it lives (a CPU generator gives a GPU the CPU's draws) and moved to ``x1``'s device."""
     B = x1.shape[0]
-    x0 = torch.randn(x1.shape, generator=generator, device=x1.device)
-    t = torch.rand((B,), generator=generator, device=x1.device)
+    at = generator.device if generator is not None else x1.device  # drawn where the generator is
+    x0 = torch.randn(x1.shape, generator=generator, device=at).to(x1.device, non_blocking=True)
+    t = torch.rand((B,), generator=generator, device=at).to(x1.device, non_blocking=True)
     tt = t[:, None, None]
     x_t = (1 - tt) * x0 + tt * x1
     x_t = torch.where(prefix_mask > 0, x1, x_t)

@@ -50,9 +50,13 @@ CCCAE's validation CCA reached 0.57 with ReLU against 0.41 with tanh.  Every opt
 learning rate 0.0002 (§4.2); every training loop keeps the parameters of the epoch with the best
 validation loss and stops after ``patience`` epochs without improvement (early stopping).
 
-Randomness comes only from the global torch generator, which the caller seeds inside
-``torch.random.fork_rng`` (see :func:`headmotion.systems.dnn`); all operations used have
-deterministic CPU kernels.
+Randomness comes only from the global torch generator — the CPU's, on every device — which the
+caller seeds inside ``torch.random.fork_rng`` (see :func:`headmotion.systems.dnn`); all operations
+used have deterministic CPU kernels.  The regressor's dropout is :class:`HostDropout`: on a GPU its
+masks are drawn on the CPU as the CPU draws them.  A GPU's own generator would give other masks
+and leave the CPU generator, which orders the later batches and draws the post-filter's noise,
+where the CPU path does not: the models then differ by more than rounding — enough for cccae,
+whose outputs on the GPU correlated 0.84 with the CPU model's (``docs/decisions/gpu-training.md``).
 
 Libraries considered: PyTorch (CPU) for the networks, as docs/design.md chooses; skorch / Lightning
 would add a dependency for three small loops; scikit-learn's ``MLPRegressor`` has no custom loss
@@ -61,6 +65,7 @@ would add a dependency for three small loops; scikit-learn's ``MLPRegressor`` ha
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import math
 from typing import Callable, Sequence
@@ -143,6 +148,23 @@ class StackedAutoencoder(nn.Module):
         if i > 0:
             out = self.act(out)
         return out
+
+
+@contextlib.contextmanager
+def exact_float32():
+    """float32 matrix products and convolutions in full float32 for the block: cuDNN's convolutions
+    may otherwise run in TF32 (10-bit mantissa) on a GPU by default, and a caller may have allowed
+    TF32 matrix products; the CPU has no TF32, so the devices then train other models.  Restores
+    the caller's settings."""
+    b = torch.backends
+    prev = (b.cuda.matmul.allow_tf32, b.cudnn.allow_tf32, torch.get_float32_matmul_precision())
+    b.cuda.matmul.allow_tf32, b.cudnn.allow_tf32 = False, False
+    torch.set_float32_matmul_precision("highest")
+    try:
+        yield
+    finally:
+        b.cuda.matmul.allow_tf32, b.cudnn.allow_tf32 = prev[0], prev[1]
+        torch.set_float32_matmul_precision(prev[2])
 
 
 def descend(opt, loss: torch.Tensor, *, value: bool = True):
@@ -288,6 +310,27 @@ def train_autoencoder(ae: StackedAutoencoder, x_train: torch.Tensor, y_train: to
 
 
 # -- (B) regressor ----------------------------------------------------------------------------------
+def host_dropout_mask(shape, p: float) -> torch.Tensor:
+    """The CPU's dropout mask for an input of ``shape`` (0 or ``1 / (1 - p)``, float32), drawn with
+    the CPU generator exactly as ``nn.Dropout`` draws it on the CPU."""
+    return nn.functional.dropout(torch.ones(tuple(shape)), float(p), True)
+
+
+class HostDropout(nn.Dropout):
+    """``nn.Dropout`` whose mask comes from the CPU generator on every device: on the CPU it is
+    ``nn.Dropout``; elsewhere the input times :func:`host_dropout_mask`, so a GPU trains with the
+    masks (and leaves the generator in the state) of the CPU path."""
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if not self.training or self.p == 0 or x.device.type == "cpu":
+            return super().forward(x)
+        return self.masked(x)
+
+    def masked(self, x: torch.Tensor) -> torch.Tensor:
+        """Training-mode dropout with the CPU's mask moved to ``x``'s device."""
+        return x * host_dropout_mask(x.shape, self.p).to(x.device, non_blocking=True)
+
+
 class ContextRegressor(nn.Module):
     """Feed-forward regression from a ±``context`` window of ``in_dim`` features to ``out_dim``.
 
@@ -303,7 +346,7 @@ class ContextRegressor(nn.Module):
         for h in hidden:
             layers += [nn.Linear(prev, int(h)), nn.ReLU()]
             if dropout > 0:
-                layers.append(nn.Dropout(float(dropout)))
+                layers.append(HostDropout(float(dropout)))
             prev = int(h)
         layers.append(nn.Linear(prev, self.out_dim))
         self.net = nn.Sequential(*layers)
@@ -493,8 +536,8 @@ def arrays_to_state(module: nn.Module, arrays: dict[str, np.ndarray], prefix: st
 
 
 __all__ = [
-    "StackedAutoencoder", "ContextRegressor", "PaddedSequences", "gather_windows",
-    "pretrain_layerwise", "cccae_loss", "train_autoencoder", "train_regressor", "predict_regressor",
+    "StackedAutoencoder", "ContextRegressor", "HostDropout", "host_dropout_mask", "PaddedSequences", "gather_windows",
+    "exact_float32", "descend", "pretrain_layerwise", "cccae_loss", "train_autoencoder", "train_regressor", "predict_regressor",
     "make_postfilter", "motion_segments", "train_postfilter", "apply_postfilter",
     "state_to_arrays", "arrays_to_state",
     "DEFAULT_AE_HIDDEN", "DEFAULT_EMBEDDING_DIM", "DEFAULT_REGRESSOR_HIDDEN", "DEFAULT_CONTEXT",

@@ -15,7 +15,8 @@ and draws from it: each seed is a different take.
   the speech of ``cond_dropout`` of the windows is dropped (the network is also an unconditional
   motion prior, and sampling uses classifier-free guidance ``guidance``); half the windows show a
   random known prefix.  Early stopping on recordings of speakers held out of training
-  (``valid_share``).
+  (``valid_share``).  On any device the randomness is drawn on the CPU and convolutions run in
+  full float32 (no TF32), so a GPU trains the CPU's model up to rounding.
 * **Synthesis**: windows of ``window`` frames, each after the first continuing the previous one's
   last ``prefix`` frames (a known prefix, held during sampling), so any length is made in bounded
   memory; the last window is moved back to end at the input's end.  Each window is
@@ -238,8 +239,10 @@ class MotionFlow(Synthesizer):
         held = speaker_split(recs, float(self.valid_share), int(self.random_state))
         train = [d for d, h in zip(data, held) if not h]
         valid = [d for d, h in zip(data, held) if h]
-        with _torch_threads(self.n_threads), torch.random.fork_rng(devices=[]):
-            torch.manual_seed(int(self.random_state))
+        from ..models.nets import exact_float32
+
+        with _torch_threads(self.n_threads), torch.random.fork_rng(devices=[]), exact_float32():
+            torch.random.default_generator.manual_seed(int(self.random_state))
             net = FlowNet(feats.shape[1], hidden=int(self.hidden), n_blocks=int(self.n_blocks)).to(device)
             self.train_log_ = self._train(net, train, valid, device, progress)
         self.net_ = net.cpu().eval()
@@ -260,7 +263,7 @@ class MotionFlow(Synthesizer):
 
         rng = np.random.default_rng(int(self.random_state))
         sampler = WindowSampler(train, int(self.window), augment=bool(self.augment))
-        gen = torch.Generator(device=device).manual_seed(int(self.random_state))
+        gen = torch.Generator().manual_seed(int(self.random_state))  # the CPU's on every device: the same draws
         vbatches = []
         if valid:
             vs, vrng = WindowSampler(valid, int(self.window), augment=False), np.random.default_rng(12345)
@@ -286,7 +289,7 @@ class MotionFlow(Synthesizer):
             sched.step()
             if vbatches and (step % int(self.eval_every) == 0 or step == steps):
                 net.eval()
-                vgen = torch.Generator(device=device).manual_seed(777)
+                vgen = torch.Generator().manual_seed(777)
                 with torch.no_grad():
                     v = float(np.mean([flow_loss(net, *b, generator=vgen, predict=self.target).item()
                                        for b in vbatches]))

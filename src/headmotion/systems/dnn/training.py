@@ -29,17 +29,21 @@ def clean_json(x):
 
 @contextlib.contextmanager
 def torch_context(seed: int, n_threads: int | None, *, deterministic: bool = True):
-    """Seeded torch for the duration of the block (restores the caller's state).
+    """Seeded torch for the duration of the block (restores the caller's state): the CPU
+    generator seeded with ``seed`` (training draws from it on every device; a GPU's generator is
+    left alone), float32 products in full float32 (:func:`headmotion.models.nets.exact_float32`).
 
     ``deterministic`` also switches on torch's deterministic algorithms — for training.  Inference
     (eval mode, no dropout, CPU linear layers) is deterministic without it, and switching it on
     imports torch's compiler stack (seconds on the first call of a process), so synthesis passes False."""
     import torch
 
+    from ...models.nets import exact_float32
+
     prev_threads = torch.get_num_threads()
     prev_det = torch.are_deterministic_algorithms_enabled() if deterministic else None
-    with torch.random.fork_rng(devices=[]):
-        torch.manual_seed(int(seed))
+    with torch.random.fork_rng(devices=[]), exact_float32():
+        torch.random.default_generator.manual_seed(int(seed))  # the CPU's: every device draws from it
         if deterministic:
             torch.use_deterministic_algorithms(True, warn_only=True)
         if n_threads:
