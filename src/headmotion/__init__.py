@@ -9,7 +9,8 @@ everything else are imported on first use (module ``__getattr__``, PEP 562), so 
 such as ``headmotion --help`` pays for nothing it does not use.  Synthesis — :func:`synthesize`,
 :func:`open_stream`, :func:`load_model`, :func:`list_models`, :class:`Controls` — is
 :mod:`headmotion.synthesis`; :func:`adapt` (a model adapted to one speaker) is
-:mod:`headmotion.systems.adapt`.
+:mod:`headmotion.systems.adapt`; :func:`synthesize_batch` (many files to motion files, on this
+machine's cores or a Dask cluster) is :mod:`headmotion.batch`.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ _LAZY = {
     **{name: ".synthesis" for name in ("Controls", "load_model", "list_models", "synthesize", "open_stream",
                                        "DEFAULT_MODEL")},
     "adapt": ".systems.adapt",
+    "synthesize_batch": ".batch",
 }
 
 
@@ -57,5 +59,5 @@ __all__ = [
     "__version__", "Audio", "Motion", "FeatureTrack",
     "HeadMotionError", "ParameterError", "AudioLoadingError", "SampleRateError", "LengthMismatchError",
     "FormatError", "NoHeadError", "NotFittedError", "ModelFileError",
-    "Controls", "load_model", "list_models", "synthesize", "open_stream", "adapt",
+    "Controls", "load_model", "list_models", "synthesize", "open_stream", "adapt", "synthesize_batch",
 ]

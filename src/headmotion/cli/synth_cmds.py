@@ -11,6 +11,8 @@
   controls and the block-by-block reading of long inputs; ``-m`` takes a shipped name
   (``default``, the default; ``stream``) or a model file (:mod:`headmotion.shipped`);
   ``--samples K --video`` renders the K samples as a labelled grid (:mod:`headmotion.render.samples`).
+* ``synth IN... -o DIR [--format F] [--jobs N | --scheduler ADDRESS] [--force]`` — files, folders or
+  ``@LIST``, one motion each, resumable (:mod:`.synth_batch`, :mod:`headmotion.batch`).
 """
 
 from __future__ import annotations
@@ -97,8 +99,11 @@ def train(
 
 @app.command()
 def synth(
-    speech: Path = typer.Argument(..., help="Speech audio (wav, flac, mp3, or a video's audio track)."),
-    output: Path = typer.Option(..., "-o", "--output", help="Output motion: .bvh, .glb, .gltf, .csv, .json or .npz."),
+    speech: list[Path] = typer.Argument(..., help="Speech audio (wav, flac, mp3, or a video's audio track); "
+                                        "several files, folders (searched recursively) or @LIST.txt write one "
+                                        "motion each into the folder -o."),
+    output: Path = typer.Option(..., "-o", "--output", help="Output motion: .bvh, .glb, .gltf, .csv, .json or .npz "
+                                "(a folder for several inputs)."),
     model: Optional[str] = typer.Option(None, "-m", "--model", metavar="NAME|FILE", help="A shipped model by name ('default', the "
                                         "default; 'stream', the causal one; `headmotion models` lists them) "
                                         "or a model file."),
@@ -136,6 +141,13 @@ def synth(
                                                   "stochastic parameter; default the model's)."),
     fps: Optional[float] = typer.Option(None, "--fps", help="Output frame rate (default: the model's)."),
     video: Optional[Path] = typer.Option(None, "--video", help="Also render a preview video (.mp4)."),
+    fmt: Optional[str] = typer.Option(None, "--format", help="Several inputs: bvh (default), glb, gltf, csv, json "
+                                      "or npz."),
+    jobs: Optional[int] = typer.Option(None, "--jobs", "-j", help="Several inputs: worker processes (default 1)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Several inputs: Dask scheduler address "
+                                            "instead of --jobs, e.g. tcp://host:8786."),
+    force: bool = typer.Option(False, "--force", help="Several inputs: make every output again (outputs up to "
+                               "date for the same input, model and options are skipped otherwise)."),
 ):
     """Synthesise head motion for a speech file (the same as headmotion.synthesize in Python).
 
@@ -154,6 +166,13 @@ def synth(
                               offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll), still=still,
                               amount=amount, style_from=style_from, style_strength=style_strength,
                               style_keep_pose=style_keep_pose, fps=fps, stochastic=stochastic)
+    from .synth_batch import is_batch, run_batch
+
+    if is_batch(speech, output, fmt, jobs, scheduler, force):
+        code = run_batch(speech, output, model=model, fmt=fmt, jobs=jobs, scheduler=scheduler, force=force,
+                         seed=seed, samples=samples, neck_share=neck_share, controls=controls, video=video)
+        raise typer.Exit(code)
+    speech = speech[0]
     if neck_share is not None and output.suffix.lower() not in (".bvh", ".glb", ".gltf"):
         raise ParameterError(f"--neck-share applies to .bvh, .glb and .gltf outputs; got {output.suffix!r}")
     m = load_cli_model(model)
