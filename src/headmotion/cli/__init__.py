@@ -42,6 +42,7 @@ from . import detect_cmds  # noqa: E402,F401  detect
 from . import render_cmds  # noqa: E402,F401  render, view, plot
 from . import listen_cmds  # noqa: E402,F401  listen serve / analyze
 from . import serve_cmds  # noqa: E402,F401  serve, serve hash-key
+from . import blender_cmds  # noqa: E402,F401  blender-addon
 
 #: exit codes (also in ``headmotion --help`` and :mod:`headmotion.errors`)
 EXIT_BAD_INPUT, EXIT_USAGE, EXIT_MISSING_DEPENDENCY, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 2, 3, 4, 130
