@@ -18,7 +18,8 @@ server under simulated participants; skipped by a bare ``--quick``), serve (``he
 under load; serve_bench.py), scale (corpora of 1, 4, 16 hours in BEAT2's layout, import to
 training; only with ``--only scale``; ``HEADMOTION_SCALE_HOURS=1,4``), epoch (one streamed mfcc-dnn
 epoch split into reading, batches, transfer, compute, on the CPU and CUDA; only with ``--only epoch``;
-``HEADMOTION_EPOCH_HOURS=1,4,16``).
+``HEADMOTION_EPOCH_HOURS=1,4,16``), batch (50 voice lines in one ``synthesize_batch`` call: 2 jobs
+against 1, and the cost per file beyond synthesis; batch_bench.py).
 ``--quick`` runs a reduced set (short corpora, fewer repeats) in under 3 minutes.
 """
 
@@ -559,6 +560,12 @@ def bench_scale(res: Results, quick: bool):
     scale(res, quick, speech_dir=speech_dir())
 
 
+def bench_batch(res: Results, quick: bool):
+    from batch_bench import bench_batch as batch  # a voice-line library in one call: see benchmarks/batch_bench.py
+
+    batch(res, quick, speech_dir=speech_dir())
+
+
 def bench_epoch(res: Results, quick: bool):
     from scale_bench import bench_epoch as epoch  # one streamed epoch by part: see benchmarks/scale_bench.py
 
@@ -566,7 +573,7 @@ def bench_epoch(res: Results, quick: bool):
 
 
 GROUPS = ("startup", "features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server",
-          "serve", "scale", "epoch")
+          "serve", "scale", "epoch", "batch")
 
 
 def main(argv=None) -> int:
