@@ -1,6 +1,7 @@
 """The app factory of ``headmotion serve``: a FastAPI app with the offline route
 (:mod:`.offline`), the stream route (:mod:`.stream`), the model list, health, readiness and
-metrics, the OpenAPI page (``/docs``, ``/openapi.json``) and the browser example (``/v1/example``),
+metrics, the OpenAPI page (``/docs``, ``/openapi.json``), the browser example (``/v1/example``) and
+the avatar page (``/v1/avatar``, :mod:`.avatar`),
 behind the Host/Origin guard (:mod:`.security`) and one JSON log line per request.
 
 The models are loaded once per worker, when it starts (the lifespan), and shared by every request
@@ -74,8 +75,9 @@ class AccessLog:
             st = self.state_ref()
             path = scope.get("path", "")
             route = path if path.startswith("/v1/") or path in ("/healthz", "/readyz", "/metrics") else "other"
-            if route.startswith("/v1/example"):
-                route = "/v1/example"
+            for page in ("/v1/example", "/v1/avatar"):  # a page and its files: one route label
+                if route.startswith(page):
+                    route = page
             extra = (scope.get("state") or {})
             if st is not None:
                 st.metrics.requests.labels(route, str(status[0])).inc()
@@ -100,6 +102,7 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
     ASGI app (the Host/Origin guard around FastAPI).
     """
     from . import offline
+    from .avatar import mount_avatar
     from .stream import no_such_stream, stream_endpoint
 
     config = config or ServeConfig()
@@ -199,6 +202,7 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
     def example():
         return FileResponse(STATIC / "example.html", media_type="text/html")
 
+    mount_avatar(app)
     app.include_router(offline.router)
     app.router.routes.append(WebSocketRoute("/v1/stream", stream_endpoint))
     app.router.routes.append(WebSocketRoute("/{path:path}", no_such_stream))  # after every real route

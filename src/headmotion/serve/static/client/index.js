@@ -99,12 +99,17 @@ function channel() {
   };
 }
 
-/** Chunks of a MediaStream (the microphone): Float32Array blocks of its first channel, through an
- * AudioWorklet (the module's own file); stops when `signal` aborts or the tracks end. */
-async function capture(media, signal) {
+/** Chunks of a MediaStream (the microphone): Float32Array blocks of `chunkMs` of its first channel,
+ * through an AudioWorklet (the module's own file); stops when `signal` aborts or the tracks end. */
+async function capture(media, signal, chunkMs = 20) {
   const ctx = new AudioContext();
+  if (ctx.state === "suspended" && typeof document !== "undefined") {  // no user gesture yet (autoplay policy)
+    const resume = () => ctx.resume().catch(() => {});
+    for (const ev of ["pointerdown", "keydown"]) document.addEventListener(ev, resume, { once: true });
+  }
   await ctx.audioWorklet.addModule(new URL("./capture-worklet.js", import.meta.url));
-  const src = ctx.createMediaStreamSource(media), tap = new AudioWorkletNode(ctx, "headmotion-capture");
+  const src = ctx.createMediaStreamSource(media), tap = new AudioWorkletNode(ctx, "headmotion-capture",
+    { processorOptions: { samples: Math.round(ctx.sampleRate * chunkMs / 1000) } });
   const sink = ctx.createGain(); sink.gain.value = 0;
   src.connect(tap); tap.connect(sink); sink.connect(ctx.destination);
   const ch = channel();
@@ -146,13 +151,16 @@ function toPcm(chunk, encoding) {
  * @param {object} options  `url` (default: this page's origin), `apiKey` (sent in the start message:
  *   a browser's WebSocket cannot set headers), `sampleRate`, `encoding` ("s16le" default, "f32le"),
  *   `model`, `seed`, `gain`, `offset` (degrees), `still`, `resample` ("exact" default; "fast" for a
- *   live source), `frames` ("binary" default, "json"), `signal`, `onReady(ready)`
+ *   live source), `frames` ("binary" default, "json"), `chunkMs` (a MediaStream's audio per message,
+ *   default 20), `signal`, `onReady(ready)`, `onAudio(pcm,
+ *   sentAtMs)` (each PCM ArrayBuffer as sent, in the stream's encoding, and the performance.now()
+ *   of its send: to keep what was sent, or to time frames against the audio)
  */
 export async function* stream(source, options = {}) {
   const url = (options.url || DEFAULT_URL()).replace(/\/$/, "").replace(/^http/, "ws");
   const live = typeof MediaStream !== "undefined" && source instanceof MediaStream;
   let chunks = source, sampleRate = options.sampleRate, stopCapture = null;
-  if (live) ({ chunks, sampleRate, stop: stopCapture } = await capture(source, options.signal));
+  if (live) ({ chunks, sampleRate, stop: stopCapture } = await capture(source, options.signal, options.chunkMs));
   if (!sampleRate) throw new HeadmotionError("bad_parameter", "chunks of samples need options.sampleRate");
   const encoding = options.encoding || "s16le", fmt = options.frames || "binary";
   const start = { type: "start", sample_rate: sampleRate, encoding, frames: fmt };
@@ -185,6 +193,7 @@ export async function* stream(source, options = {}) {
         await new Promise((r) => setTimeout(r, 5));  // the socket is full: wait for it to drain
       }
       ws.send(pcm);
+      if (options.onAudio) options.onAudio(pcm, performance.now());
     }
     if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify({ type: "end" }));
   };

@@ -1,0 +1,41 @@
+"""The avatar page, ``GET /v1/avatar``: a VRM avatar whose neck and head bones follow ``/v1/stream``.
+
+:func:`mount_avatar` adds the page and its files to a FastAPI app — ``headmotion serve``'s, and any
+app that also answers ``/v1/stream`` (``view --live``, or an agent's own server):
+
+* ``/v1/avatar``          — the page (``web/static/avatar.html``, script ``avatar-page.js``);
+* ``/v1/avatar/static/``  — ``web/static``: ``avatar.js`` (three.js, its GLTFLoader and
+  @pixiv/three-vrm bundled by ``web/js/build.mjs``), ``avatar.vrm`` (the project's VRM 1.0 bust,
+  written by ``python -m headmotion.web.build_assets``), the page's script and style;
+* ``/v1/avatar/client/``  — ``@headmotion/client`` (``serve/static/client``), which the page
+  streams with.
+
+Everything is a file of the package: nothing is fetched from a CDN, and the page runs under
+``headmotion serve``'s Content-Security-Policy (no inline script or style).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+#: the web components' files (the viewer's and the avatar's bundles, the VRM, the pages)
+WEB_STATIC = Path(__file__).resolve().parents[1] / "web" / "static"
+#: @headmotion/client
+CLIENT = Path(__file__).resolve().parent / "static" / "client"
+PAGE = WEB_STATIC / "avatar.html"
+
+
+def mount_avatar(app) -> None:
+    """Add ``/v1/avatar`` and its static files to the FastAPI ``app`` (module docstring)."""
+    from fastapi.responses import FileResponse
+    from fastapi.staticfiles import StaticFiles
+
+    @app.get("/v1/avatar", include_in_schema=False)
+    def avatar_page():
+        return FileResponse(PAGE, media_type="text/html")
+
+    app.mount("/v1/avatar/static", StaticFiles(directory=WEB_STATIC), name="avatar-static")
+    app.mount("/v1/avatar/client", StaticFiles(directory=CLIENT), name="avatar-client")
+
+
+__all__ = ["mount_avatar", "WEB_STATIC", "CLIENT", "PAGE"]

@@ -1,0 +1,155 @@
+// headmotion avatar page (/v1/avatar): microphone or file → stream() of @headmotion/client
+// (WS /v1/stream) → frames → the VRM avatar's neck and head bones (avatar.js, bundled three.js and
+// @pixiv/three-vrm).  Query: input=mic|file, autostart=1 (mic: start at once), model, resample
+// (exact default | fast), vrm (a VRM file on this server), record=1 (keep the audio sent, for tests).
+//
+// window.headmotionAvatar (tests, integrators, the console):
+//   headRotation()  [pitch, yaw, roll] degrees: the head bone against its rest pose (the avatar's
+//                   axes: +x its left, +y up, +z forward; intrinsic YXZ), read back from the bones
+//   latencyMs()     the newest frame's latency: the time its bones were set minus the time the page
+//                   had the frame's audio (null before the first frame)
+//   latencyStats()  {median, p95, n} over the last 200 frames
+//   shown           [{frame, time, at, latencyMs, rotation, audioTime}]: each frame put on the bones
+//                   (the newest of each batch; `at` performance.now(), `rotation` headRotation() just
+//                   after, `audioTime` the audio the server had when it sent the frame)
+//   renderMs        the last 200 draws' durations
+//   frames, status, error, ready (the server's ready message), ended
+//   start("mic" | File), stop(), setRotvec([rx, ry, rz]) (drive the bones from another source)
+//   sentAudio()     {sampleRate, encoding, base64} of the audio sent (with record=1)
+import { mountAvatar } from "./avatar.js";
+import { stream } from "../client/index.js";
+
+const $ = (id) => document.getElementById(id);
+const params = new URLSearchParams(location.search);
+const KEEP = 20000;
+let avatar = null, abort = null, media = null, player = null, dirty = false;
+let t0 = Infinity, sentSamples = 0, sampleRate = null, sent = [];
+
+function quantile(a, q) {
+  if (!a.length) return null;
+  const s = [...a].sort((x, y) => x - y);
+  return s[Math.min(s.length - 1, Math.floor(q * (s.length - 1) + 0.5))];
+}
+const st = window.headmotionAvatar = {
+  status: "loading", error: null, ready: null, frames: 0, ended: false, shown: [], renderMs: [],
+  headRotation: () => (avatar ? avatar.headRotation() : null),
+  latencyMs: () => (st.shown.length ? st.shown[st.shown.length - 1].latencyMs : null),
+  latencyStats() {
+    const l = st.shown.slice(-200).map((s) => s.latencyMs).filter((x) => x !== null);
+    return { median: quantile(l, 0.5), p95: quantile(l, 0.95), n: l.length };
+  },
+  setRotvec(r) { if (avatar) { avatar.setRotvec(r); dirty = true; } },
+  start: (what) => start(what),
+  stop: () => stop(),
+  sentAudio() {
+    const n = sent.reduce((k, b) => k + b.byteLength, 0), all = new Uint8Array(n);
+    let k = 0;
+    for (const b of sent) { all.set(new Uint8Array(b), k); k += b.byteLength; }
+    let bin = "";
+    for (let i = 0; i < all.length; i += 0x8000) bin += String.fromCharCode.apply(null, all.subarray(i, i + 0x8000));
+    return { sampleRate, encoding: "s16le", base64: btoa(bin) };
+  },
+};
+
+function setStatus(s) { st.status = s; $("status").textContent = s; }
+function fail(msg) { st.error = msg; $("error").textContent = msg; }
+
+function draw() {
+  if (dirty && avatar) {
+    const t = performance.now();
+    avatar.renderNow(); dirty = false;
+    st.renderMs.push(performance.now() - t); if (st.renderMs.length > 200) st.renderMs.shift();
+    const l = st.latencyStats();
+    $("stats").textContent = l.n ? `${st.frames} frames · latency median ${l.median.toFixed(0)} ms, p95 ${l.p95.toFixed(0)} ms` : "";
+  }
+  requestAnimationFrame(draw);
+}
+
+/** The audio the client sent: the wall time of audio time 0 is the earliest bound its sends give
+ * (a chunk ending at sample n cannot be sent before the page had sample n). */
+function onAudio(pcm, at) {
+  sentSamples += pcm.byteLength / 2;
+  t0 = Math.min(t0, at - (sentSamples / sampleRate) * 1000);
+  if (params.get("record") === "1") sent.push(pcm);
+}
+
+function show(batch) {
+  const f = batch.frames[batch.frames.length - 1];
+  avatar.setRotvec(f.rotvec);
+  const at = performance.now();
+  const latency = Number.isFinite(t0) ? at - (t0 + f.time * 1000) : null;
+  st.shown.push({ frame: f.frame, time: f.time, at, latencyMs: latency, rotation: avatar.headRotation(),
+    audioTime: batch.audioTime });
+  if (st.shown.length > KEEP) st.shown.splice(0, st.shown.length - KEEP);
+  st.frames += batch.frames.length;
+  dirty = true;
+}
+
+async function source(what) {
+  if (what === "mic") {
+    return navigator.mediaDevices.getUserMedia({ audio: { echoCancellation: false, noiseSuppression: false,
+      autoGainControl: false } });
+  }
+  // a file: played aloud, and its sound captured as the microphone would be
+  const ctx = new AudioContext();
+  const buffer = await ctx.decodeAudioData(await what.arrayBuffer());
+  const src = ctx.createBufferSource(), out = ctx.createMediaStreamDestination();
+  src.buffer = buffer; src.connect(ctx.destination); src.connect(out);
+  src.onended = () => { if (abort) abort.abort(); };
+  player = { ctx, src, start: () => src.start() };
+  return out.stream;
+}
+
+async function start(what) {
+  await stop();
+  Object.assign(st, { error: null, ready: null, frames: 0, ended: false, shown: [] });
+  t0 = Infinity; sentSamples = 0; sent = [];
+  $("error").textContent = "";
+  media = await source(what);
+  abort = new AbortController();
+  const options = { apiKey: $("key").value || undefined, signal: abort.signal, onAudio,
+    resample: params.get("resample") || "exact" };
+  if (params.get("model")) options.model = params.get("model");
+  options.onReady = (m) => {
+    st.ready = m; sampleRate = m.sample_rate;  // the capture's rate, as the start message declared it
+    setStatus(`streaming (${what === "mic" ? "microphone" : "file"}): ${m.model} (${m.system}), lookahead ${m.latency_ms.toFixed(0)} ms`);
+    if (player) player.start();
+  };
+  $("stop").disabled = false;
+  sampleRate = null;
+  try {
+    for await (const b of stream(media, options)) show(b);
+    st.ended = true;
+    setStatus("ended");
+  } catch (e) {
+    fail(e.kind ? `${e.kind}: ${e.detail}` : String(e));
+  } finally {
+    $("stop").disabled = true;
+  }
+}
+
+async function stop() {
+  if (abort) abort.abort();  // the client sends the end message; the last frames still arrive
+  abort = null;
+  if (media) media.getTracks().forEach((t) => t.stop());
+  media = null;
+  if (player) { try { player.src.stop(); } catch (e) { /* not started */ } player.ctx.close().catch(() => {}); }
+  player = null;
+}
+
+try {
+  const vrmUrl = params.get("vrm") || undefined;
+  avatar = await mountAvatar($("avatar"), { vrmUrl, width: 640, height: 480 });
+  setStatus("ready");
+  document.body.dataset.ready = "1";
+  requestAnimationFrame(draw);
+} catch (e) {
+  fail(String(e && e.stack || e));
+  document.body.dataset.ready = "error";
+}
+$("mic").addEventListener("click", () => start("mic").catch((e) => fail(`microphone: ${e}`)));
+$("file").addEventListener("change", (ev) => { const f = ev.target.files[0]; if (f) start(f).catch((e) => fail(`file: ${e}`)); });
+$("stop").addEventListener("click", () => { stop(); setStatus("stopped"); });
+if (avatar && params.get("autostart") === "1" && (params.get("input") || "mic") === "mic") {
+  start("mic").catch((e) => fail(`microphone: ${e}`));
+}
