@@ -14,12 +14,14 @@ Speakers are named from the folder and file names: andrew, feifeili, reagan, kri
 each PC-AVS clip its own id except 741400104 / 741400163 (probably the same speaker, README),
 each GRID sentence its own speaker (the 11 clips are 11 speakers), MEAD by actor id (M003 has two
 clips), LRS3 by YouTube id, and each video_retalking clip its own speaker.  Recording ids are
-``<folder>_<file stem>`` (plus ``_partN`` where a video was split at a cut or a long gap).
+``<folder>_<file stem>`` (plus ``_partN`` where a video was split at a cut or a long gap); each
+recording's ``source`` is its folder (``evaluate --protocol sources`` holds them out in turn).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import re
 import sys
@@ -110,9 +112,11 @@ def main(argv=None) -> int:
 
     ids = {r["recording"] for r in rows}
     corpus = Corpus.load(out)
-    stale = [e for e in corpus.entries if e.recording not in ids]
-    if stale:
-        Corpus(root=out, entries=[e for e in corpus.entries if e.recording in ids]).save(out)
+    # each recording's source is its video's folder (a dataset's own release): evaluate --protocol sources
+    folders = sorted({j.video.parent.name for j in jobs}, key=len, reverse=True)
+    source = {e.recording: next((f for f in folders if e.recording.startswith(f + "_")), None) for e in corpus.entries}
+    Corpus(root=out, entries=[dataclasses.replace(e, source=source[e.recording]) for e in corpus.entries
+                              if e.recording in ids]).save(out)
     quality = [r for r in read_quality_csv(out / "quality.csv") if r["recording"] in ids]
     from headmotion.video.build import write_quality_csv
 

@@ -4,7 +4,8 @@ A corpus is a directory holding ``corpus.csv`` with the columns
 ``recording,speaker,task,audio,motion`` and optionally ``split``, ``speaking`` (a per-frame or
 interval annotation of when the target speaker talks, see :mod:`headmotion.features.vad`) and
 ``fps`` (the motion file's frame rate, overriding the one the file states or implies, e.g. for
-an OpenFace CSV of an image sequence or a file with a wrong rate).
+an OpenFace CSV of an image sequence or a file with a wrong rate) and ``source`` (where the
+recording came from — a dataset, a channel, a studio — for leaving whole sources out).
 Paths are relative to the directory.  Audio and motion may be in any supported format.
 
 A :class:`Recording` pairs one take's audio (resampled to the corpus sample rate, 16 kHz by
@@ -35,7 +36,7 @@ from .types import Audio, Motion
 
 MANIFEST = "corpus.csv"
 REQUIRED_COLUMNS = ("recording", "speaker", "task", "audio", "motion")
-OPTIONAL_COLUMNS = ("split", "speaking", "fps")
+OPTIONAL_COLUMNS = ("split", "speaking", "fps", "source")
 DEFAULT_SAMPLE_RATE = 16000
 RECORDINGS_KEPT = 64  # recordings a corpus on disk keeps loaded (their speech is decoded when read)
 
@@ -105,6 +106,9 @@ class CorpusEntry:
     split: str | None = None
     speaking: Path | None = None
     fps: float | None = None
+    #: where the recording came from (a dataset, a channel, a studio): recordings of one source share
+    #: its microphones, rooms and speakers; ``evaluate --protocol sources`` holds out one at a time
+    source: str | None = None
 
 
 class Corpus(Sequence[Recording]):
@@ -179,7 +183,8 @@ class Corpus(Sequence[Recording]):
             entries.append(CorpusEntry(
                 recording=row["recording"].strip(), speaker=row["speaker"].strip(), task=row["task"].strip(),
                 audio=Path(row["audio"].strip()), motion=Path(row["motion"].strip()), split=split,
-                speaking=Path(spk) if spk else None, fps=fps))
+                speaking=Path(spk) if spk else None, fps=fps,
+                source=(row.get("source") or "").strip() or None))
         return cls(root=root, entries=entries, sample_rate=sample_rate)
 
     def save(self, root=None) -> Path:
@@ -204,10 +209,12 @@ class Corpus(Sequence[Recording]):
             rows.append({"recording": e.recording, "speaker": e.speaker, "task": e.task,
                          "audio": audio_rel.as_posix(), "motion": motion_rel.as_posix(),
                          "split": e.split or "", "speaking": "" if e.speaking is None else e.speaking.as_posix(),
-                         "fps": "" if e.fps is None else f"{e.fps:g}"})
+                         "fps": "" if e.fps is None else f"{e.fps:g}", "source": e.source or ""})
         cols = list(REQUIRED_COLUMNS) + list(OPTIONAL_COLUMNS)
         if all(e.fps is None for e in self._entries):
             cols.remove("fps")  # written only when used
+        if all(e.source is None for e in self._entries):
+            cols.remove("source")
         buf = _io.StringIO()
         w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n", extrasaction="ignore")
         w.writeheader()

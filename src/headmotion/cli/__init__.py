@@ -38,6 +38,7 @@ from . import adapt_cmds  # noqa: E402,F401  adapt
 from . import stream_cmds  # noqa: E402,F401  stream
 from . import templates_cmds  # noqa: E402,F401  templates encode-error / analyse / confusion
 from . import eval_cmds  # noqa: E402,F401  evaluate, stats
+from . import speech_eval_cmds  # noqa: E402,F401  evaluate-speech
 from . import detect_cmds  # noqa: E402,F401  detect
 from . import render_cmds  # noqa: E402,F401  render, view, plot
 from . import listen_cmds  # noqa: E402,F401  listen serve / analyze
@@ -49,7 +50,7 @@ EXIT_BAD_INPUT, EXIT_USAGE, EXIT_MISSING_DEPENDENCY, EXIT_INTERNAL, EXIT_INTERRU
 
 #: optional modules and the extra that installs them
 _EXTRAS = {"mediapipe": "video", "dask": "dask", "distributed": "dask", "psycopg": "postgres",
-           "psycopg_binary": "postgres", "pythonosc": "live", "websockets": "live", "sounddevice": "live"}
+           "psycopg_binary": "postgres", "pythonosc": "live", "sounddevice": "live", "torch": "nets"}
 
 
 def _class_names(exc: BaseException) -> set[str]:
@@ -148,7 +149,12 @@ def _handle(exc: Exception, debug: bool) -> int:
         return EXIT_INTERRUPTED
     if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in _EXTRAS:
         extra = _EXTRAS[exc.name.split(".")[0]]
-        print_error(f"this needs the optional dependency {exc.name!r}: pip install 'headmotion[{extra}]'")
+        if extra == "nets":
+            from ..devices import missing_torch
+
+            print_error(missing_torch())
+        else:
+            print_error(f"this needs the optional dependency {exc.name!r}: pip install 'headmotion[{extra}]'")
         return EXIT_MISSING_DEPENDENCY
     if isinstance(exc, OSError) and not isinstance(exc, (BlockingIOError, ConnectionError)):
         where = f" {exc.filename}" if getattr(exc, "filename", None) else ""

@@ -33,7 +33,8 @@ def evaluate_cmd(
     protocol: str = typer.Option("loo", "--protocol",
                                  help="loo (leave one recording out, thesis §5.9), split (paper §4.1, per speaker), dataset "
                                       "(the corpus's own split column: train on train + valid, report on test) "
-                                      "or speakers (leave speakers out; see --speaker-folds)"),
+                                      "speakers (leave speakers out; see --speaker-folds) or sources (leave each "
+                                      "source out in turn: the manifest's source column)"),
     speaker_folds: int = typer.Option(0, "--speaker-folds",
                                       help="with --protocol speakers: number of speaker-disjoint folds (0 = one per speaker)"),
     folds_at_pauses: int = typer.Option(0, "--folds-at-pauses",
@@ -73,8 +74,8 @@ def evaluate_cmd(
     names = split_systems(systems)
     if not names:
         raise ParameterError("--systems needs at least one system name")
-    if protocol not in ("loo", "split", "dataset", "speakers"):
-        raise ParameterError(f"--protocol must be loo, split, dataset or speakers; got {protocol!r}")
+    if protocol not in ("loo", "split", "dataset", "speakers", "sources"):
+        raise ParameterError(f"--protocol must be loo, split, dataset, speakers or sources; got {protocol!r}")
     if folds_at_pauses < 0 or folds_at_pauses == 1:
         raise ParameterError(f"--folds-at-pauses must be 0 (off) or ≥ 2; got {folds_at_pauses}")
     corpus = Corpus.load(corpus_dir)

@@ -15,6 +15,11 @@ held-out speakers)
     (:func:`speaker_groups`; 0 = one group per speaker: leave-one-speaker-out); each fold trains on
     the other groups' recordings and tests on its group's, so no held-out speaker is seen in
     training.
+``"sources"`` (leave sources out)
+    One fold per source of the corpus (the manifest's ``source`` column: a dataset, a channel, a
+    studio): each fold trains on every other source's recordings and tests on the source's own.
+    Speakers held out by ``"speakers"`` share microphones, rooms, languages and recording styles
+    with the library's; a held-out source shares none of them, as a user's own voice does not.
 
 A single long take is cut into recordings at its pauses first (:mod:`.pause_folds`); ``loo`` on
 the parts is then leave-one-fold-out.
@@ -57,8 +62,9 @@ def speaker_groups(speakers: Sequence[str], n_folds: int = 0, *, seed: int = 0) 
 def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0,
                speaker_folds: int = 0) -> list[tuple[str, Corpus, Corpus, Corpus | None]]:
     """``(fold name, train, test, other speakers)`` for ``protocol`` ``"loo"``, ``"split"``,
-    ``"dataset"`` (the corpus's own split column: one fold, train + valid against test) or
-    ``"speakers"`` (``speaker_folds`` groups; 0 = leave-one-speaker-out)."""
+    ``"dataset"`` (the corpus's own split column: one fold, train + valid against test),
+    ``"speakers"`` (``speaker_folds`` groups; 0 = leave-one-speaker-out) or ``"sources"`` (one fold
+    per source)."""
     entries = corpus.entries
     def others_of(spk):
         idx = [i for i, e in enumerate(entries) if e.speaker != spk]
@@ -84,6 +90,8 @@ def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0,
         from .dataset_split import dataset_split_folds
 
         folds = dataset_split_folds(corpus)
+    elif protocol == "sources":
+        folds = _source_folds(corpus)
     elif protocol == "speakers":
         groups = speaker_groups(corpus.speakers, speaker_folds, seed=seed)
         if len(groups) < 2:
@@ -94,7 +102,30 @@ def make_folds(corpus: Corpus, protocol: str = "loo", *, seed: int = 0,
             name = g[0] if len(g) == 1 else f"{g[0]}+{len(g) - 1}"
             folds.append((name, corpus.subset(tr), corpus.subset(te), corpus.subset(tr)))
     else:
-        raise ParameterError(f"protocol must be 'loo', 'split', 'dataset' or 'speakers'; got {protocol!r}")
+        raise ParameterError(f"protocol must be 'loo', 'split', 'dataset', 'speakers' or 'sources'; got {protocol!r}")
+    return folds
+
+
+def source_of(entry) -> str | None:
+    """The source of a manifest entry (its ``source`` column), or None."""
+    return getattr(entry, "source", None)
+
+
+def _source_folds(corpus: Corpus) -> list:
+    """One fold per source: train on the other sources, test on this one's recordings."""
+    entries = corpus.entries
+    missing = [e.recording for e in entries if not source_of(e)]
+    if missing:
+        raise ParameterError(f"leaving sources out needs a 'source' for every recording (a column of corpus.csv); "
+                             f"{len(missing)} have none, e.g. {missing[0]!r}")
+    sources = sorted({source_of(e) for e in entries})
+    if len(sources) < 2:
+        raise ParameterError(f"leaving sources out needs at least 2 sources; the corpus has {len(sources)}")
+    folds = []
+    for src in sources:
+        te = [i for i, e in enumerate(entries) if source_of(e) == src]
+        tr = [i for i, e in enumerate(entries) if source_of(e) != src]
+        folds.append((src, corpus.subset(tr), corpus.subset(te), corpus.subset(tr)))
     return folds
 
 
@@ -119,4 +150,4 @@ def longest_held_out(folds) -> str:
 
 
 
-__all__ = ["make_folds", "speaker_groups", "longest_held_out"]
+__all__ = ["make_folds", "speaker_groups", "longest_held_out", "source_of"]

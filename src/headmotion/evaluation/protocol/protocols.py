@@ -12,7 +12,8 @@ writes as ``metrics.csv``.
 Protocols (:mod:`.folds`)
 -------------------------
 ``"loo"`` (thesis §5.9: leave one recording of the speaker out), ``"split"`` (paper §4.1: train /
-valid / test per speaker) and ``"speakers"`` (leave groups of speakers out; ``speaker_folds``).
+valid / test per speaker), ``"speakers"`` (leave groups of speakers out; ``speaker_folds``) and
+``"sources"`` (leave each source of the corpus out in turn: the manifest's ``source`` column).
 A single long take is cut into folds at its pauses first (:mod:`.pause_folds`, ``headmotion
 evaluate --folds-at-pauses N``); ``loo`` on the parts is then leave-one-fold-out.
 
@@ -137,7 +138,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         names (``"default"``, ``"stream"``), model file paths, or ``(name, factory)`` pairs where
         ``factory()`` returns an unfitted Synthesizer.  ``"ground-truth"`` is always included.
     protocol : ``"loo"`` | ``"split"`` | ``"dataset"`` | ``"speakers"`` (``speaker_folds`` groups of held-out
-        speakers; 0 = one per speaker)
+        speakers; 0 = one per speaker) | ``"sources"`` (one fold per source)
     features : str | callable — the feature set used by FCCA (``f0e`` as in the thesis' choice of
         F0 + energy) or ``callable(audio, fps=, n_frames=) -> FeatureTrack``.
     n_jobs : int — parallel folds with joblib (``-1`` = all cores); ignored with ``scheduler``.
