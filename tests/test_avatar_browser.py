@@ -1,0 +1,111 @@
+"""The avatar page of ``headmotion serve`` (``/v1/avatar``): its files are the package's, and in
+headless Chromium with a fake microphone playing real speech (``?input=mic&autostart=1``) the VRM
+avatar's head bone takes the stream's frames — each frame put on the bones equals, within 0.5°,
+``headmotion synth -m stream`` (the library's synthesize with the ``stream`` model) on the audio the
+page sent, at the same frame — and the page shows a latency.  Browser tests skip with a reason
+without Playwright or Chromium."""
+
+from __future__ import annotations
+
+import base64
+import time
+
+import numpy as np
+import pytest
+from conftest import CHROMIUM
+from serve_helpers import ROOT, registry
+
+SPEECH = ROOT / "examples" / "speech" / "speech_female.wav"
+#: the flags Chromium runs with (a headless machine without a GPU: WebGL drawn by SwiftShader)
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--autoplay-policy=no-user-gesture-required", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+         "--use-fake-ui-for-media-stream", "--use-fake-device-for-media-stream"]
+
+
+def _wait(page, expr: str, timeout_s: float = 60.0) -> None:
+    """Poll ``expr`` (the server's CSP has no 'unsafe-eval', which ``wait_for_function`` needs)."""
+    end = time.monotonic() + timeout_s
+    while not page.evaluate(f"Boolean({expr})"):
+        if time.monotonic() > end:
+            raise TimeoutError(f"timed out waiting for {expr}")
+        page.wait_for_timeout(50)
+
+
+def test_avatar_page_and_its_files_are_served():
+    from serve_helpers import client
+
+    c = client()
+    page = c.get("/v1/avatar")
+    assert page.status_code == 200 and "text/html" in page.headers["content-type"]
+    assert "/v1/avatar/static/avatar-page.js" in page.text
+    assert "'unsafe-inline'" not in page.headers["content-security-policy"]
+    for path in ("static/avatar.js", "static/avatar-page.js", "static/avatar.vrm", "static/avatar.css",
+                 "client/index.js", "client/capture-worklet.js"):
+        r = c.get(f"/v1/avatar/{path}")
+        assert r.status_code == 200, path
+    js = c.get("/v1/avatar/static/avatar.js").text
+    assert "@pixiv/three-vrm" in js[:4000] and "VRMC_vrm" in js  # three-vrm is bundled in
+    for cdn in ("unpkg.com", "jsdelivr", "cdnjs", "esm.sh"):
+        assert cdn not in js
+    assert c.get("/v1/avatar/static/avatar.vrm").content[:4] == b"glTF"
+
+
+@pytest.mark.browser
+@pytest.mark.timeout(240)
+def test_head_bone_follows_the_stream_from_a_fake_microphone(playwright, tmp_path):
+    import soundfile as sf
+
+    import headmotion
+    from headmotion.rotations import rotvec_to_pitch_yaw_roll
+    from headmotion.serve.app import create_app
+    from headmotion.serve.config import ServeConfig
+    from headmotion.types import Audio
+    from headmotion.web.server import running_app
+
+    app = create_app(ServeConfig(), registry=registry())
+    with running_app(app, ws="websockets-sansio") as url, playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=[*FLAGS, f"--use-file-for-fake-audio-capture={SPEECH}"])
+        try:
+            pg = b.new_page(viewport={"width": 700, "height": 760})
+            errors = []
+            pg.on("pageerror", lambda e: errors.append(str(e)))
+            pg.on("console", lambda m: m.type == "error" and errors.append(m.text))
+            pg.goto(url + "v1/avatar?input=mic&autostart=1&record=1")
+            _wait(pg, "document.body.dataset.ready")
+            assert pg.evaluate("document.body.dataset.ready") == "1", pg.inner_text("#error")
+            _wait(pg, "window.headmotionAvatar.frames >= 150")  # 6 s of speech at 25 frames/s
+            pg.locator("#avatar canvas").screenshot(path=str(tmp_path / "avatar.png"))
+            st = pg.evaluate("({shown: headmotionAvatar.shown, ready: headmotionAvatar.ready, "
+                             "error: headmotionAvatar.error, status: headmotionAvatar.status, "
+                             "now: headmotionAvatar.headRotation(), audio: headmotionAvatar.sentAudio(), "
+                             "stats: document.getElementById('stats').textContent})")
+        finally:
+            b.close()
+    assert not errors, errors
+    assert st["error"] is None and st["status"].startswith("streaming (microphone): stream")
+    shown = st["shown"]
+    frames = [s["frame"] for s in shown]
+    assert frames == sorted(set(frames)) and len(frames) > 50  # in order, none twice
+    np.testing.assert_allclose(st["now"], shown[-1]["rotation"], atol=1e-9)  # the bones hold the newest frame
+
+    # the reference: synthesis with the stream model on exactly the audio the page sent
+    pcm = np.frombuffer(base64.b64decode(st["audio"]["base64"]), "<i2")
+    rate = int(st["audio"]["sampleRate"])
+    sf.write(tmp_path / "sent.wav", pcm, rate, subtype="PCM_16")
+    (ref,) = headmotion.synthesize(Audio(pcm.astype(np.float32) / 32768.0, rate), model="stream")
+    ref_deg = rotvec_to_pitch_yaw_roll(ref.rotvec, degrees=True)
+    got = np.array([s["rotation"] for s in shown])
+    idx = np.array(frames)
+    assert idx.max() < len(ref)
+    err = np.abs(got - ref_deg[idx]).max(axis=1)
+    assert err.max() <= 0.5, (err.max(), int(idx[err.argmax()]))
+    assert np.ptp(got, axis=0).max() > 2.0  # the head moved (degrees)
+
+    lat = np.array([s["latencyMs"] for s in shown[5:]], dtype=float)
+    assert np.all(np.isfinite(lat))
+    # a frame cannot reach the bones before its audio and the model's lookahead were had
+    assert np.median(lat) >= st["ready"]["latency_ms"] - 5, np.median(lat)
+    assert "latency median" in st["stats"] and "p95" in st["stats"]
+    print(f"{len(idx)} frames on the bones, largest difference from synth {err.max():.4f} deg; latency from the "
+          f"audio to the bone: median {np.median(lat):.0f} ms, p95 {np.percentile(lat, 95):.0f} ms")
