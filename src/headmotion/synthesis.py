@@ -119,6 +119,9 @@ class Controls:
     stochastic : str or None
         What the model samples (``none``, ``choice``, ``params``, ``both``; None: the model's
         setting), validated by the model.
+    listening : number in :data:`headmotion.listener.LISTENING_RANGE`
+        How much the head listens while it hears another person speak (``hear``): 1 an attentive
+        posture and back-channel nods at the other's cues, 0 nothing added, up to 3.
     """
 
     gain: tuple = (1.0, 1.0, 1.0)
@@ -130,6 +133,7 @@ class Controls:
     style_keep_pose: bool = False
     fps: float | None = None
     stochastic: str | None = None
+    listening: float = 1.0
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -158,6 +162,9 @@ class Controls:
                 raise ParameterError(f"fps (--fps) must be between {FPS_RANGE[0]:g} and {FPS_RANGE[1]:g} frames per "
                                      f"second; got {f!r}")
             set_(self, "fps", float(f))
+        from .listener.head import check_listening
+
+        set_(self, "listening", check_listening(self.listening))
         if self.stochastic is not None and not isinstance(self.stochastic, str):
             raise ParameterError(f"stochastic (--stochastic) must be one of none, choice, params, both; "
                                  f"got {self.stochastic!r}")
@@ -293,6 +300,25 @@ def _speech(audio, model):
     return a, a.duration, False
 
 
+def _conversation(speech, hear) -> tuple[Audio, Audio]:
+    """(speech, heard) as Audio of one length: the shorter padded with silence."""
+    from .io import load_audio
+
+    if isinstance(speech, Path):
+        speech = load_audio(speech)
+    if isinstance(hear, (str, os.PathLike)):
+        hear = load_audio(hear)
+    if not isinstance(hear, Audio):
+        raise ParameterError(f"hear must be a headmotion.Audio or a file path; got {type(hear).__name__}")
+    end = max(speech.duration, hear.duration)
+
+    def pad(a: Audio) -> Audio:
+        n = int(round(end * a.sample_rate)) - len(a.samples)
+        return a if n <= 0 else Audio(np.concatenate([a.samples, np.zeros(n, a.samples.dtype)]), a.sample_rate)
+
+    return pad(speech), pad(hear)
+
+
 def _style_reference(controls: Controls):
     """The style profile of ``controls.style_from`` (None without one), measured once per call."""
     ref = controls.style_from
@@ -327,7 +353,7 @@ def apply_controls(motion: Motion, model, controls: Controls, reference=None) ->
 
 
 def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: int = 1, controls: Controls | None = None,
-               progress=None, **controls_kwargs) -> list[Motion]:
+               progress=None, hear=None, **controls_kwargs) -> list[Motion]:
     """Head motion for speech: what ``headmotion synth`` writes.
 
     Parameters
@@ -346,6 +372,11 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: 
         :meth:`Controls.parse`).
     progress : callable, optional
         ``progress(done_seconds, total_seconds)`` of speech synthesised over all samples.
+    hear : Audio, str or Path, optional
+        What this head hears: the other party of a conversation, on the same timeline as
+        ``audio`` (either may be silent at any time; the shorter is taken as silent to the end of
+        the longer).  While the other speaks and this head does not, it listens
+        (:mod:`headmotion.listener`; ``controls.listening`` says how much).
 
     Returns
     -------
@@ -358,6 +389,10 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: 
     seed = model_seed(m, seed)
     check_seed(seed, samples)
     speech, duration, in_blocks = _speech(audio, m)
+    heard = None
+    if hear is not None:
+        speech, heard = _conversation(speech, hear)
+        duration, in_blocks = speech.duration, False
     reference = _style_reference(c)
     m = _with_amount(_with_stochastic(m, c.stochastic, samples), c.amount)
     total = duration * samples
@@ -371,6 +406,10 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: 
             motion = predict_file_in_blocks(m, speech, seed=seed + k, progress=report)
         else:
             motion = m.predict(speech, seed=seed + k)
+        if heard is not None:
+            from .listener.head import listen
+
+            motion = listen(motion, speech, heard, m, listening=c.listening, seed=seed + k)
         out.append(apply_controls(motion, m, c, reference))
         if progress is not None:
             progress((k + 1) * duration, total)
@@ -378,25 +417,47 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: 
 
 
 class SpeechStream:
-    """Speech in as it comes, head motion out: :meth:`push` samples, get the frames now final.
+    """Speech in as it comes, head motion out: :meth:`push` samples, get the frames now final —
+    the one stream of every live path (``headmotion stream``, the live page, ``headmotion
+    serve``'s stream, the agent integrations).
 
-    Made by :func:`open_stream`; ``sample_rate`` is the rate of the samples pushed,
+    Made by :func:`open_stream`; ``sample_rate`` is the rate of the samples pushed (resampled on
+    the stream to the model's, ``resample`` of :data:`headmotion.io.resampler.QUALITY`),
     ``frame_rate`` the rate of the frames returned, ``latency_ms`` the model's algorithmic
-    latency."""
+    latency, ``frames`` how many frames it has returned.  :meth:`hear` takes what the head hears
+    (the other party's audio, on the same timeline), ``heard_rate`` its rate."""
 
-    def __init__(self, model, inner, controls: Controls, sample_rate: int):
-        from .io.resampler import Resampler
+    def __init__(self, model, inner, controls: Controls, sample_rate: int, *, resample: str = "fast",
+                 heard_rate: int | None = None, seed: int = 0):
+        from .io.resampler import Resampler, check_resample
 
         self.model, self.controls = model, controls
         self.sample_rate, self.frame_rate = int(sample_rate), float(model.frame_rate)
+        self.heard_rate = self.sample_rate if heard_rate is None else int(heard_rate)
         self.latency_ms = float(getattr(inner, "latency_ms", 0.0))
+        self.frames = 0
         self._inner = inner
-        self._resample = Resampler(self.sample_rate, int(model.sample_rate))
+        self._resample = Resampler(self.sample_rate, int(model.sample_rate), quality=check_resample(resample))
         self._identity = not (controls.still or controls.moves_pose)  # decided once, not per 10 ms push
+        self._made = 0  # the model's frames so far (the listening layer's frame numbers)
+        self._listener = None
+        if controls.listening > 0:
+            from .listener.head import ListeningLayer
+
+            self._listener = ListeningLayer(model, fps=self.frame_rate, speech_rate=self.sample_rate,
+                                            heard_rate=self.heard_rate, listening=controls.listening, seed=seed)
 
     def push(self, samples) -> Motion:
         """Frames made final by these float32 mono samples (at :attr:`sample_rate`; may be none)."""
+        if self._listener is not None:
+            self._listener.speech(samples)
         return self._controlled(self._inner.push(self._resample(samples)))
+
+    def hear(self, samples) -> None:
+        """What the head hears: float32 mono samples at :attr:`heard_rate`, from the start of the
+        stream on (the frames made after them listen to them)."""
+        if self._listener is not None:  # listening 0: nothing heard changes the frames
+            self._listener.hear(samples)
 
     def flush(self) -> Motion:
         """The frames still held, at the end of the speech."""
@@ -406,13 +467,21 @@ class SpeechStream:
         return self._controlled(rest if len(tail) == 0 else Motion(rv, rest.fps, meta=dict(rest.meta)))
 
     def _controlled(self, motion: Motion) -> Motion:
-        if self._identity or not len(motion):
+        n = len(motion)
+        if self._listener is not None and n:
+            rv = self._listener.apply(motion.rotvec, self._made)
+            if rv is not motion.rotvec:
+                motion = Motion(np.asarray(rv), motion.fps, meta=dict(motion.meta))
+        self._made += n
+        self.frames += n
+        if self._identity or not n:
             return motion
         return apply_controls(motion, self.model, self.controls)
 
 
 def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int | None = None, sample_rate: int | None = None,
-                controls: Controls | None = None, **controls_kwargs) -> SpeechStream:
+                controls: Controls | None = None, resample: str = "fast", heard_rate: int | None = None,
+                **controls_kwargs) -> SpeechStream:
     """A stream of head motion from speech pushed as it comes: what ``headmotion stream`` and the
     live page run.
 
@@ -426,13 +495,19 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int | None = None, sample_r
         Rate of the samples to be pushed (default: the model's); other rates are resampled on
         the stream.
     controls : Controls, optional
-        Gain, offset, still and stochastic apply; a style reference and another output rate need
-        the whole recording (:func:`synthesize`) and are refused.
+        Gain, offset, still, stochastic and listening apply; a style reference and another output
+        rate need the whole recording (:func:`synthesize`) and are refused.
+    resample : ``"fast"`` or ``"exact"``
+        How samples at another rate than the model's are resampled
+        (:data:`headmotion.io.resampler.QUALITY`; ``"exact"``: the frames of :func:`synthesize`).
+    heard_rate : int, optional
+        Rate of the samples given to ``hear`` (default: ``sample_rate``).
 
     Returns
     -------
     SpeechStream
-        ``push(samples) -> Motion`` (the frames now final, maybe none), ``flush() -> Motion``.
+        ``push(samples) -> Motion`` (the frames now final, maybe none), ``hear(samples)``,
+        ``flush() -> Motion``.
     """
     c = _controls(controls, controls_kwargs)
     check_seed(seed, allow_none=True)
@@ -447,9 +522,13 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int | None = None, sample_r
     if sample_rate is not None and (isinstance(sample_rate, bool) or not isinstance(sample_rate, (int, np.integer))
                                     or sample_rate <= 0):
         raise ParameterError(f"sample_rate must be a positive whole number of Hz; got {sample_rate!r}")
+    if heard_rate is not None and (isinstance(heard_rate, bool) or not isinstance(heard_rate, (int, np.integer))
+                                   or heard_rate < 1000):
+        raise ParameterError(f"heard_rate must be a whole number of Hz >= 1000; got {heard_rate!r}")
     m = _with_amount(_with_stochastic(m, c.stochastic, 1), c.amount)
     inner = m.stream(seed=seed)
-    return SpeechStream(m, inner, c, int(m.sample_rate) if sample_rate is None else int(sample_rate))
+    return SpeechStream(m, inner, c, int(m.sample_rate) if sample_rate is None else int(sample_rate),
+                        resample=resample, heard_rate=heard_rate, seed=seed)
 
 
 __all__ = ["AMOUNT_RANGE", "DEFAULT_MODEL", "DEFAULT_SEED", "DEFAULT_STREAM_MODEL", "FPS_RANGE", "GAIN_RANGE", "OFFSET_RANGE_DEG", "SEED_MAX", "check_seed",

@@ -9,6 +9,12 @@ import numpy as np
 
 from ..errors import ParameterError
 
+#: a stream's resampling, by name → soxr quality: ``exact`` resamples as a whole file is resampled
+#: (:func:`headmotion.io.audio.resample`; soxr's stream gives those samples, so a stream's frames
+#: are the offline answer's; ~20 ms of delay), ``fast`` with ~10 ms less delay and samples that
+#: differ slightly (frames then differ by up to a few degrees)
+QUALITY = {"exact": "HQ", "fast": "LQ"}
+
 
 class Resampler:
     """Mono float32 stream resampling (``soxr.ResampleStream``); identity when the rates match."""
@@ -30,4 +36,11 @@ class Resampler:
         return self._rs.resample_chunk(x, last=last)
 
 
-__all__ = ["Resampler"]
+def check_resample(name) -> str:
+    """The soxr quality of a resampling name (:data:`QUALITY`), or a ParameterError naming them."""
+    if not isinstance(name, str) or name not in QUALITY:
+        raise ParameterError(f"resample must be one of {sorted(QUALITY)}; got {name!r:.40}")
+    return QUALITY[name]
+
+
+__all__ = ["Resampler", "QUALITY", "check_resample"]

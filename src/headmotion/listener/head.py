@@ -1,0 +1,234 @@
+"""The listening layer: over a model's head motion, what a head does while it hears someone else.
+
+The model makes the head's motion from its own speech as always (while it is silent that is the
+model's waiting head).  :class:`ListeningLayer` hears the other party's audio as well and, while
+the other speaks and this head does not, adds
+
+* an **attentive posture** (``posture_deg``, pitch/yaw/roll degrees) that eases in and out over
+  ``ease_s`` (a smoothstep of a ramp: neither the pose nor its speed jumps at a turn change);
+* **back-channel nods** at the other's prosodic cues (:mod:`.cues`, Ward & Tsukahara 2000: the
+  nod starts when the cue's back-channel is due), each a recorded nod of the model's library
+  (:mod:`.nods`) drawn by a seeded generator, scaled by the listening weight at each frame.
+
+``listening`` scales both (0: nothing is added; the frames are the model's, bit for bit).  Silent
+heard audio, or none, adds nothing either.
+
+Timing, the same offline and on a stream: frame ``t`` (at ``t / fps`` s) listens with the other's
+voicing heard up to ``t / fps − hear_delay_s`` and this head's own speech up to ``t / fps``, and
+starts the nods whose back-channel is due by ``t / fps`` (up to ``late_s`` late: heard audio that
+arrived late).  A stream that gets each chunk's heard audio no later than its speech therefore
+gives the frames of the offline :func:`listen`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import quaternions
+from ..errors import ParameterError
+from . import DEFAULT_LISTENING, LISTENING_RANGE
+from .cues import CueDetector, CueRule
+from .nods import nod_bank
+
+#: the rate the other party's audio is analysed at (pitch: YIN of :mod:`headmotion.features.streaming`)
+HEAR_RATE = 16000
+#: analysis frames per second (10 ms frames, Ward & Tsukahara's pitch step)
+ANALYSIS_FPS = 100.0
+#: the attentive posture at listening 1: chin 2° down, the head 3° towards the right shoulder —
+#: a design choice (no recorded listener is reachable here), eased in while listening
+POSTURE_DEG = (2.0, 0.0, 3.0)
+EASE_S = 0.6             # posture in/out
+HOLD_S = 1.0             # the other still counts as speaking this long after a voiced frame
+OWN_HOLD_S = 0.3         # this head counts as speaking this long after a loud frame
+OWN_SPEECH_DB = -45.0    # a 10 ms frame of the own speech louder than this (dB re full scale) is speech
+HEAR_DELAY_S = 0.05      # the heard voicing a frame uses is this much older than the frame
+LATE_S = 0.3             # a back-channel this late (heard audio that came late) is still made
+
+
+def check_listening(v) -> float:
+    ok = not isinstance(v, bool) and isinstance(v, (int, float, np.integer, np.floating))
+    if not ok or not math.isfinite(v) or not LISTENING_RANGE[0] <= v <= LISTENING_RANGE[1]:
+        raise ParameterError(f"listening (--listening) must be a number from {LISTENING_RANGE[0]:g} to {LISTENING_RANGE[1]:g}; "
+                             f"got {v!r:.40}")
+    return float(v)
+
+
+class _Frames:
+    """Per-10-ms flags of a channel, growing as its audio comes."""
+
+    def __init__(self):
+        self.flags = bytearray()
+        self.last_true = -1  # index of the last true flag so far
+
+    def extend(self, flags) -> None:
+        for f in np.asarray(flags, dtype=bool).tolist():
+            if f:
+                self.last_true = len(self.flags)
+            self.flags.append(1 if f else 0)
+
+    def any_in(self, lo: int, hi: int) -> bool:
+        """A true flag among frames ``lo … hi`` (inclusive; only those heard so far)."""
+        hi = min(hi, len(self.flags) - 1)
+        if hi < 0 or hi < lo:
+            return False
+        if self.last_true <= hi:
+            return self.last_true >= lo
+        return 1 in self.flags[max(lo, 0):hi + 1]
+
+
+class ListeningLayer:
+    """Streaming listening layer (module docstring).
+
+    Parameters
+    ----------
+    model : the loaded model whose frames are listened over (its library lends the nods)
+    fps : its frame rate
+    speech_rate, heard_rate : rates of the samples given to :meth:`speech` and :meth:`hear`
+    listening : 0 to 3 (:data:`~headmotion.listener.LISTENING_RANGE`)
+    seed : draws the nods
+    rule : the cue rule (:class:`~headmotion.listener.cues.CueRule`)
+    """
+
+    def __init__(self, model, *, fps: float, speech_rate: int, heard_rate: int = HEAR_RATE,
+                 listening: float = DEFAULT_LISTENING, seed: int = 0, rule: CueRule | None = None):
+        from ..features.streaming import StreamingF0e
+        from ..io.resampler import Resampler
+
+        self.amount = check_listening(listening)
+        self.fps = float(fps)
+        self.speech_rate, self.heard_rate = int(speech_rate), int(heard_rate)
+        self._rs = Resampler(self.heard_rate, HEAR_RATE, quality="LQ")
+        self._pitch = StreamingF0e(sample_rate=HEAR_RATE, fps=ANALYSIS_FPS, smooth_frames=1, smooth_lookahead=0,
+                                   delta_lookahead=0, voicing=True)
+        self.cues = CueDetector(rule, fps=ANALYSIS_FPS)
+        self._heard = _Frames()
+        self._own = _Frames()
+        self._own_hop = max(1, int(round(self.speech_rate / ANALYSIS_FPS)))
+        self._own_rest = np.zeros(0, np.float32)
+        self._due: list[tuple[float, float]] = []  # cues not yet made into nods
+        self._playing: list[tuple[int, np.ndarray]] = []  # (first frame, curve at fps)
+        self._rng = np.random.default_rng(int(seed))
+        self._ramp = 0.0
+        self._step = 1.0 / max(1.0, EASE_S * self.fps)
+        self._posture = np.asarray(POSTURE_DEG, dtype=np.float64)
+        self._model = model
+        self._bank = None
+        self._last_nod = -1
+        self.nod_starts: list[int] = []  # frames at which nods started (for measures and tests)
+        self.nod_spans: list[tuple[int, int]] = []  # frames [start, end) of each nod
+
+    # -- the two inputs --------------------------------------------------------------------------
+    def hear(self, samples) -> None:
+        """The other party's samples (float32 mono at ``heard_rate``), in order."""
+        self._analyse(self._rs(samples))
+
+    def end_hearing(self) -> None:
+        """No more heard audio: the analysis gives its last frames."""
+        self._analyse(self._rs(np.zeros(0, np.float32), last=True), flush=True)
+
+    def _analyse(self, x: np.ndarray, flush: bool = False) -> None:
+        rows = self._pitch.push(x) if len(x) else np.zeros((0, 7))
+        if flush:
+            rows = np.vstack([rows, self._pitch.flush()])
+        if len(rows):
+            voiced = rows[:, -1] > 0.5
+            self._heard.extend(voiced)
+            self._due += self.cues.push(rows[:, 0], voiced)
+
+    def speech(self, samples) -> None:
+        """This head's own speech (float32 mono at ``speech_rate``), in order."""
+        x = np.concatenate([self._own_rest, np.asarray(samples, dtype=np.float32).reshape(-1)])
+        n = len(x) // self._own_hop
+        self._own_rest = x[n * self._own_hop:]
+        if n:
+            f = x[:n * self._own_hop].reshape(n, self._own_hop).astype(np.float64)
+            db = 10.0 * np.log10(np.mean(f * f, axis=1) + 1e-12)
+            self._own.extend(db > OWN_SPEECH_DB)
+
+    # -- the frames ------------------------------------------------------------------------------
+    def apply(self, rotvec: np.ndarray, first: int) -> np.ndarray:
+        """Frames ``first …`` of the model's motion (``(n, 3)`` rotation vectors) as the listening
+        head moves them (the array itself when nothing is added)."""
+        rv = np.asarray(rotvec, dtype=np.float64).reshape(-1, 3)
+        if self.amount == 0.0 or not len(rv) or (self._heard.last_true < 0 and self._ramp == 0.0):
+            return rotvec  # nothing heard yet: the model's frames as they are
+        delta = np.zeros((len(rv), 3))
+        for k in range(len(rv)):
+            delta[k] = self._frame(first + k)
+        moved = np.any(delta != 0.0, axis=1)
+        if not moved.any():
+            return rotvec
+        out = rv.copy()
+        from ..rotations import pitch_yaw_roll_to_rotvec
+
+        d = np.asarray(pitch_yaw_roll_to_rotvec(*np.radians(delta[moved]).T), dtype=np.float64).reshape(-1, 3)
+        q = quaternions.compose(quaternions.rotvec_to_quat(rv[moved]), quaternions.rotvec_to_quat(d))
+        out[moved] = quaternions.quat_to_rotvec(q)
+        return out
+
+    def _frame(self, t: int) -> np.ndarray:
+        tau = t / self.fps
+        a = int(math.floor(tau * ANALYSIS_FPS))
+        own = self._own.any_in(a - int(OWN_HOLD_S * ANALYSIS_FPS), a)
+        h = int(math.floor((tau - HEAR_DELAY_S) * ANALYSIS_FPS))
+        other = self._heard.any_in(h - int(HOLD_S * ANALYSIS_FPS), h)
+        target = 1.0 if other and not own else 0.0
+        self._ramp = min(target, self._ramp + self._step) if target > self._ramp else max(target, self._ramp - self._step)
+        w = self._ramp * self._ramp * (3.0 - 2.0 * self._ramp)
+        while self._due and self._due[0][1] <= tau:
+            _, out_s = self._due.pop(0)
+            if tau - out_s <= LATE_S and w > 0.0 and not own:
+                self._start_nod(t)
+        d = np.zeros(3)
+        if w == 0.0 and not self._playing:
+            return d
+        d += w * self.amount * self._posture
+        keep = []
+        for start, curve in self._playing:
+            i = t - start
+            if i < len(curve):
+                d += w * self.amount * curve[i]
+                keep.append((start, curve))
+        self._playing = keep
+        return d
+
+    def _start_nod(self, t: int) -> None:
+        if self._bank is None:
+            self._bank = nod_bank(self._model)
+        n = len(self._bank)
+        if n == 0:
+            return
+        k = int(self._rng.integers(n - 1 if n > 1 and self._last_nod >= 0 else n))
+        if self._last_nod >= 0 and n > 1 and k >= self._last_nod:  # never the same nod twice running
+            k += 1
+        self._last_nod = k
+        curve = self._bank.nods[k]
+        if self._bank.fps != self.fps:
+            ts = np.arange(int(round(len(curve) * self.fps / self._bank.fps))) / self.fps * self._bank.fps
+            src = np.arange(len(curve))
+            curve = np.stack([np.interp(ts, src, curve[:, j]) for j in range(3)], axis=1)
+        self._playing.append((t, curve))
+        self.nod_starts.append(t)
+        self.nod_spans.append((t, t + len(curve)))
+
+
+def listen(motion, speech, heard, model, *, listening: float = DEFAULT_LISTENING, seed: int = 0):
+    """The offline listening head: ``motion`` (the model's, for ``speech``) as it moves while
+    hearing ``heard`` (:class:`~headmotion.types.Audio`, the same timeline).  Returns a Motion."""
+    from ..types import Motion
+
+    layer = ListeningLayer(model, fps=motion.fps, speech_rate=speech.sample_rate, heard_rate=heard.sample_rate,
+                           listening=listening, seed=seed)
+    layer.hear(heard.samples.astype(np.float32))
+    layer.end_hearing()
+    layer.speech(speech.samples.astype(np.float32))
+    rv = layer.apply(motion.rotvec, 0)
+    out = Motion(np.asarray(rv), motion.fps, translation=motion.translation, meta=dict(motion.meta))
+    out.meta["nod_frames"] = list(layer.nod_starts)
+    out.meta["nod_spans"] = list(layer.nod_spans)
+    return out
+
+
+__all__ = ["ListeningLayer", "listen", "HEAR_RATE", "POSTURE_DEG"]

@@ -1,0 +1,191 @@
+"""The listening head: Ward & Tsukahara's cue rule on constructed pitch tracks (known answers),
+nods cut from the recorded library, and the listening layer offline and on a stream."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from headmotion.errors import ParameterError
+from headmotion.listener.cues import CueDetector, CueRule, detect_cues
+
+FPS = 100
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "speech"
+
+
+def speech_track(seconds: float, lo: float = 150.0, hi: float = 250.0):
+    """Voiced frames whose pitch spreads evenly over ``lo``–``hi`` Hz without dwelling low: frame k
+    at the fractional part of k times the golden ratio (no two frames in a row in the lowest
+    quarter of the range, so no region of low pitch)."""
+    k = np.arange(1, int(round(seconds * FPS)) + 1)
+    f = lo + (hi - lo) * np.modf(k * 0.6180339887)[0]
+    return np.log(f), np.ones(len(k), bool)
+
+
+def low(seconds: float, hz: float = 110.0):
+    n = int(round(seconds * FPS))
+    return np.full(n, np.log(hz)), np.ones(n, bool)
+
+
+def silence(seconds: float):
+    n = int(round(seconds * FPS))
+    return np.zeros(n), np.zeros(n, bool)
+
+
+def track(*parts):
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def test_a_low_region_after_speech_is_a_cue_due_700_ms_after_its_start():
+    lf, v = track(speech_track(2.0), low(0.2), speech_track(1.0))
+    assert detect_cues(lf, v) == [(2.0, 2.7)]
+
+
+def test_the_region_must_last_110_ms():
+    lf, v = track(speech_track(2.0), low(0.10), speech_track(1.0))
+    assert detect_cues(lf, v) == []
+    lf, v = track(speech_track(2.0), low(0.11), speech_track(1.0))
+    assert detect_cues(lf, v) == [(2.0, 2.7)]
+
+
+def test_the_region_must_come_after_700_ms_of_speech():
+    # 2 s of speech set the speaker's level; after a pause a new run of speech begins
+    for run, expected in ((0.6, []), (0.8, [(3.3, 4.0)])):
+        lf, v = track(speech_track(2.0), silence(0.5), speech_track(run), low(0.2), speech_track(0.5))
+        start = 2.5 + run
+        got = detect_cues(lf, v)
+        assert got == [(round(start, 2), round(start + 0.7, 2))] if expected else got == []
+
+
+def test_no_cue_within_800_ms_of_a_back_channel():
+    # first region at 2.0 s (back-channel at 2.7 s); a second region qualifies 110 ms after its start
+    for gap, n in ((1.3, 1), (1.5, 2)):
+        lf, v = track(speech_track(2.0), low(0.2), speech_track(gap - 0.2), low(0.2), speech_track(0.5))
+        cues = detect_cues(lf, v)
+        assert len(cues) == n, (gap, cues)
+        if n == 2:
+            assert cues[1] == (round(2.0 + gap, 2), round(2.7 + gap, 2))
+
+
+def test_the_level_is_the_speakers_26th_percentile():
+    # a speaker whose pitch is 150-250 Hz: 160 Hz is below the level, 200 Hz is not
+    det = CueDetector()
+    det.push(*speech_track(3.0))
+    assert 150.0 < det.level() < 200.0
+    lf, v = track(speech_track(2.0), low(0.2, hz=200.0), speech_track(1.0))
+    assert detect_cues(lf, v) == []
+
+
+def test_nothing_before_the_level_is_known_and_an_unvoiced_frame_ends_a_region():
+    lf, v = track(speech_track(0.8), low(0.2))
+    assert detect_cues(lf, v) == []                      # less than 1 s of voiced speech heard
+    lf, v = track(speech_track(2.0), low(0.06), silence(0.01), low(0.06), speech_track(1.0))
+    assert detect_cues(lf, v) == []                      # two regions of 60 ms, not one of 130
+
+
+def test_pushing_frame_by_frame_gives_the_same_cues():
+    lf, v = track(speech_track(2.0), low(0.2), speech_track(1.6), low(0.3), speech_track(0.4))
+    det = CueDetector()
+    one = [c for i in range(len(lf)) for c in det.push(lf[i:i + 1], v[i:i + 1])]
+    assert one == detect_cues(lf, v) and len(one) == 2
+
+
+def test_the_rule_refuses_bad_parameters():
+    with pytest.raises(ParameterError, match="low_percentile"):
+        CueRule(low_percentile=0)
+    with pytest.raises(ParameterError, match="delay_s"):
+        CueRule(delay_s=-1)
+
+
+def test_nods_are_found_by_their_pitch_velocity():
+    from headmotion.listener.nods import find_nods
+
+    fps = 25.0
+    x = np.zeros((60, 3))
+    # the head goes 4° down over 4 frames and comes back over 4 (frames 20-28)
+    x[20:29, 0] = [0, 1, 2, 3, 4, 3, 2, 1, 0]
+    assert find_nods(x, fps) == [(20, 29)]
+    x[20:29, 1] = np.linspace(0, 6, 9)  # with a large turn it is no nod
+    assert find_nods(x, fps) == []
+    y = np.zeros((60, 3))
+    y[20:29, 0] = [0, -1, -2, -3, -4, -3, -2, -1, 0]  # up then down: no (downward) nod
+    assert find_nods(y, fps) == []
+
+
+def test_the_nods_are_the_recorded_library_movements():
+    from headmotion.listener.nods import NodBank, nod_curve, recorded_motion
+    from headmotion.synthesis import load_model
+
+    model = load_model("stream")
+    bank = NodBank.from_model(model)
+    recs, fps = recorded_motion(model)
+    assert fps == 25.0 and len(bank) >= 20
+    for curve, (r, a) in zip(bank.nods, bank.source):
+        np.testing.assert_array_equal(curve, nod_curve(recs[r][a:a + len(curve)]))
+        assert np.all(curve[0] == 0) and np.allclose(curve[-1], 0)
+    assert np.median(bank.depths()) > 1.0
+
+
+def _conversation():
+    from headmotion.io import load_audio
+    from headmotion.types import Audio
+
+    sr = 16000
+    a = load_audio(EXAMPLES / "speech_female.wav", sample_rate=sr).samples
+    b = load_audio(EXAMPLES / "speech_male.wav", sample_rate=sr).samples
+    gap = np.zeros(sr // 2, np.float32)
+    za, zb = np.zeros_like(a), np.zeros_like(b)
+    own = np.concatenate([a[:5 * sr], gap, zb, gap, a[5 * sr:], gap])
+    heard = np.concatenate([np.zeros(5 * sr, np.float32), gap, b, gap, za[5 * sr:], gap])
+    return Audio(own, sr), Audio(heard, sr), (5.5, 5.5 + len(b) / sr)
+
+
+def test_the_listening_head_nods_while_the_other_speaks_and_never_jumps():
+    from headmotion.synthesis import synthesize
+    from headmotion.types import Audio
+
+    own, heard, (b0, b1) = _conversation()
+    base = synthesize(own, "stream", seed=0)[0]
+    lis = synthesize(own, "stream", seed=0, hear=heard)[0]
+    nods = np.array(lis.meta["nod_frames"]) / lis.fps
+    assert len(nods) >= 1 and np.all((nods > b0) & (nods < b1 + 1.0))
+    d = np.degrees(lis.rotvec - base.rotvec)
+    assert np.all(d[: int(b0 * lis.fps)] == 0)          # before the other speaks: the model's frames
+    assert np.abs(d).max() > 2.0                         # it listens
+    # the posture eases in and out: outside the nods no step is larger than the smoothstep's steepest
+    from headmotion.listener.head import EASE_S, POSTURE_DEG
+
+    step = np.abs(np.diff(d, axis=0)).max(axis=1)
+    in_nod = np.zeros(len(step), bool)
+    for a, b in lis.meta["nod_spans"]:
+        in_nod[max(0, a - 1):b] = True
+    assert step[~in_nod].max() <= 1.5 * np.abs(POSTURE_DEG).max() / (EASE_S * lis.fps) * 1.05
+    silent = synthesize(own, "stream", seed=0, hear=Audio(np.zeros_like(heard.samples), 16000))[0]
+    np.testing.assert_array_equal(silent.rotvec, base.rotvec)
+    none = synthesize(own, "stream", seed=0, hear=heard, listening=0)[0]
+    np.testing.assert_array_equal(none.rotvec, base.rotvec)
+
+
+def test_the_stream_hears_as_the_offline_head_does():
+    from headmotion.synthesis import open_stream, synthesize
+
+    own, heard, _ = _conversation()
+    off = synthesize(own, "stream", seed=2, hear=heard)[0]
+    s = open_stream("stream", seed=2)
+    x, y, parts = own.samples, heard.samples, []
+    for i in range(0, len(x), 320):
+        s.hear(y[i:i + 320])
+        parts.append(s.push(x[i:i + 320]).rotvec)
+    parts.append(s.flush().rotvec)
+    np.testing.assert_array_equal(np.vstack(parts), off.rotvec)
+
+
+def test_listening_is_checked():
+    from headmotion.synthesis import Controls
+
+    with pytest.raises(ParameterError, match="listening"):
+        Controls(listening=4)
+    with pytest.raises(ParameterError, match="listening"):
+        Controls(listening=True)
