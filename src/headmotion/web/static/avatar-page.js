@@ -1,7 +1,8 @@
 // headmotion avatar page (/v1/avatar): microphone or file → stream() of @headmotion/client
 // (WS /v1/stream) → frames → the VRM avatar's neck and head bones (avatar.js, bundled three.js and
 // @pixiv/three-vrm).  Query: input=mic|file, autostart=1 (mic: start at once), model, resample
-// (exact default | fast), vrm (a VRM file on this server), record=1 (keep the audio sent, for tests).
+// (exact default | fast), role=listen (the head hears the input instead of speaking it; listening=0..3),
+// vrm (a VRM file on this server), record=1 (keep the audio sent, for tests).
 //
 // window.headmotionAvatar (tests, integrators, the console):
 //   headRotation()  [pitch, yaw, roll] degrees: the head bone against its rest pose (the avatar's
@@ -110,9 +111,13 @@ async function start(what) {
   const options = { apiKey: $("key").value || undefined, signal: abort.signal, onAudio,
     resample: params.get("resample") || "exact" };
   if (params.get("model")) options.model = params.get("model");
+  if (params.get("role") === "listen") {  // the avatar listens to the microphone (or file) rather than speaking it
+    options.role = "listen";
+    if (params.get("listening")) options.listening = Number(params.get("listening"));
+  }
   options.onReady = (m) => {
     st.ready = m; sampleRate = m.sample_rate;  // the capture's rate, as the start message declared it
-    setStatus(`streaming (${what === "mic" ? "microphone" : "file"}): ${m.model} (${m.system}), lookahead ${m.latency_ms.toFixed(0)} ms`);
+    setStatus(`${options.role === "listen" ? "listening to" : "streaming"} (${what === "mic" ? "microphone" : "file"}): ${m.model} (${m.system}), lookahead ${m.latency_ms.toFixed(0)} ms`);
     if (player) player.start();
   };
   $("stop").disabled = false;

@@ -121,6 +121,13 @@ async function capture(media, signal, chunkMs = 20) {
   return { chunks: ch, sampleRate: ctx.sampleRate, stop };
 }
 
+function base64(buffer) {
+  const b = new Uint8Array(buffer);
+  let s = "";
+  for (let i = 0; i < b.length; i += 0x8000) s += String.fromCharCode.apply(null, b.subarray(i, i + 0x8000));
+  return btoa(s);
+}
+
 function toPcm(chunk, encoding) {
   if (chunk instanceof ArrayBuffer) return chunk;
   if (ArrayBuffer.isView(chunk) && !(chunk instanceof Float32Array) && !(chunk instanceof Int16Array)) {
@@ -152,7 +159,9 @@ function toPcm(chunk, encoding) {
  *   a browser's WebSocket cannot set headers), `sampleRate`, `encoding` ("s16le" default, "f32le"),
  *   `model`, `seed`, `gain`, `offset` (degrees), `still`, `resample` ("exact" default; "fast" for a
  *   live source), `frames` ("binary" default, "json"), `chunkMs` (a MediaStream's audio per message,
- *   default 20), `signal`, `onReady(ready)`, `onAudio(pcm,
+ *   default 20), `role` ("speak" default; "listen": the source is the other party's audio, sent as
+ *   hear messages with as much silence as the avatar's own speech), `listening` (0 to 3, with
+ *   "listen"), `signal`, `onReady(ready)`, `onAudio(pcm,
  *   sentAtMs)` (each PCM ArrayBuffer as sent, in the stream's encoding, and the performance.now()
  *   of its send: to keep what was sent, or to time frames against the audio)
  */
@@ -166,6 +175,11 @@ export async function* stream(source, options = {}) {
   const start = { type: "start", sample_rate: sampleRate, encoding, frames: fmt };
   for (const k of ["model", "seed", "gain", "offset", "still"]) if (options[k] !== undefined) start[k] = options[k];
   start.resample = options.resample || (live ? "fast" : "exact");
+  const listen = options.role === "listen";
+  if (listen) {  // the source is the other party: heard, while the avatar's own channel is silence
+    start.hear = { sample_rate: sampleRate, encoding };
+    if (options.listening !== undefined) start.listening = options.listening;
+  }
   if (options.apiKey) start.api_key = options.apiKey;
 
   const ws = new WebSocket(`${url}/v1/stream`);
@@ -192,7 +206,12 @@ export async function* stream(source, options = {}) {
       while (ws.bufferedAmount > (1 << 20) && ws.readyState === WebSocket.OPEN) {
         await new Promise((r) => setTimeout(r, 5));  // the socket is full: wait for it to drain
       }
-      ws.send(pcm);
+      if (listen) {  // each chunk heard, then as much silence spoken (docs/serve.md: hear first, then speech)
+        ws.send(JSON.stringify({ type: "hear", audio: base64(pcm) }));
+        ws.send(new ArrayBuffer(pcm.byteLength));
+      } else {
+        ws.send(pcm);
+      }
       if (options.onAudio) options.onAudio(pcm, performance.now());
     }
     if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify({ type: "end" }));
