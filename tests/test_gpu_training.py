@@ -78,3 +78,53 @@ def test_flow_noise_is_drawn_where_the_generator_lives():
     b = flow_loss(net, x1, *args, generator=torch.Generator().manual_seed(3))
     c = flow_loss(net, x1, *args, generator=torch.Generator().manual_seed(4))
     assert a.item() == b.item() != c.item()
+
+
+# -- the large-batch path (batch_scale), tested on the CPU -----------------------------------------
+def test_speed_defaults_change_nothing_and_scaling_warms_up():
+    from headmotion.models.train_speed import WARMUP_STEPS, Speed, WarmAdam
+
+    net = torch.nn.Linear(3, 2)
+    assert type(Speed().adam(net.parameters(), 1e-3)) is torch.optim.Adam
+    sp = Speed("cpu", batch_scale=4, precision="bf16", compile_networks=True)
+    assert sp.batch(256) == 1024 and sp.lr(2e-4) == pytest.approx(8e-4)
+    assert sp.forward(net) is net  # compiled on a GPU only
+    assert sp.describe() == {"batch_scale": 4, "precision": "float32", "compiled": False, "fused_adam": False}
+    with sp.autocast():  # bf16 on a GPU only: the CPU stays float32
+        assert net(torch.randn(2, 3)).dtype == torch.float32
+    opt = sp.adam(net.parameters(), 2e-4)
+    assert isinstance(opt, WarmAdam)
+    lrs = []
+    for _ in range(WARMUP_STEPS + 2):
+        net(torch.randn(2, 3)).sum().backward()
+        opt.step()
+        lrs.append(opt.opt.param_groups[0]["lr"])
+        opt.zero_grad()
+    assert lrs[0] == pytest.approx(2e-4 + 6e-4 / WARMUP_STEPS) and lrs[-1] == pytest.approx(8e-4)
+    assert all(a <= b for a, b in zip(lrs, lrs[1:]))
+
+
+@pytest.mark.parametrize("name,path", [("mfcc-dnn", "memory"), ("mfcc-dnn", "streamed"), ("cccae", "memory")])
+def test_large_batches_reach_the_standard_validation_loss(planted, name, path):
+    """batch_scale 4 (batches of 1024 at 4× the learning rate): the regressor's best validation
+    loss within 5 % of the standard path's on a planted corpus (the check's measure), and the
+    share of the motion's variance it explains within a quarter of the standard path's."""
+    corpus = planted(minutes=4.0, n_recordings=4, speakers=("a",), seed=7)
+    params = {**TINY, "max_epochs": 6, "patience": 6, "ae_max_epochs": 3, "train_path": path}
+    std = create(name, **params).fit(corpus)
+    big = create(name, **params, batch_scale=4).fit(corpus)
+    a, b = min(std.history_["regressor"]["valid"]), min(big.history_["regressor"]["valid"])
+    assert abs(b - a) / a < 0.05, (a, b)
+    assert (1 - b) > 0.75 * (1 - a) > 0, (a, b)  # and it learned as much (losses are on z-scored motion)
+    assert big.history_["speed"]["batch_scale"] == 4 and "speed" not in std.history_
+    assert np.isfinite(big.predict(corpus[0].audio, seed=0).rotvec).all()
+
+
+def test_speed_parameters_are_checked(planted):
+    from headmotion.errors import ParameterError
+
+    corpus = planted(minutes=1.0, n_recordings=2, speakers=("a",), seed=2)
+    for bad, match in (({"batch_scale": 0}, "batch_scale"), ({"precision": "fp8"}, "precision"),
+                       ({"compile_networks": "yes"}, "compile_networks")):
+        with pytest.raises(ParameterError, match=match):
+            create("mfcc-dnn", **TINY, **bad).fit(corpus)

@@ -67,6 +67,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import dataclasses
 import math
 from typing import Callable, Sequence
 
@@ -75,6 +76,7 @@ import torch
 from torch import nn
 
 from .dcca import DEFAULT_CCA_BATCH, DEFAULT_REG, cca_objective
+from .train_speed import Speed
 
 DEFAULT_AE_HIDDEN = (256, 128)
 DEFAULT_EMBEDDING_DIM = 30
@@ -176,9 +178,12 @@ def descend(opt, loss: torch.Tensor, *, value: bool = True):
     return float(loss.detach()) if value else loss.detach()
 
 
-def _batches(n: int, batch_size: int, *, shuffle: bool = True, drop_small: bool = True):
-    """Index batches over ``n`` samples; a last batch smaller than half a batch joins the previous."""
+def _batches(n: int, batch_size: int, *, shuffle: bool = True, drop_small: bool = True, device: str = "cpu"):
+    """Index batches over ``n`` samples; a last batch smaller than half a batch joins the previous.
+    The order is drawn with the CPU generator and, for another ``device``, moved there once."""
     order = torch.randperm(n) if shuffle else torch.arange(n)
+    if device != "cpu":
+        order = order.to(device)
     bs = max(1, min(int(batch_size), n))
     starts = list(range(0, n, bs))
     if drop_small and len(starts) > 1 and n - starts[-1] < bs // 2:
@@ -228,22 +233,26 @@ class _EarlyStopping:
 
 
 def pretrain_layerwise(ae: StackedAutoencoder, x: torch.Tensor, *, epochs: int = 3,
-                       batch_size: int = 256, lr: float = LEARNING_RATE) -> list[float]:
+                       batch_size: int = 256, lr: float = LEARNING_RATE, speed: Speed | None = None) -> list[float]:
     """Greedy layer-wise pre-training (§4.2): layer ``i`` is trained as a shallow autoencoder on
-    the (fixed) output of layers ``0 … i−1``; on the device of ``x`` (``ae`` already there).
+    the (fixed) output of layers ``0 … i−1``; on the device of ``x`` (``ae`` already there), as
+    ``speed`` says (:class:`~headmotion.models.train_speed.Speed`; default: as given).
     Returns the final training loss of each step."""
+    sp = speed or Speed()
     losses = []
     for i in range(ae.n_layers):
         with torch.no_grad():
             h_all = ae.encode(x, depth=i)
         params = list(ae.encoder[i].parameters()) + list(ae.decoder[ae.n_layers - 1 - i].parameters())
-        opt = torch.optim.Adam(params, lr=lr)
+        opt = sp.adam(params, lr)
         last = float("nan")
         for _ in range(int(epochs)):
             tot, cnt = 0.0, 0
-            for idx in _batches(len(h_all), batch_size):
-                h = h_all[idx.to(h_all.device)]
-                loss = torch.mean((ae._shallow(i, h) - h) ** 2)
+            for idx in _batches(len(h_all), sp.batch(batch_size), device=str(h_all.device)):
+                h = h_all[idx]
+                with sp.autocast():
+                    out = ae._shallow(i, h)
+                loss = torch.mean((out.float() - h) ** 2)
                 tot += descend(opt, loss) * len(idx)
                 cnt += len(idx)
             last = tot / max(cnt, 1)
@@ -266,7 +275,7 @@ def train_autoencoder(ae: StackedAutoencoder, x_train: torch.Tensor, y_train: to
                       x_valid: torch.Tensor, y_valid: torch.Tensor | None, alpha: float = 1.0,
                       batch_size: int = DEFAULT_CCA_BATCH, lr: float = LEARNING_RATE, max_epochs: int = 30,
                       patience: int = 4, pretrain_epochs: int = 3, reg: float = DEFAULT_REG,
-                      progress: Progress = None) -> dict:
+                      progress: Progress = None, speed: Speed | None = None) -> dict:
     """Layer-wise pre-training then fine-tuning on eq 1 with early stopping.
 
     Parameters
@@ -279,23 +288,25 @@ def train_autoencoder(ae: StackedAutoencoder, x_train: torch.Tensor, y_train: to
     batch_size : int — frames per mini-batch (also the CCA batch)
 
     The tensors and ``ae`` are on one device (the CPU or a GPU); batches are drawn with the CPU
-    generator whichever it is.
+    generator whichever it is.  ``speed``: batch scaling and the optimiser
+    (:class:`~headmotion.models.train_speed.Speed`); never autocast — the CCA term and the
+    embedding it reads stay float32.
 
     Returns
     -------
     dict with ``pretrain`` losses, per-epoch ``train``/``valid`` objective, ``valid_rec``,
     ``valid_cca`` and ``best_epoch``.
     """
-    hist: dict = {"pretrain": pretrain_layerwise(ae, x_train, epochs=pretrain_epochs, lr=lr),
+    sp = dataclasses.replace(speed or Speed(), precision="float32")
+    hist: dict = {"pretrain": pretrain_layerwise(ae, x_train, epochs=pretrain_epochs, lr=lr, speed=sp),
                   "train": [], "valid": [], "valid_rec": [], "valid_cca": []}
-    opt = torch.optim.Adam(ae.parameters(), lr=lr)
+    opt = sp.adam(ae.parameters(), lr)
     stopper = _EarlyStopping(ae, patience)
     use_cca = bool(alpha) and y_train is not None
     for epoch in range(int(max_epochs)):
         ae.train()
         tot, cnt = 0.0, 0
-        for idx in _batches(len(x_train), batch_size):
-            idx = idx.to(x_train.device)
+        for idx in _batches(len(x_train), sp.batch(batch_size), device=str(x_train.device)):
             obj, _, _ = cccae_loss(ae, x_train[idx], y_train[idx] if use_cca else None, alpha, reg=reg)
             tot += descend(opt, obj) * len(idx)
             cnt += len(idx)
@@ -319,10 +330,13 @@ def host_dropout_mask(shape, p: float) -> torch.Tensor:
 class HostDropout(nn.Dropout):
     """``nn.Dropout`` whose mask comes from the CPU generator on every device: on the CPU it is
     ``nn.Dropout``; elsewhere the input times :func:`host_dropout_mask`, so a GPU trains with the
-    masks (and leaves the generator in the state) of the CPU path."""
+    masks (and leaves the generator in the state) of the CPU path.  ``host`` False: the device's
+    own masks (the large-batch path, which does not give the CPU model anyway, spares the copies)."""
+
+    host = True
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        if not self.training or self.p == 0 or x.device.type == "cpu":
+        if not self.training or self.p == 0 or x.device.type == "cpu" or not self.host:
             return super().forward(x)
         return self.masked(x)
 
@@ -406,28 +420,31 @@ def train_regressor(net: ContextRegressor, train: PaddedSequences, train_starts:
                     train_targets: np.ndarray, valid: PaddedSequences, valid_starts: np.ndarray,
                     valid_targets: np.ndarray, *, batch_size: int = 256, lr: float = LEARNING_RATE,
                     max_epochs: int = 30, patience: int = 4, progress: Progress = None,
-                    device: str = "cpu") -> dict:
+                    device: str = "cpu", speed: Speed | None = None) -> dict:
     """MSE training of the regressor with early stopping on the validation frames.
 
     ``*_starts`` are window start rows (:meth:`PaddedSequences.starts`) of the frames used, and
     ``*_targets`` their z-scored rotation ``(N, 3)``.  ``device``: where the sequences, the
-    windows and ``net`` (moved there by the caller) live; batches are drawn with the CPU generator."""
+    windows and ``net`` (moved there by the caller) live; batches are drawn with the CPU generator.
+    ``speed``: batches, optimiser, autocast, compilation (:class:`~headmotion.models.train_speed.Speed`)."""
+    sp = speed or Speed(device)
     width = 2 * net.context + 1
     ts = torch.from_numpy(np.asarray(train_starts, dtype=np.int64)).to(device)
     ty = torch.from_numpy(np.asarray(train_targets, dtype=np.float32)).to(device)
     vs = torch.from_numpy(np.asarray(valid_starts, dtype=np.int64)).to(device)
     vy = torch.from_numpy(np.asarray(valid_targets, dtype=np.float32)).to(device)
     tdata, vdata = train.data.to(device), valid.data.to(device)
-    opt = torch.optim.Adam(net.parameters(), lr=lr)
+    opt = sp.adam(net.parameters(), lr)
+    fwd = sp.forward(sp.prepare(net))
     stopper = _EarlyStopping(net, patience)
     hist: dict = {"train": [], "valid": []}
     for epoch in range(int(max_epochs)):
         net.train()
         tot, cnt = 0.0, 0
-        for idx in _batches(len(ts), batch_size):
-            idx = idx.to(device)
-            pred = net(gather_windows(tdata, ts[idx], width))
-            loss = torch.mean((pred - ty[idx]) ** 2)
+        for idx in _batches(len(ts), sp.batch(batch_size), device=device):
+            with sp.autocast():
+                pred = fwd(gather_windows(tdata, ts[idx], width))
+            loss = torch.mean((pred.float() - ty[idx]) ** 2)
             tot += descend(opt, loss) * len(idx)
             cnt += len(idx)
         net.eval()
@@ -471,32 +488,37 @@ def motion_segments(sequences: Sequence[np.ndarray], *, segment: int = DEFAULT_S
 def train_postfilter(dae: StackedAutoencoder, train_segments: np.ndarray, valid_segments: np.ndarray, *,
                      noise: float = 0.3, batch_size: int = 256, lr: float = LEARNING_RATE,
                      max_epochs: int = 30, patience: int = 4, pretrain_epochs: int = 2,
-                     progress: Progress = None, device: str = "cpu") -> dict:
+                     progress: Progress = None, device: str = "cpu", speed: Speed | None = None) -> dict:
     """Train the post-filter to map ``clean + noise`` back to ``clean`` (z-scored motion).
 
     The noise is white and Gaussian with a standard deviation drawn per segment uniformly from
     ``[0, 2·noise]``, so the filter sees both nearly clean and very jittery inputs; the validation
     noise is fixed once (same draw every epoch) so that early stopping compares like with like.
     ``device``: where the segments and ``dae`` (moved there by the caller) live; the noise is drawn
-    with the CPU generator whichever it is, so a GPU sees the noise the CPU would.
+    with the CPU generator whichever it is, so a GPU sees the noise the CPU would.  ``speed`` as
+    :func:`train_regressor`.
     """
+    sp = speed or Speed(device)
     n_seg, seg, dims = train_segments.shape if len(train_segments) else (0, 0, 0)
     x = torch.from_numpy(np.ascontiguousarray(train_segments.reshape(len(train_segments), -1)))
     xv = torch.from_numpy(np.ascontiguousarray(valid_segments.reshape(len(valid_segments), -1)))
     sd_v = torch.rand(len(xv), 1) * 2 * noise
     xv_noisy = (xv + sd_v * torch.randn_like(xv)).to(device)
     x, xv = x.to(device), xv.to(device)
-    hist: dict = {"pretrain": pretrain_layerwise(dae, x, epochs=pretrain_epochs, lr=lr),
+    hist: dict = {"pretrain": pretrain_layerwise(dae, x, epochs=pretrain_epochs, lr=lr, speed=sp),
                   "train": [], "valid": []}
-    opt = torch.optim.Adam(dae.parameters(), lr=lr)
+    opt = sp.adam(dae.parameters(), lr)
+    fwd = sp.forward(dae)
     stopper = _EarlyStopping(dae, patience)
     for epoch in range(int(max_epochs)):
         dae.train()
         tot, cnt = 0.0, 0
-        for idx in _batches(len(x), batch_size):
-            clean = x[idx.to(device)]
+        for idx in _batches(len(x), sp.batch(batch_size), device=device):
+            clean = x[idx]
             sd = torch.rand(len(idx), 1) * 2 * noise
-            loss = torch.mean((dae(clean + (sd * torch.randn(clean.shape)).to(device)) - clean) ** 2)
+            with sp.autocast():
+                out = fwd(clean + (sd * torch.randn(clean.shape)).to(device))
+            loss = torch.mean((out.float() - clean) ** 2)
             tot += descend(opt, loss) * len(idx)
             cnt += len(idx)
         dae.eval()

@@ -32,6 +32,7 @@ NETWORK_CONSTRAINTS = {
     "learning_rate": [real(0, closed="neither")], "model_fps": [real(0, closed="neither")],
     "postfilter_noise": [real(0)], "cca_reg": [real(0)],
     "ae_activation": [Options(("relu", "tanh", "sigmoid"))],
+    "batch_scale": [whole(1)], "precision": [Options(("float32", "bf16"))], "compile_networks": [BOOLEAN],
 }
 #: what each post-processing parameter and the synthesis seed may be
 POST_CONSTRAINTS = {

@@ -9,6 +9,7 @@ import time
 
 from ...devices import resolve_device
 from ...errors import ParameterError
+from ...models.train_speed import Speed
 from ...motion.post.range_limit import range_from_training
 from ..budget import budget_subset
 from . import calibration, stream_training, streamed
@@ -41,6 +42,9 @@ def fit_streamed(system, corpus, split: dict, config, progress=None, t0: float |
     n_stages = 3 + (1 if system.postfilter else 0)
     report = _Report(system, progress, n_stages)
     history: dict = {"streamed": True, "device": device}
+    speed = Speed.of(system, device)
+    if speed != Speed(device):
+        history["speed"] = speed.describe()
     with streamed.build(system, corpus, train_idx, valid_idx, config, progress=report.stage(0)) as data:
         with torch_context(int(system.random_state), system.n_threads):
             reg, history["regressor"] = stream_training.train_regressor(system, data, device, report.stage(1))

@@ -19,7 +19,8 @@ are copied to the device once, from pinned memory on a GPU, and each batch's win
 there; the post-filter reads the motion only; on a GPU the epoch's loss is summed on the device
 (no wait per batch) and validation runs in chunks of :data:`VALID_CHUNK`.  Batches and noise are
 drawn with the CPU generator on any device, so on the CPU the models are those of the plain loop,
-bit for bit.  :class:`EpochClock` records where a stage's time goes.
+bit for bit.  Batch scaling, the optimiser, autocast and compilation are the system's
+:class:`~headmotion.models.train_speed.Speed`.  :class:`EpochClock` records where a stage's time goes.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ import time
 import numpy as np
 
 from ...errors import ParameterError
+from ...models.train_speed import Speed
 
 VALID_NOISE_SEED = 777
 #: buffers read and batched ahead of the training loop, in a background thread, per device
@@ -215,10 +217,11 @@ def train_regressor(system, data, device: str, tick) -> tuple:
     from ...models import nets
 
     context = int(system.context)
-    net = nets.ContextRegressor(data.input_dim, context=context, hidden=tuple(system.regressor_hidden),
-                                dropout=float(system.dropout)).to(device)
+    sp = Speed.of(system, device)
+    net = sp.prepare(nets.ContextRegressor(data.input_dim, context=context, hidden=tuple(system.regressor_hidden),
+                                           dropout=float(system.dropout)).to(device))
     width = 2 * context + 1
-    opt = torch.optim.Adam(net.parameters(), lr=float(system.learning_rate))
+    opt, fwd = sp.adam(net.parameters(), float(system.learning_rate)), sp.forward(net)
     stopper = nets._EarlyStopping(net, int(system.patience))
     hist: dict = {"train": [], "valid": []}
     epochs, n_train = int(system.max_epochs), len(data.train)
@@ -228,12 +231,13 @@ def train_regressor(system, data, device: str, tick) -> tuple:
         acc, done = _LossSum(device), 0
         order = torch.randperm(n_train).tolist()
         for x, ts, ty, n in _regressor_buffers(data, data.train, order, context, device, clock):
-            for idx in nets._batches(len(ts), int(system.batch_size)):
+            for idx in nets._batches(len(ts), sp.batch(system.batch_size), device=device):
                 t = time.perf_counter()
-                idx = idx.to(device)
                 xb = nets.gather_windows(x, ts[idx], width)
                 t = clock.add("batches", t)
-                loss = torch.mean((net(xb) - ty[idx]) ** 2)
+                with sp.autocast():
+                    pred = fwd(xb)
+                loss = torch.mean((pred.float() - ty[idx]) ** 2)
                 acc.step(opt, loss, len(idx))
                 clock.add("compute", t)
             done += n
@@ -300,7 +304,7 @@ def fallback_valid_segments(data, segment: int):
 
 
 def _pretrain(dae, data, segment: int, epochs: int, batch_size: int, lr: float, device,
-              clock: EpochClock) -> list[float]:
+              clock: EpochClock, sp: Speed) -> list[float]:
     """:func:`headmotion.models.nets.pretrain_layerwise` over streamed buffers of segments."""
     import torch
 
@@ -309,7 +313,7 @@ def _pretrain(dae, data, segment: int, epochs: int, batch_size: int, lr: float, 
     losses = []
     for i in range(dae.n_layers):
         params = list(dae.encoder[i].parameters()) + list(dae.decoder[dae.n_layers - 1 - i].parameters())
-        opt = torch.optim.Adam(params, lr=lr)
+        opt = sp.adam(params, lr)
         last = float("nan")
         for _ in range(int(epochs)):
             acc = _LossSum(device)
@@ -317,9 +321,11 @@ def _pretrain(dae, data, segment: int, epochs: int, batch_size: int, lr: float, 
                 t = time.perf_counter()
                 with torch.no_grad():
                     h_all = dae.encode(x, depth=i)
-                for idx in nets._batches(len(h_all), batch_size):
-                    h = h_all[idx.to(device)]
-                    loss = torch.mean((dae._shallow(i, h) - h) ** 2)
+                for idx in nets._batches(len(h_all), sp.batch(batch_size), device=device):
+                    h = h_all[idx]
+                    with sp.autocast():
+                        out = dae._shallow(i, h)
+                    loss = torch.mean((out.float() - h) ** 2)
                     acc.step(opt, loss, len(idx))
                 clock.add("compute", t)
             last = acc.mean()
@@ -379,21 +385,23 @@ def train_postfilter(system, data, device: str, tick) -> tuple:
                                code_dim=int(system.postfilter_code)).to(device)
     lr, epochs = float(system.learning_rate), int(system.max_epochs)
     fallback = None if any(p.frames >= seg for p in data.valid) else fallback_valid_segments(data, seg)
-    clock, ran = EpochClock(), 0
-    hist: dict = {"pretrain": _pretrain(dae, data, seg, 2, bs, lr, device, clock), "train": [], "valid": [],
+    clock, ran, sp = EpochClock(), 0, Speed.of(system, device)
+    hist: dict = {"pretrain": _pretrain(dae, data, seg, 2, bs, lr, device, clock, sp), "train": [], "valid": [],
                   "valid_from_training": fallback is not None}
-    opt = torch.optim.Adam(dae.parameters(), lr=lr)
+    opt, fwd = sp.adam(dae.parameters(), lr), sp.forward(dae)
     stopper = nets._EarlyStopping(dae, int(system.patience))
     for epoch in range(epochs):
         dae.train()
         acc, done = _LossSum(device), 0
         for x, n in _segment_buffers(data, torch.randperm(len(data.train)).tolist(), seg, device, clock):
             t = time.perf_counter()
-            for idx in nets._batches(len(x), bs):
-                clean = x[idx.to(device)]
+            for idx in nets._batches(len(x), sp.batch(bs), device=device):
+                clean = x[idx]
                 # the noise is drawn on the CPU on every device: the CPU generator's stream, as in memory
                 sd = (torch.rand(len(idx), 1) * 2 * noise).to(device)
-                loss = torch.mean((dae(clean + sd * torch.randn(clean.shape).to(device)) - clean) ** 2)
+                with sp.autocast():
+                    out = fwd(clean + sd * torch.randn(clean.shape).to(device))
+                loss = torch.mean((out.float() - clean) ** 2)
                 acc.step(opt, loss, len(idx))
             clock.add("compute", t)
             done += n

@@ -8,8 +8,11 @@ Which data path a fit takes is ``train_path``: "memory" (every recording's featu
 :mod:`.stream_fit`; not for cccae / ae-dnn, whose CCA loss wants their whole training set at
 hand) or "auto" (the default: streamed for a corpus on disk with more than an hour of training
 speech, :data:`.streamed.STREAM_MIN_SECONDS`, else in memory).  Both paths train on ``device``
-("cpu" by default, "auto" = CUDA when torch sees one, "cuda").  Synthesis runs the numpy networks
-on the CPU whatever ``device`` says.  See ``docs/decisions/bounded-training.md``."""
+("cpu" by default, "auto" = CUDA when torch sees one, "cuda"), as ``batch_scale``, ``precision``
+and ``compile_networks`` say (:mod:`headmotion.models.train_speed`: batches k times larger at a
+√k learning rate with warm-up; bf16 autocast and ``torch.compile`` on a GPU only; the defaults
+change nothing).  Synthesis runs the numpy networks on the CPU whatever ``device`` says.  See
+``docs/decisions/bounded-training.md`` and ``docs/decisions/gpu-training.md``."""
 
 from __future__ import annotations
 
@@ -76,7 +79,8 @@ class DnnSystem(Synthesizer):
                  drift_share: float = DEFAULT_DRIFT_SHARE, drift_tau_s: float = DEFAULT_DRIFT_TAU_S,
                  slow_band_gain: float = DEFAULT_SLOW_BAND_GAIN, speed_shaping: bool = True, idle: float | None = DNN_IDLE,
                  range_limit: bool = True, cross_fit: bool | None = None, speed_max_gain: float | None = None,
-                 seed: int | None = 0, device: str = "cpu", train_path: str = "auto"):
+                 seed: int | None = 0, device: str = "cpu", train_path: str = "auto", batch_scale: int = 1,
+                 precision: str = "float32", compile_networks: bool = False):
         self.features = features
         self.feature_params = feature_params
         self.alpha = alpha
@@ -117,6 +121,9 @@ class DnnSystem(Synthesizer):
         self.seed = seed
         self.device = device
         self.train_path = train_path
+        self.batch_scale = batch_scale
+        self.precision = precision
+        self.compile_networks = compile_networks
 
     # -- parameters ---------------------------------------------------------------------------
     @property

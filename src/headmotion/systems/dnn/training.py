@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from ...errors import ParameterError
+from ...models.train_speed import Speed
 
 
 def clean_json(x):
@@ -72,7 +73,8 @@ def fit_embedding(system, train, valid, progress, device: str = "cpu"):
         ae, xt, yt, x_valid=xv, y_valid=yv, alpha=float(system.alpha_value),
         batch_size=int(system.cca_batch_size), lr=float(system.learning_rate),
         max_epochs=int(system.ae_max_epochs), patience=int(system.patience),
-        pretrain_epochs=int(system.pretrain_epochs), reg=float(system.cca_reg), progress=progress)
+        pretrain_epochs=int(system.pretrain_epochs), reg=float(system.cca_reg), progress=progress,
+        speed=Speed.of(system, device))
     ae = ae.cpu()
     with torch.no_grad():
         for p in train + valid:
@@ -97,7 +99,7 @@ def fit_regressor(system, train, valid, progress, device: str = "cpu"):
         reg, tr_seq, tr_starts, np.concatenate([p.y[p.speaking] for p in train]),
         va_seq, va_starts, np.concatenate([p.y[p.speaking] for p in valid]),
         batch_size=int(system.batch_size), lr=float(system.learning_rate), max_epochs=int(system.max_epochs),
-        patience=int(system.patience), progress=progress, device=device)
+        patience=int(system.patience), progress=progress, device=device, speed=Speed.of(system, device))
     return reg.cpu(), hist
 
 
@@ -120,7 +122,7 @@ def fit_postfilter(system, train, valid, progress, device: str = "cpu"):
     hist = nets.train_postfilter(
         pf, tr_seg, va_seg, noise=float(system.postfilter_noise), batch_size=int(system.batch_size),
         lr=float(system.learning_rate), max_epochs=int(system.max_epochs), patience=int(system.patience),
-        progress=progress, device=device)
+        progress=progress, device=device, speed=Speed.of(system, device))
     return pf.cpu(), hist
 
 
@@ -130,6 +132,9 @@ def fit_networks(system, train, valid, report, device: str = "cpu") -> tuple:
     an embedding the regressor reads the normalised features (``p.r = p.x``).  ``report(desc)``
     gives a per-stage progress callback; ``report.next()`` moves to the next stage."""
     history: dict = {}
+    speed = Speed.of(system, device)
+    if speed != Speed(device):
+        history["speed"] = speed.describe()
     with torch_context(int(system.random_state), system.n_threads):
         ae, emb_norm = None, None
         if system.uses_embedding:
