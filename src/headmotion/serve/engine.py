@@ -74,17 +74,20 @@ def synthesize(model, audio: Audio, *, seed: int | None = None, samples: int = 1
     return synthesis.synthesize(audio, model, seed=seed, samples=int(samples), controls=controls)
 
 
-def open_stream(model, *, seed: int | None = None, controls: Controls = Controls()):
+def open_stream(model, *, seed: int | None = None, controls: Controls = Controls(), sample_rate: int | None = None,
+                resample: str = "exact", heard_rate: int | None = None):
     """A fresh stream of ``model`` (:func:`headmotion.synthesis.open_stream`): ``push(float32
-    samples at model.sample_rate) -> Motion`` of the frames now final, ``flush() -> Motion`` of the
-    rest; ``latency_ms`` its lookahead.  Frames come at the model's rate (``controls.fps`` applies
-    to offline synthesis only)."""
+    samples at sample_rate) -> Motion`` of the frames now final (resampled on the stream,
+    ``resample``), ``hear(samples at heard_rate)``, ``flush() -> Motion`` of the rest;
+    ``latency_ms`` its lookahead.  Frames come at the model's rate (``controls.fps`` applies to
+    offline synthesis only)."""
     if not model.can_stream:
         raise ParameterError(f"model {model.name!r} cannot stream; choose a model whose card lists "
                              f"'causal' or 'streaming'")
     if controls.fps is not None:
         raise ParameterError("fps is an offline control; a stream sends frames at the model's rate")
-    return synthesis.open_stream(model, seed=seed, controls=controls)
+    return synthesis.open_stream(model, seed=seed, controls=controls, sample_rate=sample_rate, resample=resample,
+                                 heard_rate=heard_rate)
 
 
 def check_loaded(files: dict[str, Path]) -> None:

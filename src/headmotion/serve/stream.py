@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import HeadMotionError
+from ..io.resampler import QUALITY
 from . import engine
 from .access import ApiError, check_rate, identify
 from .metrics import log_event
@@ -55,10 +56,11 @@ ENCODINGS = {"s16le": ("<i2", 32768.0), "f32le": ("<f4", 1.0)}
 START_FIELDS = {"type", "model", "sample_rate", "encoding", "seed", "frames", "gain", "offset", "still", "amount", "resample",
                 "api_key", "hear", "listening"}
 HEAR_FIELDS = {"sample_rate", "encoding"}
-#: ``resample`` → soxr quality: ``exact`` resamples as ``POST /v1/motion`` does (the stream's frames
-#: are the offline answer's; ~20 ms of resampling delay), ``fast`` with less delay (~10 ms) and
-#: frames that may differ from the offline answer by a few degrees
-RESAMPLE = {"exact": "HQ", "fast": "LQ"}
+#: ``resample`` → soxr quality (the library's one table, :data:`headmotion.io.resampler.QUALITY`):
+#: ``exact`` resamples as ``POST /v1/motion`` does (the stream's frames are the offline answer's;
+#: ~20 ms of resampling delay), ``fast`` with less delay (~10 ms) and frames that may differ from
+#: the offline answer by a few degrees
+RESAMPLE = QUALITY
 
 
 class ProtocolError(HeadMotionError):
@@ -80,8 +82,7 @@ class Start:
     api_key: str | None
     resample: str = "exact"
     hear_rate: int | None = None  # the other party's audio (hear messages); None: the speech's
-    hear_encoding: str | None = None
-    listening: float = 1.0
+    hear_encoding: str = "s16le"
 
 
 def parse_start(text: str | None) -> Start:
@@ -127,16 +128,12 @@ def parse_start(text: str | None) -> Start:
         controls = engine.Controls.parse(gain=_number_or_triple(obj.get("gain"), "gain"),
                                          offset_degrees=_number_or_triple(obj.get("offset"), "offset"),
                                          still=_flag(obj.get("still", False)),
-                                         amount=_number(obj.get("amount", 1.0), "amount"))
+                                         amount=_number(obj.get("amount", 1.0), "amount"),
+                                         listening=_number(obj.get("listening", 1.0), "listening"))
     except HeadMotionError as exc:
         raise bad(str(exc)) from None
     hear_rate, hear_enc = _hear(obj.get("hear"), enc)
-    listening = _number(obj.get("listening", 1.0), "listening")
-    from ..listener import LISTENING_RANGE
-
-    if not (math.isfinite(listening) and LISTENING_RANGE[0] <= listening <= LISTENING_RANGE[1]):
-        raise bad(f"listening must be from {LISTENING_RANGE[0]:g} to {LISTENING_RANGE[1]:g}; got {listening!r:.40}")
-    return Start(model, sr, enc, seed, frames, controls, key, resample, hear_rate, hear_enc, float(listening))
+    return Start(model, sr, enc, seed, frames, controls, key, resample, hear_rate, hear_enc)
 
 
 def _hear(v, speech_encoding: str) -> tuple[int | None, str]:
@@ -374,23 +371,26 @@ class Session:
         return start
 
     async def _loop(self, start: Start) -> None:
-        from ..io.resampler import Resampler
-
         model = self.model
         model_sr = int(model.sample_rate)
         sr = start.sample_rate or model_sr
+        hear_sr = start.hear_rate or sr
         try:
-            stream = engine.open_stream(model, seed=start.seed, controls=start.controls)
+            stream = engine.open_stream(model, seed=start.seed, controls=start.controls, sample_rate=sr,
+                                        resample=start.resample, heard_rate=hear_sr)
         except HeadMotionError as exc:
             raise ProtocolError("bad_start", str(exc)) from None
-        resample = Resampler(sr, model_sr, quality=RESAMPLE[start.resample])
         fps = float(model.frame_rate)
         self.sender = asyncio.create_task(self._send_loop())
         await self._put(json.dumps({"type": "ready", "model": self.name, "system": model.name, "fps": fps,
                                     "latency_ms": float(stream.latency_ms), "sample_rate": sr,
                                     "model_sample_rate": model_sr, "encoding": start.encoding,
-                                    "frames": start.frames}), None)
+                                    "frames": start.frames, "hear": {"sample_rate": hear_sr,
+                                                                     "encoding": start.hear_encoding},
+                                    "listening": start.controls.listening}), None)
         max_samples = self.lim.max_stream_seconds * sr
+        max_heard = self.lim.max_stream_seconds * hear_sr
+        heard = 0
         while True:
             msg = await self._receive(self.lim.idle_timeout_s)
             t_recv = time.perf_counter()
@@ -404,18 +404,28 @@ class Session:
                 if self.samples_in > max_samples:
                     raise ProtocolError("too_long", f"the stream passed its limit of "
                                                     f"{self.lim.max_stream_seconds:g} s of audio", 1009)
-                await self._emit(stream.push(resample(x)), fps, sr, start.frames, t_recv)
+                await self._emit(stream.push(x), fps, sr, start.frames, t_recv)
                 continue
             text = msg.get("text") or ""
+            if len(text) > 2 * self.lim.max_message_bytes:
+                raise ProtocolError("too_large", f"a message of {len(text)} characters; the limit is "
+                                                 f"{2 * self.lim.max_message_bytes} for a hear message", 1009)
             try:
                 obj = json.loads(text)
             except (ValueError, RecursionError):
                 obj = None
+            if isinstance(obj, dict) and obj.get("type") == "hear":
+                y = decode_hear(obj, start.hear_encoding)
+                heard += len(y)
+                if heard > max_heard:
+                    raise ProtocolError("too_long", f"the heard audio passed the stream's limit of "
+                                                    f"{self.lim.max_stream_seconds:g} s", 1009)
+                stream.hear(y)
+                continue
             if not (isinstance(obj, dict) and obj.get("type") == "end" and set(obj) <= {"type"}):
-                raise ProtocolError("bad_message", "after the start message only binary audio and "
+                raise ProtocolError("bad_message", "after the start message only binary audio, "
+                                                   "{\"type\": \"hear\", \"audio\": BASE64} and "
                                                    "{\"type\": \"end\"} are accepted")
-            tail = stream.push(resample(np.zeros(0, np.float32), last=True))
-            await self._emit(tail, fps, sr, start.frames, t_recv)
             await self._emit(stream.flush(), fps, sr, start.frames, t_recv)
             await self._put(json.dumps({"type": "end", "frames": self.frames,
                                         "audio_seconds": round(self.samples_in / sr, 4)}), None)
