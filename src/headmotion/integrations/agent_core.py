@@ -35,14 +35,16 @@ import numpy as np
 
 from .. import quaternions
 from ..errors import HeadMotionError, ParameterError, SampleRateError
+from ..io.resampler import QUALITY
 from ..synthesis import DEFAULT_STREAM_MODEL, Controls, load_model, open_stream
 
 log = logging.getLogger("headmotion.integrations")
 
-#: ``resample`` → soxr quality, as for ``headmotion serve``'s stream: ``exact`` gives the frames
-#: the offline answer gives for the same samples (~20 ms of resampling delay), ``fast`` ~10 ms less
-#: delay and frames that may differ by a few degrees.  Audio at the model's rate is not resampled.
-RESAMPLE = {"exact": "HQ", "fast": "LQ"}
+#: ``resample`` → soxr quality, the library's one table (:data:`headmotion.io.resampler.QUALITY`), as
+#: for ``headmotion serve``'s stream: ``exact`` gives the frames the offline answer gives for the
+#: same samples (~20 ms of resampling delay), ``fast`` ~10 ms less delay and frames that may differ
+#: by a few degrees.  Audio at the model's rate is not resampled.
+RESAMPLE = QUALITY
 #: seconds the head takes to settle to the rest pose after an utterance (default) and the range
 DEFAULT_SETTLE_S = 0.5
 SETTLE_RANGE_S = (0.0, 5.0)
@@ -100,6 +102,20 @@ class UtteranceEnd:
         return {"type": "end", "frames": int(self.frames), "audio_seconds": round(float(self.audio_seconds), 4)}
 
 
+def _mono(samples, sample_rate) -> np.ndarray:
+    """Checked float32 mono samples (``(n, channels)`` mixed down) and a checked rate."""
+    if isinstance(sample_rate, bool) or not isinstance(sample_rate, (int, np.integer)) or sample_rate <= 0:
+        raise ParameterError(f"sample_rate must be a positive whole number of Hz; got {sample_rate!r:.40}")
+    x = np.asarray(samples, dtype=np.float32)
+    if x.ndim == 2:
+        x = x.mean(axis=1, dtype=np.float32)
+    elif x.ndim != 1:
+        raise ParameterError(f"samples must be mono (n,) or (n, channels); got shape {x.shape}")
+    if not np.all(np.isfinite(x)):
+        raise ParameterError("the samples hold NaN or infinite values")
+    return x
+
+
 def _check_choice(value, choices, what: str) -> str:
     if not isinstance(value, str) or value not in choices:
         raise ParameterError(f"{what} must be one of {sorted(choices)}; got {value!r:.40}")
@@ -142,7 +158,7 @@ class HeadMotionCore:
         self.controls = Controls.parse(**controls_kwargs) if controls is None else controls
         self.model = load_model(model)
         self.seed = seed
-        self.quality = RESAMPLE[_check_choice(resample, RESAMPLE, "resample")]
+        self.resample = _check_choice(resample, RESAMPLE, "resample")
         self.settle_s = check_seconds(settle_s, SETTLE_RANGE_S, "settle_s")
         probe = self._open()  # checks the seed, the controls and that the model streams, once
         self.fps = float(probe.frame_rate)
@@ -155,21 +171,30 @@ class HeadMotionCore:
         #: the pose the head settles to: the rest pose (facing ahead) plus the offset control
         self.rest_pose = np.asarray(pitch_yaw_roll_to_rotvec(*self.controls.offset), dtype=np.float64).reshape(3)
         self._stream = None
-        self._resample = None
         self._rate = None
         self._samples_in = 0
         self._history: list[np.ndarray] = []
         self._made = 0
         self._settled = True  # the last utterance has had its settling (or there was none)
+        self._listen = None   # the listening stream (the user's audio, silence as the agent's own)
+        self._listen_rate = None
+        self._turn = False    # a listening turn is open (frames of the listening stream go out)
+        self._ease: tuple[np.ndarray, int] | None = None  # (pose eased from, frames left)
 
-    def _open(self):
+    def _open(self, sample_rate: int | None = None, heard_rate: int | None = None):
         try:
-            return open_stream(self.model, seed=self.seed, controls=self.controls)
+            return open_stream(self.model, seed=self.seed, controls=self.controls, sample_rate=sample_rate,
+                               resample=self.resample, heard_rate=heard_rate)
         except HeadMotionError:
             raise
         except (AttributeError, NotImplementedError) as exc:  # a model without a stream
             raise ParameterError(f"model {getattr(self.model, 'name', self.model)!r} does not stream: "
                                  f"{exc}") from None
+
+    @property
+    def listening(self) -> bool:
+        """True while a listening turn is open (the user's audio moves the head; no utterance)."""
+        return self._turn
 
     @property
     def speaking(self) -> bool:
@@ -195,20 +220,12 @@ class HeadMotionCore:
         the first push after an end or an interruption opens a fresh stream.  Returns the frames
         made final (maybe none).  Raises :class:`~headmotion.errors.SampleRateError` when the rate
         changes within an utterance."""
-        if isinstance(sample_rate, bool) or not isinstance(sample_rate, (int, np.integer)) or sample_rate <= 0:
-            raise ParameterError(f"sample_rate must be a positive whole number of Hz; got {sample_rate!r:.40}")
-        x = np.asarray(samples, dtype=np.float32)
-        if x.ndim == 2:
-            x = x.mean(axis=1, dtype=np.float32)
-        elif x.ndim != 1:
-            raise ParameterError(f"samples must be mono (n,) or (n, channels); got shape {x.shape}")
-        if not np.all(np.isfinite(x)):
-            raise ParameterError("the samples hold NaN or infinite values")
+        x = _mono(samples, sample_rate)
         if self._stream is None:
-            from ..io.resampler import Resampler
-
-            self._stream = self._open()
-            self._resample = Resampler(int(sample_rate), self.sample_rate, quality=self.quality)
+            if self._turn:  # the agent takes the turn: its speech eases in from the listening pose
+                self._turn = False
+                self._ease = (self.frames()[-1], self.settle_frames) if self._made else None
+            self._stream = self._open(int(sample_rate))
             self._rate = int(sample_rate)
             self._samples_in = 0
             self._history = []
@@ -218,10 +235,45 @@ class HeadMotionCore:
             raise SampleRateError(f"the utterance's audio changed rate from {self._rate} Hz to {int(sample_rate)} Hz; "
                                   "end the utterance before changing the rate")
         self._samples_in += len(x)
-        return self._speech(self._stream.push(self._resample(x)).rotvec)
+        return self._speech(self._stream.push(x).rotvec)
+
+    def hear(self, samples, sample_rate: int) -> FrameBatch:
+        """The user's audio as it comes (float32 mono at ``sample_rate``).  While the agent does
+        not speak, the head listens (:mod:`headmotion.listener`: an attentive posture, nods at the
+        user's back-channel cues, the model's waiting head beneath): the first call after an
+        utterance opens a *listening turn* — frames numbered from 0 like an utterance's, easing in
+        from the last pose shown — and returns its frames; the agent's next push ends the turn
+        (:meth:`end_listening`).  While the agent speaks the user's audio is not listened to
+        (an empty batch)."""
+        x = _mono(samples, sample_rate)
+        if self._stream is not None:
+            return FrameBatch(self._made, self.fps, np.zeros((0, 3)), self.audio_seconds)
+        rate = int(sample_rate)
+        if self._listen is None or rate != self._listen_rate:
+            self._listen, self._listen_rate = self._open(rate, heard_rate=rate), rate
+        if not self._turn:
+            shown = self.frames()[-1] if self._made and not self._settled else self.rest_pose
+            self._turn, self._settled = True, False
+            self._rate, self._samples_in, self._history, self._made = rate, 0, [], 0
+            self._ease = (np.asarray(shown, dtype=np.float64), self.settle_frames)
+        self._listen.hear(x)
+        self._samples_in += len(x)
+        return self._speech(self._listen.push(np.zeros(len(x), np.float32)).rotvec)
+
+    def end_listening(self) -> list:
+        """Close the listening turn: ``[UtteranceEnd]`` (nothing when none is open).  The agent's
+        next utterance eases in from the turn's last pose."""
+        if not self._turn:
+            return []
+        self._turn = False
+        self._ease = (self.frames()[-1], self.settle_frames) if self._made else None
+        self._settled = True
+        return [UtteranceEnd(self._made, self.audio_seconds, False)]
 
     def _speech(self, rotvec) -> FrameBatch:
         rv = np.array(rotvec, dtype=np.float64).reshape(-1, 3)
+        if self._ease is not None and len(rv):
+            rv = self._eased(rv)
         batch = FrameBatch(self._made, self.fps, rv, self.audio_seconds)
         if len(rv):
             self._history.append(rv)
@@ -235,11 +287,8 @@ class HeadMotionCore:
         if self._stream is None:
             return []
         stream, self._stream = self._stream, None
-        tail = stream.push(self._resample(np.zeros(0, np.float32), last=True))
-        rest = stream.flush()
-        rv = np.vstack([np.asarray(tail.rotvec).reshape(-1, 3), np.asarray(rest.rotvec).reshape(-1, 3)])
         out = []
-        batch = self._speech(rv)
+        batch = self._speech(stream.flush().rotvec)
         if len(batch):
             out.append(batch)
         settle = self._settling(self._made)
@@ -271,6 +320,20 @@ class HeadMotionCore:
         out = [settle] if len(settle) else []
         out.append(UtteranceEnd(shown + len(settle), self.audio_seconds, True))
         return out
+
+    def _eased(self, rv: np.ndarray) -> np.ndarray:
+        """The first frames of a turn, eased from the pose shown before it (a smoothstep blend)."""
+        start, left = self._ease
+        n = self.settle_frames
+        k = np.arange(n - left, min(n, n - left + len(rv)), dtype=np.float64)
+        if len(k):
+            w = ((k + 1) / (n + 1))[:, None]
+            w = w * w * (3 - 2 * w)
+            rv = rv.copy()
+            rv[:len(k)] = (1 - w) * start + w * rv[:len(k)]
+        left -= len(k)
+        self._ease = (start, left) if left > 0 else None
+        return rv
 
     def _settling(self, shown: int) -> FrameBatch:
         """The settling after frame ``shown - 1``, numbered from ``shown``."""

@@ -17,6 +17,10 @@ as data packets on the topic ``headmotion`` — the JSON messages of ``headmotio
 * ``clear_buffer()`` (the user interrupted): the frames not yet sent are dropped and the head
   settles from the last pose sent, at once; ``pause()``/``resume()`` (a possible false
   interruption) hold and release the frames with the audio.  The next reply starts a fresh stream.
+* :meth:`~HeadMotionAudioOutput.hear` takes the user's audio frames (e.g. ``async for ev in
+  rtc.AudioStream(user_track): out.hear(ev.frame)``): once the agent's audio and its settling have
+  gone out, the head listens to them (:mod:`headmotion.listener`: an attentive posture, recorded
+  nods at the user's back-channel cues) until the agent speaks again.
 
 The part that makes and paces the frames is :mod:`headmotion.integrations.agent_core`, so the
 output runs without a LiveKit server: give ``send`` any ``async def send(message: dict)``.
@@ -112,6 +116,13 @@ class HeadMotionAudioOutput(io.AudioOutput):
         if frame.samples_per_channel:
             self._motion(lambda: self.pacer.audio(pcm16_to_float(frame.data, frame.num_channels),
                                                   int(frame.sample_rate)))
+
+    def hear(self, frame: rtc.AudioFrame) -> None:
+        """The user's audio as it arrives: listened to while the agent is silent."""
+        self.sender.start()
+        if frame.samples_per_channel:
+            self._motion(lambda: self.pacer.hear(pcm16_to_float(frame.data, frame.num_channels),
+                                                 int(frame.sample_rate)))
 
     def flush(self) -> None:
         super().flush()

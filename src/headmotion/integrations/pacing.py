@@ -77,6 +77,9 @@ class Pacer:
         utterance's so far ends it and starts another).  Returns the frames made."""
         now = self._now(now)
         start = max(now, self._playhead)
+        if self.core.listening:  # the agent takes the turn: the listening turn ends now
+            for item in self.core.end_listening():
+                self._schedule_end(item, now + self.delay_s if self.pace else -math.inf)
         if not self.core.speaking:
             self._utt += 1
             self._sent[self._utt] = 0
@@ -94,6 +97,25 @@ class Pacer:
             self._segments.append((self.core.audio_seconds - n / int(sample_rate), start))
             self._playhead = start + n / int(sample_rate)
         self._schedule(batch)
+        return batch
+
+    def hear(self, samples, sample_rate: int, now=None) -> FrameBatch:
+        """The user's audio as it arrives (live).  Once the agent's audio and its settling have
+        gone out, the head listens (:meth:`HeadMotionCore.hear`): a listening turn, numbered as an
+        utterance, whose frames go out at once (plus ``delay_s``) — they belong to audio already
+        heard.  Before that, nothing (an empty batch)."""
+        now = self._now(now)
+        if not self.core.listening and (self.core.speaking or now < self.busy_until()):
+            return FrameBatch(0, self.core.fps, np.zeros((0, 3)), 0.0)
+        if not self.core.listening:
+            self._utt += 1
+            self._sent[self._utt] = 0
+            self._sent = {u: n for u, n in self._sent.items() if u >= self._utt - 1}
+            self._segments = []
+        batch = self.core.hear(samples, sample_rate)
+        due = now + self.delay_s if self.pace else -math.inf
+        for k, row in enumerate(batch.rotvec):
+            self._add(_Entry(due, next(self._seq), self._utt, batch.first + k, row, batch.audio_time))
         return batch
 
     def end(self, now=None) -> None:

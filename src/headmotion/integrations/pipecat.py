@@ -16,6 +16,11 @@ docs/integrations.md)::
   to the rest pose over ``settle_s`` after the audio, then ``{"type": "end", ...}``.
 * ``InterruptionFrame`` (the user cut the agent off): the frames not yet sent are dropped and the
   head settles from the last pose sent, at once.  The next TTS audio starts a fresh stream.
+* The user's audio (``InputAudioRawFrame``, passed on by the transport's input and the STT): once
+  the agent's audio and its settling have gone out, the head *listens* to it
+  (:mod:`headmotion.listener`: an attentive posture, recorded nods at the user's back-channel
+  cues) in a listening turn numbered as an utterance, until the agent speaks again
+  (``hear_frames=()`` turns this off).
 * ``rtvi=True``: the messages go as ``RTVIServerMessageFrame`` (a Pipecat client's
   ``onServerMessage``) instead of transport messages.
 
@@ -32,6 +37,7 @@ try:
     from pipecat.frames.frames import (
         CancelFrame,
         EndFrame,
+        InputAudioRawFrame,
         InterruptionFrame,
         OutputTransportMessageFrame,
         OutputTransportMessageUrgentFrame,
@@ -68,17 +74,20 @@ class HeadMotionProcessor(FrameProcessor):
         The audio that is speech (default ``(TTSAudioRawFrame,)``; other audio passes untouched).
     rtvi : bool
         Send ``RTVIServerMessageFrame(data=message)`` rather than transport message frames.
+    hear_frames : tuple of frame classes
+        The user's audio the head listens to (default ``(InputAudioRawFrame,)``; ``()``: none).
     """
 
     def __init__(self, model="stream", *, seed: int = 0, resample: str = "exact",
                  settle_s: float = DEFAULT_SETTLE_S, pace: bool = True, delay_s: float = 0.0,
                  audio_frames: tuple = (TTSAudioRawFrame,), rtvi: bool = False, controls=None,
-                 name: str | None = None, **controls_kwargs):
+                 name: str | None = None, hear_frames: tuple = (InputAudioRawFrame,), **controls_kwargs):
         super().__init__(name=name)
         self.core = HeadMotionCore(model, seed=seed, resample=resample, settle_s=settle_s, controls=controls,
                                    **controls_kwargs)
         self.pacer = Pacer(self.core, pace=pace, delay_s=delay_s, clock=time.monotonic)
         self.audio_frames = tuple(audio_frames)
+        self.hear_frames = tuple(hear_frames)
         self.rtvi = bool(rtvi)
         self._sender = PacedSender(self.pacer, self._send_now) if pace else None
 
@@ -129,6 +138,12 @@ class HeadMotionProcessor(FrameProcessor):
             if frame.audio:
                 self._motion(lambda: self.pacer.audio(pcm16_to_float(frame.audio, frame.num_channels),
                                                       int(frame.sample_rate)))
+            await self.push_frame(frame, direction)
+            await self._send_in_order()
+        elif direction == FrameDirection.DOWNSTREAM and self.hear_frames and isinstance(frame, self.hear_frames):
+            if frame.audio:
+                self._motion(lambda: self.pacer.hear(pcm16_to_float(frame.audio, frame.num_channels),
+                                                     int(frame.sample_rate)))
             await self.push_frame(frame, direction)
             await self._send_in_order()
         elif direction == FrameDirection.DOWNSTREAM and isinstance(frame, TTSStoppedFrame):
