@@ -189,3 +189,23 @@ def test_listening_is_checked():
         Controls(listening=4)
     with pytest.raises(ParameterError, match="listening"):
         Controls(listening=True)
+
+
+def test_synth_hear_on_the_command_line(tmp_path):
+    from typer.testing import CliRunner
+
+    from headmotion.cli.app import app
+    from headmotion.io import load_motion
+    from headmotion.synthesis import synthesize
+
+    out = tmp_path / "listening.csv"
+    r = CliRunner().invoke(app, ["synth", str(EXAMPLES / "short.wav"), "--hear", str(EXAMPLES / "speech_male.wav"),
+                                 "-m", "stream", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    got = load_motion(out)
+    want = synthesize(EXAMPLES / "short.wav", "stream", hear=EXAMPLES / "speech_male.wav")[0]
+    assert got.duration == pytest.approx(want.duration, abs=0.05)   # the longer side's timeline
+    np.testing.assert_allclose(got.rotvec, want.rotvec, atol=1e-5)
+    r = CliRunner().invoke(app, ["synth", str(EXAMPLES / "short.wav"), "--hear", str(EXAMPLES / "speech_male.wav"),
+                                 "--listening", "5", "-o", str(tmp_path / "x.csv")])
+    assert r.exit_code != 0 and "--listening" in r.output + str(r.exception)

@@ -141,6 +141,12 @@ def synth(
                                                   "stochastic parameter; default the model's)."),
     fps: Optional[float] = typer.Option(None, "--fps", help="Output frame rate (default: the model's)."),
     video: Optional[Path] = typer.Option(None, "--video", help="Also render a preview video (.mp4)."),
+    hear: Optional[Path] = typer.Option(None, "--hear", help="What the head hears: the other party of a conversation "
+                                        "(an audio file on the same timeline; either side may be silent). While the "
+                                        "other speaks and this head does not, it listens: an attentive posture and "
+                                        "recorded nods at the other's back-channel cues."),
+    listening: float = typer.Option(1.0, "--listening", help="How much the head listens (with --hear), 0 to 3: "
+                                    "0 = it only waits, 1 = posture and nods."),
     fmt: Optional[str] = typer.Option(None, "--format", help="Several inputs: bvh (default), glb, gltf, csv, json "
                                       "or npz."),
     jobs: Optional[int] = typer.Option(None, "--jobs", "-j", help="Several inputs: worker processes (default 1)."),
@@ -165,8 +171,11 @@ def synth(
     controls = Controls.parse(gain=gain, offset_degrees=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
                               offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll), still=still,
                               amount=amount, style_from=style_from, style_strength=style_strength,
-                              style_keep_pose=style_keep_pose, fps=fps, stochastic=stochastic)
+                              style_keep_pose=style_keep_pose, fps=fps, stochastic=stochastic, listening=listening)
     from .synth_batch import is_batch, run_batch
+
+    if hear is not None and len(speech) != 1:
+        raise ParameterError(f"--hear goes with one speech file; got {len(speech)}")
 
     if is_batch(speech, output, fmt, jobs, scheduler, force):
         code = run_batch(speech, output, model=model, fmt=fmt, jobs=jobs, scheduler=scheduler, force=force,
@@ -177,7 +186,7 @@ def synth(
         raise ParameterError(f"--neck-share applies to .bvh, .glb and .gltf outputs; got {output.suffix!r}")
     m = load_cli_model(model)
     t0 = time.perf_counter()
-    motions = synthesize(speech, m, seed=seed, samples=samples, controls=controls)
+    motions = synthesize(speech, m, seed=seed, samples=samples, controls=controls, hear=hear)
     dt = time.perf_counter() - t0
     save_opts = {} if neck_share is None else {"neck_share": float(neck_share)}
     paths = [output] if samples == 1 else [output.with_name(f"{output.stem}_{k + 1}{output.suffix}")
@@ -193,7 +202,23 @@ def synth(
             from ..render.samples import render_samples
         except ImportError as exc:
             raise ParameterError(f"--video needs headmotion.render, which is not available here ({exc})") from exc
-        render_samples(motions, video, audio=load_audio(speech),
+        render_samples(motions, video, audio=load_audio(speech) if hear is None else _mixed(speech, hear),
                        seeds=[model_seed(m, seed) + k for k in range(samples)] if samples > 1 else None,
                        labels=None if samples > 1 else [m.name])
         console.print(f"video → {video}")
+
+
+def _mixed(speech, hear):
+    """Both sides of a conversation in one track (a --video's sound), at the speech's rate."""
+    import numpy as np
+
+    from ..io import load_audio
+    from ..types import Audio
+
+    a = load_audio(speech)
+    b = load_audio(hear, sample_rate=a.sample_rate)
+    n = max(len(a.samples), len(b.samples))
+    x = np.zeros(n, np.float32)
+    x[:len(a.samples)] += a.samples
+    x[:len(b.samples)] += b.samples
+    return Audio(np.clip(x, -1.0, 1.0), a.sample_rate)
