@@ -27,6 +27,11 @@ steps.
 
 On a 2-core CPU without CUDA: ``python benchmarks/gpu_check.py --planted-hours 0.05 --epochs 2
 --flow-steps 100`` (about 10 minutes, half of it motion-flow).
+
+``--batch-scale K``, ``--bf16`` and ``--compile`` train the DNN candidates on the GPU path
+(:mod:`headmotion.models.train_speed`); the checks are the same.  Without them the candidate has
+the standard settings and should be the CPU model up to rounding
+(``docs/decisions/gpu-training.md``).
 """
 
 from __future__ import annotations
@@ -100,7 +105,7 @@ def _planted(folder: Path, hours: float):
     return Corpus.load(folder / "corpus")
 
 
-def run(corpora: dict, systems, *, epochs: int, flow_steps: int, cuda: bool) -> list[dict]:
+def run(corpora: dict, systems, *, epochs: int, flow_steps: int, cuda: bool, fast: dict | None = None) -> list[dict]:
     rows = []
     for cname, corpus in corpora.items():
         recs = [corpus[i] for i in range(min(3, len(corpus)))]
@@ -114,12 +119,15 @@ def run(corpora: dict, systems, *, epochs: int, flow_steps: int, cuda: bool) -> 
                 cand = {"device": "cpu", "train_path": "streamed"}
             else:
                 cand = None
+            if cand is not None and fast and name != "motion-flow":
+                cand.update(fast)
             try:
                 ref, row["ref_s"] = _fit(name, corpus, {**base, **ref_device})
                 row["ref"] = "cpu"
                 if cand is not None:
                     other, row["cand_s"] = _fit(name, corpus, {**base, **cand})
-                    row["cand"] = f"{cand['device']}" + ("/streamed" if "train_path" in cand else "")
+                    row["cand"] = f"{cand['device']}" + ("/streamed" if "train_path" in cand else "") + (
+                        f"/x{cand['batch_scale']}" if cand.get("batch_scale", 1) > 1 else "")
                     row.update(compare(ref, other, recs))
                     row["ok"] = verdict(name, row)
                 else:
@@ -159,6 +167,9 @@ def main(argv=None) -> int:
     ap.add_argument("--epochs", type=int, default=4, help="DNN epochs (regressor, post-filter, autoencoder)")
     ap.add_argument("--flow-steps", type=int, default=300, help="motion-flow training steps")
     ap.add_argument("--systems", default=",".join(SYSTEMS), help="comma-separated systems")
+    ap.add_argument("--batch-scale", type=int, default=1, help="the candidate's batch_scale (DNN systems)")
+    ap.add_argument("--bf16", action="store_true", help="the candidate's precision='bf16' (DNN systems, CUDA)")
+    ap.add_argument("--compile", action="store_true", help="the candidate's compile_networks (DNN systems, CUDA)")
     ap.add_argument("--out", type=Path, help="also write the rows as JSON")
     args = ap.parse_args(argv)
     import torch
@@ -182,7 +193,9 @@ def main(argv=None) -> int:
             print(f"real corpus absent ({args.corpus}): build it with scripts/build_real_corpus.py; skipped")
         if args.planted_hours > 0:
             corpora[f"planted {args.planted_hours:g} h"] = _planted(Path(tmp), args.planted_hours)
-        rows = run(corpora, systems, epochs=args.epochs, flow_steps=args.flow_steps, cuda=cuda)
+        fast = {"batch_scale": args.batch_scale, **({"precision": "bf16"} if args.bf16 else {}),
+                **({"compile_networks": True} if args.compile else {})}
+        rows = run(corpora, systems, epochs=args.epochs, flow_steps=args.flow_steps, cuda=cuda, fast=fast)
     print()
     print(table(rows))
     print(f"\n{len(rows)} rows, {sum(bool(r.get('ok')) for r in rows)} pass; {time.perf_counter() - t0:.0f} s")

@@ -27,7 +27,9 @@ temporary one).
 The ``epoch`` group (:func:`bench_epoch`, only with ``--only epoch``) times one epoch of mfcc-dnn
 on the streamed path at each size in ``HEADMOTION_EPOCH_HOURS`` (default ``1,4,16``; ``--quick``
 ``0.25``) on the CPU (``HEADMOTION_EPOCH_THREADS`` torch threads, default 1, the systems'
-default) and, when torch sees one, on CUDA, each in a fresh process,
+default) and, when torch sees one, on CUDA — with the standard settings and with the GPU path's
+(:data:`FAST`: batch_scale 4, bf16, compiled) — each in a fresh process (``HEADMOTION_EPOCH_DEVICES``
+lists other rows, e.g. ``cpu,cpu fast`` to run the fast settings on the CPU),
 and splits it by part (:class:`headmotion.systems.dnn.stream_training.EpochClock`): reading the
 recordings, feature batches, transfer to the device, compute, the loop's wait for data and the
 validation pass — for the regressor and for the post-filter (its two pre-training passes
@@ -89,15 +91,20 @@ def _stage(root: Path, code: str) -> tuple[float, float]:
     return seconds, rss
 
 
+#: the GPU path's settings for the "fast" CUDA rows (headmotion.models.train_speed)
+FAST = {"batch_scale": 4, "precision": "bf16", "compile_networks": True}
+
 EPOCH_CODE = (
     "import json\n"
     "from headmotion.corpus import Corpus\n"
     "from headmotion.systems import create\n"
     "m = create('mfcc-dnn', max_epochs=1, patience=1, cross_fit=False, train_path='streamed', device=DEVICE,\n"
-    "           n_threads=THREADS).fit(Corpus.load(ROOT / 'corpus'))\n"
+    "           n_threads=THREADS, **EXTRA).fit(Corpus.load(ROOT / 'corpus'))\n"
     "h = m.history_\n"
+    "import torch\n"
+    "gpu = torch.cuda.max_memory_allocated() / 2**20 if DEVICE == 'cuda' else 0.0\n"
     "print('__EPOCH__', json.dumps({'fit': m.fit_seconds_, 'regressor': h['regressor']['seconds'],\n"
-    "                               'postfilter': h['postfilter']['seconds']}))\n"
+    "                               'postfilter': h['postfilter']['seconds'], 'gpu_mb': gpu}))\n"
 )
 
 
@@ -106,13 +113,14 @@ def epoch_hours(quick: bool) -> tuple[float, ...]:
     return tuple(float(h) for h in text.split(",") if h.strip())
 
 
-def epoch_breakdown(root: Path, device: str) -> tuple[dict, float]:
+def epoch_breakdown(root: Path, device: str, extra: dict | None = None) -> tuple[dict, float]:
     """(the fit's seconds and its two stages' ``EpochClock`` summaries, peak RSS in MB) of one
-    streamed mfcc-dnn epoch on ``device``, in a fresh process."""
+    streamed mfcc-dnn epoch on ``device`` with the parameters ``extra``, in a fresh process."""
     import json
 
     threads = int(os.environ.get("HEADMOTION_EPOCH_THREADS") or 1)
-    body = f"from pathlib import Path\nROOT = Path({str(root)!r})\nDEVICE = {device!r}\nTHREADS = {threads}\n" + EPOCH_CODE
+    body = (f"from pathlib import Path\nROOT = Path({str(root)!r})\nDEVICE = {device!r}\nTHREADS = {threads}\n"
+            f"EXTRA = {dict(extra or {})!r}\n" + EPOCH_CODE)
     rss, out = peak_rss_of(body)
     line = next(x for x in out.splitlines() if x.startswith("__EPOCH__"))
     return json.loads(line.split(" ", 1)[1]), rss
@@ -140,8 +148,10 @@ def bench_epoch(res: Results, quick: bool, *, speech_dir=None) -> None:
 
     from headmotion.systems.dnn.stream_training import CLOCK_PARTS
 
-    devices = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
-    if len(devices) == 1:
+    asked = os.environ.get("HEADMOTION_EPOCH_DEVICES")  # e.g. "cpu,cpu fast": the fast path dry-run on the CPU
+    devices = ([d.strip() for d in asked.split(",") if d.strip()] if asked else
+               ["cpu"] + (["cuda", "cuda fast"] if torch.cuda.is_available() else []))
+    if not any(d.startswith("cuda") for d in devices):
         res.add(Row("12 epoch", "cuda", None, "", "-", None, "torch sees no CUDA device: CPU rows only"))
     keep = os.environ.get("HEADMOTION_SCALE_DIR")
     with (contextlib.nullcontext(keep) if keep else tempfile.TemporaryDirectory(prefix="hm-epoch-")) as tmp:
@@ -150,7 +160,7 @@ def bench_epoch(res: Results, quick: bool, *, speech_dir=None) -> None:
             planted_with_mfcc(root, h, speech_dir)
             seen = {}
             for device in devices:
-                got, rss = epoch_breakdown(root, device)
+                got, rss = epoch_breakdown(root, device.split()[0], FAST if device.endswith("fast") else None)
                 for stage in ("regressor", "postfilter"):
                     sec = got[stage]
                     parts = ", ".join(f"{k} {sec[k]:.2f}" for k in CLOCK_PARTS)
@@ -159,11 +169,17 @@ def bench_epoch(res: Results, quick: bool, *, speech_dir=None) -> None:
                 seen[device] = got
                 res.add(Row("12 epoch", f"mfcc-dnn fit, 1 epoch, {h:g} h, {device}", got["fit"], "s", "-", None,
                             f"reading pass, both networks, tables; peak RSS {rss:,.0f} MB"))
-            if "cuda" in seen:
-                speed = seen["cpu"]["regressor"]["total"] / seen["cuda"]["regressor"]["total"]
-                res.add(Row("12 epoch", f"regressor epoch, cuda against the CPU, {h:g} h", speed, "x",
-                            ">= 10 at 16 h", speed >= 10 if h >= 16 else None,
-                            f"whole fit {seen['cpu']['fit'] / seen['cuda']['fit']:.1f}x"))
+            for dev in (d for d in devices if d in seen and d != "cpu"):
+                speed = seen["cpu"]["regressor"]["total"] / seen[dev]["regressor"]["total"]
+                fit = seen["cpu"]["fit"] / seen[dev]["fit"]
+                res.add(Row("12 epoch", f"regressor epoch, {dev} against the CPU, {h:g} h", speed, "x",
+                            ">= 10 at 16 h", speed >= 10 if h >= 16 else None, f"whole fit {fit:.1f}x"))
+                res.add(Row("12 epoch", f"whole fit, {dev} against the CPU, {h:g} h", fit, "x", ">= 5 at 16 h",
+                            fit >= 5 if h >= 16 else None, ""))
+            for dev in (d for d in devices if d in seen and d != "cpu"):
+                mb = seen[dev]["gpu_mb"]
+                res.add(Row("12 epoch", f"peak GPU memory, {dev}, {h:g} h", mb, "MB", "<= 16384 at 16 h",
+                            mb <= 16384 if h >= 16 else None, "torch.cuda.max_memory_allocated over the fit"))
 
 
 def _slope(hours, times) -> float:

@@ -85,14 +85,13 @@ class Speed:
         return float(lr) * self.batch_scale
 
     def adam(self, params, lr: float):
-        """Adam at :meth:`lr` (fused on a GPU, warmed up when the batches are scaled); plain
-        ``torch.optim.Adam(params, lr)`` with the defaults."""
+        """Adam at :meth:`lr` (fused on a GPU; a :class:`WarmAdam` when the batches are scaled);
+        ``torch.optim.Adam(params, lr)`` with the defaults on the CPU."""
         import torch
 
-        if self.batch_scale == 1 and not self.cuda:
-            return torch.optim.Adam(params, lr=lr)
-        return WarmAdam(params, self.lr(lr), fused=self.cuda, scale=float(self.batch_scale),
-                        warmup=WARMUP_STEPS if self.batch_scale > 1 else 0)
+        if self.batch_scale == 1:
+            return torch.optim.Adam(params, lr=lr, **({"fused": True} if self.cuda else {}))
+        return WarmAdam(params, self.lr(lr), fused=self.cuda, scale=float(self.batch_scale), warmup=WARMUP_STEPS)
 
     def prepare(self, module):
         """``module`` with its dropout set for these settings: masks drawn on the CPU (the CPU's

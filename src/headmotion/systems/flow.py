@@ -260,6 +260,7 @@ class MotionFlow(Synthesizer):
         import torch
 
         from ..models.flow_net import flow_loss
+        from ..models.train_speed import Speed
 
         rng = np.random.default_rng(int(self.random_state))
         sampler = WindowSampler(train, int(self.window), augment=bool(self.augment))
@@ -271,7 +272,7 @@ class MotionFlow(Synthesizer):
                 mot, cond, val = vs.batch(vrng, 64)
                 keep, pm = WindowSampler.masks(vrng, val, 0.0)
                 vbatches.append([torch.from_numpy(a).to(device) for a in (mot, cond, keep, pm, val)])
-        opt = torch.optim.Adam(net.parameters(), lr=float(self.learning_rate))
+        opt = Speed(device).adam(net.parameters(), float(self.learning_rate))  # fused on a GPU
         steps = int(self.train_steps)
         sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda i: 0.1 + 0.9 * 0.5 * (1 + np.cos(np.pi * min(i, steps) / steps)))
         best, best_state, history = np.inf, None, []
