@@ -29,6 +29,7 @@ Libraries: scipy.signal (Butterworth low-pass), scikit-learn (classifier, folds,
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
@@ -450,6 +451,27 @@ def _samples_within(real: Mapping, generated: Mapping, within: Mapping | None, *
                    np.concatenate([p.groups for p in parts])), blocks
 
 
+_NO_TORCH_WARNED: list[bool] = []
+
+
+def _available(classifiers: Sequence[str]) -> tuple[str, ...]:
+    """``classifiers`` without the network when PyTorch is not installed (with a warning; the
+    statistics classifier decides), or the missing-dependency error when the network is all there is."""
+    from ...devices import has_torch, missing_torch
+
+    classifiers = tuple(classifiers)
+    if "cnn" not in classifiers or has_torch():
+        return classifiers
+    rest = tuple(c for c in classifiers if c != "cnn")
+    if not rest:
+        raise missing_torch("the detectability test's network classifier")
+    if not _NO_TORCH_WARNED:  # once a process: an evaluation asks for every condition
+        _NO_TORCH_WARNED.append(True)
+        warnings.warn("PyTorch is not installed: the detectability test's statistics classifier decides "
+                      "alone (pip install 'headmotion[nets]' adds its network classifier)", stacklevel=3)
+    return rest
+
+
 def detectability(real: Mapping, generated: Mapping, *, fps=None, seed: int = 0, n_splits: int = 5,
                   n_boot: int = 1000, classifiers: Sequence[str] = CLASSIFIERS,
                   chunk_s: float | None = None, within: Mapping | None = None,
@@ -482,6 +504,7 @@ def detectability(real: Mapping, generated: Mapping, *, fps=None, seed: int = 0,
     bad = [c for c in classifiers if c not in CLASSIFIERS]
     if bad or not classifiers:
         raise ParameterError(f"classifiers must be a non-empty subset of {CLASSIFIERS}; got {list(classifiers)}")
+    classifiers = _available(classifiers)
     s, blocks = _samples_within(real, generated, within, fps=fps, chunk_s=chunk_s, cutoff_hz=cutoff_hz)
     F = window_statistics(s.X)
     folds = [(b[tr], b[te]) for b in blocks for tr, te in _folds(s.y[b], s.groups[b], n_splits, seed)]
