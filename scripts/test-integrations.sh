@@ -7,9 +7,8 @@
 #
 #   bash scripts/test-integrations.sh [DIR]     # environments in DIR (default .venv-integrations/)
 #
-# Each environment: CPU PyTorch first (a headmotion dependency; torch==2.13.0 is the CPU wheel on
-# these machines, so nothing pulls CUDA wheels), then headmotion with the extra (editable) and
-# pytest.  A second run reuses the environments and only checks the installs.
+# Each environment: headmotion with the extra (editable; no PyTorch, which these tests do not need)
+# and pytest.  A second run reuses the environments and only checks the installs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 dir=${1:-.venv-integrations}
@@ -20,7 +19,6 @@ for extra in pipecat livekit; do
   if [ ! -x "$venv/bin/python" ]; then
     "$python" -m venv "$venv"
   fi
-  "$venv/bin/python" -m pip install -q --disable-pip-version-check torch==2.13.0
   "$venv/bin/python" -m pip install -q --disable-pip-version-check -e ".[$extra]" "pytest>=8"
   case $extra in pipecat) dist=pipecat-ai ;; livekit) dist=livekit-agents ;; esac
   version=$("$venv/bin/python" -c 'import importlib.metadata as m, sys; print(m.version(sys.argv[1]))' "$dist")
