@@ -26,14 +26,13 @@ import math
 
 import numpy as np
 
-from .. import quaternions
 from ..errors import ParameterError
 from . import DEFAULT_LISTENING, LISTENING_RANGE
 from .cues import CueDetector, CueRule
 from .nods import nod_bank
 
 #: the rate the other party's audio is analysed at (pitch: YIN of :mod:`headmotion.features.streaming`)
-HEAR_RATE = 16000
+HEAR_RATE = 8000
 #: analysis frames per second (10 ms frames, Ward & Tsukahara's pitch step)
 ANALYSIS_FPS = 100.0
 #: the attentive posture at listening 1: chin 2° down, the head 3° towards the right shoulder —
@@ -157,15 +156,12 @@ class ListeningLayer:
         delta = np.zeros((len(rv), 3))
         for k in range(len(rv)):
             delta[k] = self._frame(first + k)
-        moved = np.any(delta != 0.0, axis=1)
-        if not moved.any():
+        moved = np.flatnonzero(np.any(delta != 0.0, axis=1))
+        if not len(moved):
             return rotvec
         out = rv.copy()
-        from ..rotations import pitch_yaw_roll_to_rotvec
-
-        d = np.asarray(pitch_yaw_roll_to_rotvec(*np.radians(delta[moved]).T), dtype=np.float64).reshape(-1, 3)
-        q = quaternions.compose(quaternions.rotvec_to_quat(rv[moved]), quaternions.rotvec_to_quat(d))
-        out[moved] = quaternions.quat_to_rotvec(q)
+        for k in moved:
+            out[k] = turned(rv[k], np.radians(delta[k]))
         return out
 
     def _frame(self, t: int) -> np.ndarray:
@@ -212,6 +208,33 @@ class ListeningLayer:
         self._playing.append((t, curve))
         self.nod_starts.append(t)
         self.nod_spans.append((t, t + len(curve)))
+
+
+def turned(rotvec, pyr) -> list[float]:
+    """The pose ``rotvec`` turned by pitch, yaw, roll ``pyr`` (radians, intrinsic ``"YXZ"``) in
+    the head's own frame: ``q(rotvec) ⊗ q(pyr)`` as a rotation vector — one frame in closed form
+    (the numpy conversions cost ~50 µs a call on one frame; this ~5 µs)."""
+    hp, hy, hr = 0.5 * float(pyr[0]), 0.5 * float(pyr[1]), 0.5 * float(pyr[2])
+    sx, cx, sy, cy, sz, cz = math.sin(hp), math.cos(hp), math.sin(hy), math.cos(hy), math.sin(hr), math.cos(hr)
+    qw = cy * cx * cz + sy * sx * sz
+    qx = cy * sx * cz + sy * cx * sz
+    qy = sy * cx * cz - cy * sx * sz
+    qz = cy * cx * sz - sy * sx * cz
+    rx, ry, rz = float(rotvec[0]), float(rotvec[1]), float(rotvec[2])
+    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+    a2 = angle * angle
+    k = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0 if angle <= 1e-3 else math.sin(0.5 * angle) / angle
+    px, py, pz, pw = k * rx, k * ry, k * rz, math.cos(0.5 * angle)
+    w = pw * qw - px * qx - py * qy - pz * qz
+    x = pw * qx + qw * px + py * qz - pz * qy
+    y = pw * qy + qw * py + pz * qx - px * qz
+    z = pw * qz + qw * pz + px * qy - py * qx
+    if w < 0:
+        w, x, y, z = -w, -x, -y, -z
+    angle = 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), w)
+    a2 = angle * angle
+    scale = 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0 if angle <= 1e-3 else angle / math.sin(0.5 * angle)
+    return [scale * x, scale * y, scale * z]
 
 
 def listen(motion, speech, heard, model, *, listening: float = DEFAULT_LISTENING, seed: int = 0):
