@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import json
+import os
 import subprocess
 import sys
 import time
@@ -180,6 +181,15 @@ def provenance(a, fit_s: float, changed: dict | None = None) -> str:
     return f"* **Provenance**: trained before (no card beside it); card written {now} from commit {git_commit()} by {cmd}."
 
 
+def shown_path(path: Path) -> str:
+    """``path`` as the card shows it: relative to the repository (``../shared/data/speech``), never
+    the builder's own absolute path."""
+    try:
+        return os.path.relpath(Path(path).resolve(), ROOT)
+    except ValueError:  # another drive
+        return Path(path).name
+
+
 def shown_args(args: list[str]) -> str:
     """The command line for the card, without the note's text and the path of a model trained before."""
     out, skip = [], False
@@ -295,12 +305,12 @@ def main(argv=None) -> int:
                                    for r in recs]), 25.0)
         tab, _ = unseen_speech_check(model, a.speech, pooled, samples=a.samples,
                                      skip={x.strip() for x in a.skip_speech.split(",") if x.strip()})
-        md += [f"## On real speech it has not seen (`{a.speech}`)\n",
+        md += [f"## On real speech it has not seen (`{shown_path(a.speech)}`)\n",
                f"First sample (seed 0) per file; *diversity* of {a.samples} samples (seeds 0–{a.samples - 1}) in "
                "units of the training heads' SD; shares, L1 and H speed against the pooled training heads "
                f"(recorded heads: 1.5–4 Hz share ≈ 0.05, <0.5 Hz ≈ 0.7, SD 3–4°).\n", tab, ""]
     md += ["## Training recordings\n", table,
-           ("Adapt it to your own speaker (half a minute or more of their speech with motion: mocap or a "
+           ("Adapt it to your own speaker (20 s or more of their speech with motion: mocap or a "
             "talking video of that person): `headmotion adapt CORPUS -o mine.hmz`; or train a model on them alone: "
             "`headmotion train CORPUS --system SYSTEM -o mine.hmz`.\n") if a.system == "motion-match" else
            ("Train on your own speaker (mocap or a talking video of that person) for speaker-specific motion: "

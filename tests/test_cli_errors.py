@@ -334,3 +334,147 @@ def test_interrupt_while_writing_removes_the_partial_file(tmp_path):
             raise KeyboardInterrupt
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
     assert out.read_text() == "precious"
+
+
+# ------------------------------------------------------------- messages that name the user's file
+SPEECH = ROOT / "examples" / "speech" / "speech_male.wav"
+
+
+@pytest.fixture(scope="module")
+def one_sample_wav(tmp_path_factory):
+    import soundfile as sf
+
+    p = tmp_path_factory.mktemp("short") / "click.wav"
+    sf.write(p, np.zeros(1, np.float32), 16000)
+    return p
+
+
+@pytest.mark.parametrize("ext", [".bvh", ".npz", ".csv", ".json", ".glb"])
+def test_speech_too_short_for_a_frame_names_the_file_and_writes_nothing(one_sample_wav, tmp_path, ext):
+    out = tmp_path / f"head{ext}"
+    r = run_cli("synth", one_sample_wav, "-o", out)
+    assert_one_line_error(r, 1, str(one_sample_wav), "too short for one frame", "at least 40 ms")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unwritable_output_names_the_path_asked_for(tmp_path):
+    blocker = tmp_path / "not_a_folder"
+    blocker.write_text("a file where a folder should be")
+    out = blocker / "head.bvh"
+    r = run_cli("synth", SPEECH, "-o", out)
+    assert_one_line_error(r, 1, str(out))
+    assert ".part" not in r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["not_a_folder"]
+
+
+def test_output_onto_a_folder_names_the_folder_not_the_temporary_file(tmp_path):
+    from headmotion.io import save_motion
+
+    target = tmp_path / "taken.bvh"
+    (target / "inside").mkdir(parents=True)
+    with pytest.raises(OSError) as info:
+        save_motion(_motion(), target)
+    assert info.value.filename == str(target)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["taken.bvh"]  # no temporary file left
+
+
+def test_adapt_on_too_little_speech_names_the_folder(tmp_path):
+    from headmotion.synthetic import planted_corpus
+
+    planted_corpus(minutes=5 / 60, n_recordings=1).save(tmp_path / "corpus")
+    r = run_cli("adapt", tmp_path / "corpus", "-o", tmp_path / "mine.hmz")
+    assert_one_line_error(r, 2, f"error: {tmp_path / 'corpus'}: 4.5 s of speech with motion", "at least 20 s")
+    assert "Corpus(" not in r.stderr
+    assert not (tmp_path / "mine.hmz").exists()
+
+
+@pytest.mark.parametrize("ext", [".glb", ".gltf"])
+def test_info_reads_the_gltf_synth_writes(tmp_path, ext):
+    out = tmp_path / f"head{ext}"
+    assert run_cli("synth", SPEECH, "-o", out).returncode == 0
+    r = run_cli("info", out, "--json")
+    assert r.returncode == 0, r.stderr
+    import json
+
+    d = json.loads(r.stdout)
+    assert d["format"] == "gltf" and d["n_frames"] == 292 and d["fps"] == 25.0
+
+
+def test_piped_output_is_not_wrapped(tmp_path):
+    out = tmp_path / ("a_long_output_name_" * 4 + ".bvh")
+    r = run_cli("synth", SPEECH, "-o", out, COLUMNS="")
+    assert r.returncode == 0, r.stderr
+    first = r.stdout.splitlines()[0]
+    assert len(first) > 120 and first.startswith(str(out)) and first.endswith(" deg)"), r.stdout
+
+
+def test_empty_stdin_to_stream_says_so():
+    r = subprocess.run([sys.executable, "-m", "headmotion", "stream"], input=b"", capture_output=True,
+                       timeout=120, env=_env())
+    assert r.returncode == 1, r.stderr
+    err = r.stderr.decode()
+    assert "Traceback" not in err and r.stdout == b""
+    assert err.splitlines()[-1] == ("error: stdin: no audio arrived; expected raw 16-bit mono PCM at 16000 Hz "
+                                    "(--sample-rate for another rate), e.g. `headmotion stream < speech.s16le`")
+
+
+@pytest.mark.parametrize("name", ["default_model.md", "default_stream_model.md"])
+def test_model_cards_cite_no_builders_paths(name):
+    import re
+
+    card = (SRC / "headmotion" / "data" / name).read_text()
+    assert not re.search(r"(?<![\w.])/(work|home|root|tmp|Users|mnt)/", card), name
+    assert "half a minute" not in card
+    if name == "default_model.md":
+        assert "(20 s or more of their speech with motion" in card
+
+
+# ------------------------------------------------------------------------------- progress
+def _long_speech(tmp_path, seconds: float) -> Path:
+    import soundfile as sf
+
+    x, sr = sf.read(SPEECH, dtype="float32")
+    path = tmp_path / f"speech_{seconds:g}s.wav"
+    sf.write(path, np.tile(x, int(seconds * sr) // len(x) + 1)[:int(seconds * sr)], sr)
+    return path
+
+
+def _run_with_terminal_stderr(args, tmp_path) -> tuple[int, str]:
+    """``headmotion ARGS`` with stderr on a pseudo-terminal; (exit code, what the terminal showed)."""
+    import pty
+    import select
+
+    master, slave = pty.openpty()
+    p = subprocess.Popen([sys.executable, "-m", "headmotion", *map(str, args)], stdout=subprocess.DEVNULL,
+                         stderr=slave, env=_env(COLUMNS="100"), cwd=tmp_path)
+    os.close(slave)
+    shown = b""
+    while True:
+        ready, _, _ = select.select([master], [], [], 0.2)
+        if ready:
+            try:
+                chunk = os.read(master, 65536)
+            except OSError:  # the child closed the terminal
+                break
+            if not chunk:
+                break
+            shown += chunk
+        elif p.poll() is not None:
+            break
+    os.close(master)
+    return p.wait(timeout=60), shown.decode("utf-8", "replace")
+
+
+def test_synthesis_of_long_speech_shows_progress_in_a_terminal_only(tmp_path):
+    speech = _long_speech(tmp_path, 75.0)
+    code, shown = _run_with_terminal_stderr(["synth", speech, "-o", tmp_path / "a.bvh"], tmp_path)
+    assert code == 0, shown
+    assert f"synthesising {speech.name}" in shown and "100%" in shown
+    assert "0:00:00" in shown  # elapsed and time left columns
+    piped = run_cli("synth", speech, "-o", tmp_path / "b.bvh")
+    assert piped.returncode == 0 and piped.stderr == "", piped.stderr
+
+
+def test_synthesis_of_short_speech_shows_no_progress(tmp_path):
+    code, shown = _run_with_terminal_stderr(["synth", SPEECH, "-o", tmp_path / "a.bvh"], tmp_path)
+    assert code == 0 and "synthesising" not in shown and "%" not in shown, shown

@@ -69,6 +69,24 @@ def test_offline_controls_out_of_range_or_unknown(c, query, needle):
     assert r.json()["error"] == "bad_parameter" and needle in r.json()["detail"], r.json()
 
 
+@pytest.mark.parametrize("query", ["amount=3.5", "gain=11", "offset_pitch=-91", "seed=-1", "fps=0"])
+def test_offline_errors_name_the_query_parameters_not_the_command_line_options(c, query):
+    r = _post(c, f"model=stream&{query}")
+    assert r.status_code == 400, r.text
+    detail = r.json()["detail"]
+    assert "--" not in detail, detail
+    assert detail.startswith(query.split("=")[0].split("_")[0]), detail
+
+
+def test_service_words_for_library_messages():
+    from headmotion.serve.access import api_wording
+
+    assert api_wording("amount (--amount) must be a number from 0 to 3; got 5") == \
+        "amount must be a number from 0 to 3; got 5"
+    assert api_wording("a tws-basic model does not do that; use --gain or --gain-pitch") == \
+        "a tws-basic model does not do that; use gain or gain_pitch"
+
+
 def test_offline_controls_at_the_edges_of_their_ranges(c):
     r = _post(c, f"model=stream&gain=0,10,1&offset=-90,0,90&seed={SEED_MAX}&format=json")
     assert r.status_code == 200, r.text

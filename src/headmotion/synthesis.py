@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ParameterError
+from .errors import AudioLoadingError, ParameterError
 from .io._limits import FPS_RANGE
 from .motion.control import AMOUNT_RANGE
 from .seeds import DEFAULT_SEED, SEED_MAX, check_seed, model_seed
@@ -352,6 +352,15 @@ def apply_controls(motion: Motion, model, controls: Controls, reference=None) ->
     return motion
 
 
+def _check_long_enough(audio, duration: float, fps: float) -> None:
+    """:class:`AudioLoadingError` (exit 1) naming the file when the speech is too short for one frame."""
+    if duration * fps >= 1.0:
+        return
+    what = str(audio) if isinstance(audio, (str, os.PathLike)) else "the speech"
+    raise AudioLoadingError(f"{what}: {duration * 1000:.1f} ms of speech is too short for one frame of head motion "
+                            f"(the model makes {fps:g} frames a second: give at least {1000.0 / fps:.0f} ms)")
+
+
 def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: int = 1, controls: Controls | None = None,
                progress=None, hear=None, **controls_kwargs) -> list[Motion]:
     """Head motion for speech: what ``headmotion synth`` writes.
@@ -389,6 +398,7 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: 
     seed = model_seed(m, seed)
     check_seed(seed, samples)
     speech, duration, in_blocks = _speech(audio, m)
+    _check_long_enough(audio, duration, m.frame_rate)
     heard = None
     if hear is not None:
         speech, heard = _conversation(speech, hear)
@@ -410,6 +420,8 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: 
             from .listener.head import listen
 
             motion = listen(motion, speech, heard, m, listening=c.listening, seed=seed + k)
+        if len(motion) == 0:
+            _check_long_enough(audio, 0.0, m.frame_rate)
         out.append(apply_controls(motion, m, c, reference))
         if progress is not None:
             progress((k + 1) * duration, total)

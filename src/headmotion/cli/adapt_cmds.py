@@ -79,7 +79,8 @@ def adapt(
     t0 = time.perf_counter()
     with progress_bar("adapting") as update:
         model = adapt_model(c, base, base_cost=BASE_COST if base_cost is None else base_cost,
-                            progress=lambda done, total, desc: update(done, total=total, description=desc))
+                            progress=lambda done, total, desc: update(done, total=total, description=desc),
+                            name=where)
     out = model.save(output)
     card = out.with_suffix(".md")
     try:

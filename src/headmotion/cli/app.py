@@ -8,6 +8,7 @@ Heavy libraries are imported inside commands so that ``headmotion --help`` stays
 from __future__ import annotations
 
 import contextlib
+import os
 import sys
 
 import typer
@@ -73,8 +74,27 @@ class SafeConsole(Console):
         return super().render_str(text, *args, **kwargs)
 
 
-console = SafeConsole()
-err_console = SafeConsole(stderr=True)
+def _is_terminal(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):  # replaced or closed
+        return False
+
+
+def _console(*, stderr: bool = False) -> SafeConsole:
+    """A console that wraps at the terminal's width, and not at all when its stream is piped or
+    redirected (rich would wrap at 80 columns there; ``COLUMNS`` still sets a width)."""
+    piped = not _is_terminal(sys.stderr if stderr else sys.stdout)
+    if piped and not os.environ.get("COLUMNS"):
+        return SafeConsole(stderr=stderr, soft_wrap=True, width=UNWRAPPED_WIDTH)
+    return SafeConsole(stderr=stderr)
+
+
+#: the width a piped console lays tables out in (lines are not wrapped at all)
+UNWRAPPED_WIDTH = 10_000
+
+console = _console()
+err_console = _console(stderr=True)
 
 
 def print_error(message: str) -> None:
@@ -88,14 +108,16 @@ def print_warning(message: str) -> None:
 
 
 @contextlib.contextmanager
-def progress_bar(description: str, total: float | None = None):
-    """A rich progress bar; yields ``update(done, total=None, description=None)``.
+def progress_bar(description: str, total: float | None = None, *, min_total: float | None = None):
+    """A rich progress bar with the time left; yields ``update(done, total=None, description=None)``.
 
-    Rendered on stderr only when it is a terminal, so piped output stays clean."""
+    Rendered on stderr only when it is a terminal, so piped output stays clean; with ``min_total``,
+    only for work of at least that ``total`` (short work finishes before a bar would say anything)."""
+    short = min_total is not None and not (total is not None and total >= min_total)
     progress = Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
         TimeElapsedColumn(), TimeRemainingColumn(), console=err_console, transient=False,
-        disable=not sys.stderr.isatty(),
+        disable=short or not _is_terminal(sys.stderr),
     )
     with progress:
         task = progress.add_task(description, total=total)

@@ -135,7 +135,8 @@ def models(as_json: bool = typer.Option(False, "--json", help="print the list as
 @app.command("info")
 def info(
     ctx: typer.Context,
-    file: Optional[Path] = typer.Argument(None, help="a motion file (bvh, csv, json, npz, c3d) or an audio/video file"),
+    file: Optional[Path] = typer.Argument(None, help="a motion file (bvh, csv, json, npz, c3d, glb, gltf) or an "
+                                          "audio/video file"),
     as_json: bool = typer.Option(False, "--json", help="print the information as JSON"),
     model: Optional[str] = typer.Option(None, "--model",
                                         help="print a model's card: a shipped name ('default', 'stream'; `headmotion models`) or a .hmz file"),

@@ -26,6 +26,10 @@ import typer
 from ..errors import ParameterError
 from .app import app, console, progress_bar
 
+#: synthesis of at least this much speech (all samples together, seconds) shows a progress bar with
+#: the time left, in a terminal
+PROGRESS_MIN_SPEECH_S = 60.0
+
 
 def default_model_path() -> Path:
     """The file of the shipped model ``default``."""
@@ -35,7 +39,7 @@ def default_model_path() -> Path:
 
 
 def default_stream_model_path() -> Path:
-    """The file of the shipped causal model ``stream`` (the default model is not causal)."""
+    """The file of the shipped model ``stream``, which decides from the speech so far (39 ms behind)."""
     from ..shipped import shipped_path
 
     return shipped_path("stream")
@@ -186,7 +190,12 @@ def synth(
         raise ParameterError(f"--neck-share applies to .bvh, .glb and .gltf outputs; got {output.suffix!r}")
     m = load_cli_model(model)
     t0 = time.perf_counter()
-    motions = synthesize(speech, m, seed=seed, samples=samples, controls=controls, hear=hear)
+    from ..io.audio_blocks import audio_duration
+
+    with progress_bar(f"synthesising {speech.name}", total=audio_duration(speech) * samples,
+                      min_total=PROGRESS_MIN_SPEECH_S) as update:  # a bar for long work, in a terminal
+        motions = synthesize(speech, m, seed=seed, samples=samples, controls=controls, hear=hear,
+                             progress=lambda done, total: update(done, total=total))
     dt = time.perf_counter() - t0
     save_opts = {} if neck_share is None else {"neck_share": float(neck_share)}
     paths = [output] if samples == 1 else [output.with_name(f"{output.stem}_{k + 1}{output.suffix}")

@@ -7,6 +7,7 @@ half-written output file behind, and an existing file is replaced only by a comp
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from pathlib import Path
@@ -34,9 +35,14 @@ def atomic_path(path, *, suffix: str | None = None):
     target is left untouched.
     """
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
     sfx = target.suffix if suffix is None else suffix
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".part{sfx}", dir=target.parent)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".part{sfx}", dir=target.parent)
+    except FileExistsError:  # a file where the folder should be
+        raise NotADirectoryError(errno.ENOTDIR, "a file stands where its folder should be", str(target)) from None
+    except OSError as exc:
+        raise _naming(exc, target) from None
     os.close(fd)
     tmp_path = Path(tmp)
     try:
@@ -45,10 +51,17 @@ def atomic_path(path, *, suffix: str | None = None):
         with contextlib.suppress(OSError):
             os.chmod(tmp_path, 0o666 & ~_umask())
         os.replace(tmp_path, target)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             tmp_path.unlink()
+        if isinstance(exc, OSError) and str(tmp_path) in (str(exc.filename), str(exc.filename2)):
+            raise _naming(exc, target) from None  # the path asked for, not the temporary file
         raise
+
+
+def _naming(exc: OSError, target: Path) -> OSError:
+    """``exc`` (same class, errno and reason) naming ``target``."""
+    return type(exc)(exc.errno, exc.strerror or str(exc), str(target))
 
 
 @contextlib.contextmanager

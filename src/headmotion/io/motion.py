@@ -41,9 +41,9 @@ import numpy as np
 from ..errors import FormatError, ParameterError
 from ..types import Motion
 
-READ_FORMATS = ("bvh", "optitrack", "c3d", "openface", "livelink", "smpl", "csv", "json", "npz")
+READ_FORMATS = ("bvh", "optitrack", "c3d", "openface", "livelink", "smpl", "csv", "json", "npz", "gltf")
 WRITE_FORMATS = ("bvh", "csv", "json", "npz", "livelink", "gltf")
-_EXT = {".bvh": "bvh", ".c3d": "c3d", ".json": "json", ".npz": "npz", ".csv": "csv"}
+_EXT = {".bvh": "bvh", ".c3d": "c3d", ".json": "json", ".npz": "npz", ".csv": "csv", ".glb": "gltf", ".gltf": "gltf"}
 _ALIASES = {"motive": "optitrack", "live-link": "livelink", "live_link": "livelink", "native": "csv",
             "smplx": "smpl", "smpl-x": "smpl", "smplh": "smpl", "smpl-h": "smpl"}
 
@@ -121,7 +121,7 @@ def load_motion(path, *, format: str | None = None, **options) -> Motion:
     ----------
     path : str or Path
     format : str, optional
-        One of ``bvh, optitrack, c3d, openface, livelink, smpl, csv, json, npz``; from the
+        One of ``bvh, optitrack, c3d, openface, livelink, smpl, csv, json, npz, gltf``; from the
         extension (and a CSV's header or an npz's arrays) when omitted.
     **options
         Passed to the reader, e.g. ``head="Head"``, ``relative_to="Spine2"`` (BVH),
@@ -148,6 +148,8 @@ def load_motion(path, *, format: str | None = None, **options) -> Motion:
             from .livelink import load_livelink as fn
         elif fmt == "smpl":
             from .smpl import load_smpl as fn
+        elif fmt == "gltf":  # what save_gltf writes (headmotion synth -o head.glb)
+            from .gltf import load_gltf as fn
         elif fmt == "csv":
             from .native import load_csv as fn
         elif fmt == "json":
@@ -179,6 +181,8 @@ def save_motion(motion: Motion, path, *, format: str | None = None, **options) -
     if not isinstance(motion, Motion):
         raise ParameterError(f"save_motion needs a Motion; got {type(motion).__name__}")
     p = Path(path)
+    if len(motion) == 0:  # no format's reader takes a file without frames
+        raise ParameterError(f"{p}: cannot write a motion with zero frames")
     if format is None:
         ext = p.suffix.lower()
         if ext not in (".bvh", ".csv", ".json", ".npz", ".glb", ".gltf"):

@@ -3,6 +3,8 @@ their key's request rate allows one more request; the API's one error type."""
 
 from __future__ import annotations
 
+import re
+
 from ..errors import HeadMotionError
 from .auth import Key
 
@@ -13,6 +15,13 @@ class ApiError(HeadMotionError):
     def __init__(self, status: int, kind: str, detail: str, headers: dict | None = None):
         super().__init__(detail)
         self.status, self.kind, self.detail, self.headers = status, kind, detail, headers or {}
+
+
+def api_wording(text: str) -> str:
+    """A library message in the API's words: the command line's ``(--gain)`` asides dropped and its
+    options named as the query parameters they are (``--gain-pitch`` → ``gain_pitch``)."""
+    text = re.sub(r" \(--[a-z][a-z-]*\)", "", text)
+    return re.sub(r"(?<![\w-])--([a-z][a-z-]*)", lambda m: m.group(1).replace("-", "_"), text)
 
 
 def identify(st, authorization: str | None) -> Key:
@@ -40,4 +49,4 @@ def authorize(request, st) -> Key:
     return key
 
 
-__all__ = ["ApiError", "authorize", "check_rate", "identify"]
+__all__ = ["ApiError", "api_wording", "authorize", "check_rate", "identify"]

@@ -26,7 +26,7 @@ from starlette.routing import WebSocketRoute
 
 from ..errors import HeadMotionError, ParameterError
 from . import engine
-from .access import ApiError, identify
+from .access import ApiError, api_wording, identify
 from .auth import KeyStore, RateLimiter, Slots, load_keys
 from .config import ServeConfig
 from .metrics import Metrics, log_event
@@ -101,44 +101,61 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
     -------
     ASGI app (the Host/Origin guard around FastAPI).
     """
-    from . import offline
-    from .avatar import mount_avatar
-    from .stream import no_such_stream, stream_endpoint
-
     config = config or ServeConfig()
     keys = (KeyStore(None) if config.api_keys is None else
             KeyStore(load_keys(config.api_keys), path=config.api_keys))  # read again when the file changes
     reg = registry or Registry(engine.model_files(None if config.models_dir is None else Path(config.models_dir)))
     st = ServeState(config, reg, keys, RateLimiter(), Slots(), Metrics(), time.time())
-
-    @contextlib.asynccontextmanager
-    async def lifespan(_app):
-        # the port opens at once; the models load beside it (/readyz answers 503 until they are)
-        loading = None if reg.ready else asyncio.create_task(asyncio.to_thread(_load, reg, keys))
-        yield
-        if loading is not None and not loading.done():
-            loading.cancel()
-        log_event("shutdown", open_streams=st.slots.total())
-
-    app = FastAPI(title="headmotion serve", version=_version(), lifespan=lifespan, redoc_url=None,
+    app = FastAPI(title="headmotion serve", version=_version(), lifespan=_lifespan(st), redoc_url=None,
                   description="Natural head motion (pitch, yaw, roll) from speech: offline (POST /v1/motion) "
                               "and streaming (WebSocket `/v1/stream`, listed below under *stream*; its messages "
                               "in [/asyncapi.json](/asyncapi.json), AsyncAPI 3.0). Send `Authorization: Bearer "
                               "KEY` when the server has API keys. Errors are `{\"error\": KIND, \"detail\": "
                               "SENTENCE}`.")
     app.state.serve = st
+    _add_error_handlers(app, st)
+    _add_operations_routes(app, st)
+    _add_api_routes(app, st)
+    _mount(app, config)
+    guarded = Guard(AccessLog(app, lambda: st), hosts=allowed_hosts(config.host, config.allowed_hosts),
+                    origins=config.allowed_origins)
+    guarded.state = app.state  # tests reach the shared state through the outer app
+    return guarded
+
+
+def _lifespan(st: ServeState):
+    """The worker's lifespan: the port opens at once and the models load beside it (/readyz answers
+    503 until they are); the shutdown is logged."""
+
+    @contextlib.asynccontextmanager
+    async def lifespan(_app):
+        reg = st.registry
+        loading = None if reg.ready else asyncio.create_task(asyncio.to_thread(_load, reg, st.keys))
+        yield
+        if loading is not None and not loading.done():
+            loading.cancel()
+        log_event("shutdown", open_streams=st.slots.total())
+
+    return lifespan
+
+
+def _add_error_handlers(app: FastAPI, st: ServeState) -> None:
+    """Every error in the API's one shape, ``{"error": KIND, "detail": SENTENCE}``, in the API's words
+    (query parameters, not the command line's options: :func:`.access.api_wording`), counted."""
 
     @app.exception_handler(ApiError)
     async def api_error(_request: Request, exc: ApiError):
         st.metrics.errors.labels(exc.kind).inc()
-        return JSONResponse({"error": exc.kind, "detail": exc.detail}, status_code=exc.status, headers=exc.headers)
+        return JSONResponse({"error": exc.kind, "detail": api_wording(exc.detail)}, status_code=exc.status,
+                            headers=exc.headers)
 
     @app.exception_handler(HeadMotionError)
     async def library_error(_request: Request, exc: HeadMotionError):
         kind = ("unknown_model" if isinstance(exc, UnknownModel) else
                 "bad_parameter" if isinstance(exc, ParameterError) else "bad_input")
         st.metrics.errors.labels(kind).inc()
-        return JSONResponse({"error": kind, "detail": str(exc)}, status_code=404 if kind == "unknown_model" else 400)
+        return JSONResponse({"error": kind, "detail": api_wording(str(exc))},
+                            status_code=404 if kind == "unknown_model" else 400)
 
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, exc: StarletteHTTPException):
@@ -154,6 +171,11 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
         st.metrics.errors.labels("bad_parameter").inc()
         msgs = "; ".join(f"{'.'.join(str(p) for p in e.get('loc', ())[1:])}: {e.get('msg')}" for e in exc.errors())
         return JSONResponse({"error": "bad_parameter", "detail": msgs}, status_code=400)
+
+
+def _add_operations_routes(app: FastAPI, st: ServeState) -> None:
+    """``/healthz``, ``/readyz`` and ``/metrics``."""
+    reg, keys = st.registry, st.keys
 
     @app.get("/healthz", tags=["operations"], summary="The process answers")
     def healthz():
@@ -174,6 +196,11 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
             request.state.key = identify(st, request.headers.get("authorization")).name
         body, ctype = st.metrics.render()
         return Response(body, media_type=ctype)
+
+
+def _add_api_routes(app: FastAPI, st: ServeState) -> None:
+    """``/v1/models``, ``/asyncapi.json``, the stream route's HTTP answer and the browser example."""
+    reg = st.registry
 
     @app.get("/v1/models", tags=["motion"], summary="The models this server offers, with their cards")
     def models(request: Request):
@@ -202,6 +229,13 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
     def example():
         return FileResponse(STATIC / "example.html", media_type="text/html")
 
+
+def _mount(app: FastAPI, config: ServeConfig) -> None:
+    """The avatar page, the offline route, the WebSocket routes, the example's files and CORS."""
+    from . import offline
+    from .avatar import mount_avatar
+    from .stream import no_such_stream, stream_endpoint
+
     mount_avatar(app)
     app.include_router(offline.router)
     app.router.routes.append(WebSocketRoute("/v1/stream", stream_endpoint))
@@ -213,10 +247,6 @@ def create_app(config: ServeConfig | None = None, *, registry: Registry | None =
                            allow_methods=["GET", "POST"], allow_headers=["authorization", "content-type"],
                            expose_headers=["content-disposition", "retry-after", "x-headmotion-model"],
                            max_age=600)
-    guarded = Guard(AccessLog(app, lambda: st), hosts=allowed_hosts(config.host, config.allowed_hosts),
-                    origins=config.allowed_origins)
-    guarded.state = app.state  # tests reach the shared state through the outer app
-    return guarded
 
 
 def _load(reg: Registry, keys: KeyStore) -> None:

@@ -79,8 +79,16 @@ def _speech_seconds(recording, n: int) -> float:
     return float(np.sum(speaking_mask(recording.audio, fps=FPS, n_frames=n))) / FPS
 
 
+def _name(corpus) -> str:
+    """How messages name the material: the path given, the corpus's folder, or "the corpus"."""
+    if isinstance(corpus, (str, os.PathLike)):
+        return str(corpus)
+    root = getattr(corpus, "root", None)
+    return str(root) if root else "the corpus"
+
+
 def adapt(corpus, base="default", *, base_cost: float = BASE_COST, min_speech_s: float = MIN_SPEECH_S,
-          repeat_cost: float | None = None, progress=None) -> MotionMatch:
+          repeat_cost: float | None = None, progress=None, name: str | None = None) -> MotionMatch:
     """A model adapted to the speaker of ``corpus`` (see the module docstring).
 
     Parameters
@@ -99,6 +107,8 @@ def adapt(corpus, base="default", *, base_cost: float = BASE_COST, min_speech_s:
         The adapted model's ``repeat_cost`` (None: the base's).
     progress : callable, optional
         ``progress(done, total, description)`` per recording.
+    name : str, optional
+        How error messages name the material (default: the path given or the corpus's folder).
 
     Returns
     -------
@@ -113,9 +123,10 @@ def adapt(corpus, base="default", *, base_cost: float = BASE_COST, min_speech_s:
         raise ParameterError(f"base_cost must be a number >= 0; got {base_cost!r}")
     t0 = time.perf_counter()
     material = _corpus(corpus)
+    where = name or _name(corpus)
     recs = list(material)
     if not recs:
-        raise ParameterError(f"{corpus}: holds no recordings; adapting needs at least {min_speech_s:g} s of speech "
+        raise ParameterError(f"{where}: holds no recordings; adapting needs at least {min_speech_s:g} s of speech "
                              "with motion")
     model = _base(base)
     motions, feats, speech = [], [], 0.0
@@ -135,10 +146,10 @@ def adapt(corpus, base="default", *, base_cost: float = BASE_COST, min_speech_s:
         if progress is not None:
             progress(i + 1, len(recs), f"adapting: {r.id}")
     if speech < 1.0:
-        raise ParameterError(f"{corpus}: no speech found in its recordings; adapting needs at least "
+        raise ParameterError(f"{where}: no speech found in its recordings; adapting needs at least "
                              f"{min_speech_s:g} s of speech with motion")
     if speech < min_speech_s:
-        raise ParameterError(f"{corpus}: {speech:.1f} s of speech with motion; adapting needs at least "
+        raise ParameterError(f"{where}: {speech:.1f} s of speech with motion; adapting needs at least "
                              f"{min_speech_s:g} s")
     starts = [clip_starts(m) for m in motions]
     if model.lowpass:  # as the base's library was cleaned

@@ -28,8 +28,8 @@ class AeDnnSystem(DnnSystem):
 
 
 class MfccDnnSystem(DnnSystem):
-    """M_MFCC (paper §4.2): MFCC-39 → regressor → post-filter (the product's system: its speed map
-    is cross-fitted by default)."""
+    """M_MFCC (paper §4.2): MFCC-39 → regressor → post-filter (the former shipped default: its speed
+    map is cross-fitted by default)."""
 
     name = "mfcc-dnn"
     default_feature = "mfcc"
