@@ -51,14 +51,15 @@ def test_avatar_page_and_its_files_are_served():
     assert c.get("/v1/avatar/static/avatar.vrm").content[:4] == b"glTF"
 
 
-def _run_page(playwright, query: str, tmp_path, frames: int = 150) -> dict:
-    """Open ``/v1/avatar?QUERY`` on a real server with the fake microphone playing SPEECH; the page's
-    state once ``frames`` frames have come, with the audio it sent."""
+def _run_page(playwright, query: str, tmp_path, frames: int = 150, app=None) -> dict:
+    """Open ``/v1/avatar?QUERY`` on a real server (``app``, by default ``headmotion serve``'s) with
+    the fake microphone playing SPEECH; the page's state once ``frames`` frames have come, with the
+    audio it sent."""
     from headmotion.serve.app import create_app
     from headmotion.serve.config import ServeConfig
     from headmotion.web.server import running_app
 
-    app = create_app(ServeConfig(), registry=registry())
+    app = app or create_app(ServeConfig(), registry=registry())
     with running_app(app, ws="websockets-sansio") as url, playwright() as p:
         b = p.chromium.launch(executable_path=CHROMIUM, args=[*FLAGS, f"--use-file-for-fake-audio-capture={SPEECH}"])
         try:
@@ -128,12 +129,27 @@ def test_head_bone_follows_the_stream_from_a_fake_microphone(playwright, tmp_pat
 def test_head_listens_to_the_fake_microphone(playwright, tmp_path):
     """``?role=listen``: the microphone is the other party (hear messages), the avatar's own channel
     silence; the bones take ``synth SILENCE --hear SENT``'s frames."""
+    _check_listening(_run_page(playwright, "input=mic&autostart=1&record=1&role=listen", tmp_path, frames=100))
+
+
+@pytest.mark.browser
+@pytest.mark.timeout(240)
+def test_view_live_serves_the_avatar_page(playwright, tmp_path):
+    """``headmotion view --live`` answers ``/v1/avatar`` and its ``/v1/stream``: the listening page
+    there takes the same frames as on ``headmotion serve``."""
+    from headmotion.synthesis import load_model
+    from headmotion.web.live import create_live_app
+
+    app = create_live_app(load_model("stream"), model_path="stream")
+    _check_listening(_run_page(playwright, "input=mic&autostart=1&record=1&role=listen", tmp_path, frames=100,
+                               app=app))
+
+
+def _check_listening(st) -> None:
+    """The page listened (hear messages) and its bones took ``synth SILENCE --hear SENT``'s frames."""
     import headmotion
     from headmotion.types import Audio
 
-    st = _run_page(playwright, "input=mic&autostart=1&record=1&role=listen", tmp_path, frames=100)
-    if st["error"] and st["error"].startswith("bad_message"):
-        pytest.skip(f"this server's /v1/stream does not take hear messages: {st['error']}")
     assert not st["errors"], st["errors"]
     assert st["error"] is None and st["status"].startswith("listening to (microphone)")
     assert st["ready"]["hear"]["sample_rate"] == st["audio"]["sampleRate"]

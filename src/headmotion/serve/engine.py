@@ -49,14 +49,14 @@ def load(path: Path):
     return synthesis.load_model(path)
 
 
-def card(name: str, model, path: Path) -> dict:
+def card(name: str, model, path: Path | None) -> dict:
     """What ``GET /v1/models`` says about a model: rates, latency, lookahead, capabilities and the
     first line of its model card (``NAME.md`` beside the file) when there is one."""
     caps = sorted(model.capabilities)
     latency = float(model.stream(seed=0).latency_ms) if model.can_stream else None
-    md = path.with_suffix(".md")
+    md = None if path is None else Path(path).with_suffix(".md")
     summary = None
-    if md.exists():
+    if md is not None and md.exists():
         lines = [ln.strip() for ln in md.read_text(encoding="utf-8").splitlines() if ln.strip()]
         summary = next((ln for ln in lines if not ln.startswith("#")), None)
     return {"name": name, "system": model.name, "sample_rate": int(model.sample_rate),

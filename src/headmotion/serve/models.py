@@ -18,13 +18,23 @@ class UnknownModel(ParameterError):
 class Registry:
     """Name → loaded model and its card."""
 
-    def __init__(self, files: dict[str, Path]):
+    def __init__(self, files: dict[str, Path], *, default_stream: str = engine.DEFAULT_STREAM):
         engine.check_loaded(files)
         self.files = dict(files)
+        self.default_stream = default_stream  # the model of a stream whose start message names none
         self.models: dict = {}
         self.cards: dict[str, dict] = {}
         self.load_seconds = 0.0
         self.error: str | None = None
+
+    @classmethod
+    def of_loaded(cls, name: str, model, path: Path | None = None) -> "Registry":
+        """A registry of one model already loaded (``view --live``, an agent's own server), the
+        default of every stream; ``path`` its file when it has one (for its card)."""
+        reg = cls({name: path or Path(name)}, default_stream=name)
+        reg.cards[name] = engine.card(name, model, path)
+        reg.models[name] = model
+        return reg
 
     def load_all(self) -> "Registry":
         t0 = time.perf_counter()

@@ -357,7 +357,8 @@ class Session:
                 limit_size(None)
         start = parse_start(msg.get("text") if msg.get("bytes") is None else None)
         check_rate(self.st, self.key)
-        name, model = self.st.registry.get(start.model, default=engine.DEFAULT_STREAM, streaming=True)
+        reg = self.st.registry
+        name, model = reg.get(start.model, default=reg.default_stream, streaming=True)
         if not self.st.slots.take(self.key):
             raise ProtocolError("too_many_streams", f"key {self.key.name!r} has its {self.key.streams} concurrent "
                                                     f"streams open", 1013)

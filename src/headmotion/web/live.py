@@ -1,16 +1,21 @@
 """``headmotion view --live``: the bundled viewer driven by the microphone or an audio file through
-a WebSocket (the seeds are silent on live use).
+a WebSocket, with any model that streams (the shipped ``stream`` model by default).
 
 The page (``static/live.html``) captures audio in the browser — ``getUserMedia`` for the
-microphone, or a chosen file decoded and played — and sends it as binary messages of float32
-mono PCM to ``/ws`` (after one text message ``{"sample_rate": sr}``).  The server resamples it on
-the stream to the model's rate and pushes it into a fresh
-:func:`headmotion.synthesis.open_stream` per connection (``sample_rate`` the page's), and sends back each batch of final frames as one text
-message ``{"frames": [record, ...]}`` (the JSON-line records of ``headmotion stream``).  The page
-moves the head to the newest frame and shows the latency: for a frame at audio time τ, the
-browser's wall time on receipt minus the wall time at which the sample at τ was captured (known
-from the send time and position of the chunk holding it), median and 95th percentile of the
-last 200 frames.
+microphone, or a chosen file decoded and played — and streams it over ``WS /v1/stream``, the
+service's protocol (docs/serve.md; :func:`headmotion.serve.local.mount_stream` answers it with the
+very session ``headmotion serve`` runs): a start message ``{"type": "start", "sample_rate": sr,
+"encoding": "f32le", "resample": "fast"}`` (and the server's ``seed``), binary messages of float32
+mono PCM, ``{"type": "end"}`` at the end of a file.  The stream resamples to the model's rate and
+pushes into one :func:`headmotion.synthesis.open_stream` per connection; the final frames come back
+as ``{"type": "frames", "frames": [record, ...]}`` (the JSON-line records of ``headmotion
+stream``).  The page moves the head to the newest frame and shows the latency: for a frame at
+audio time τ, the browser's wall time on receipt minus the wall time at which the sample at τ was
+captured (known from the send time and position of the chunk holding it), median and 95th
+percentile of the last 200 frames.
+
+The app also serves the avatar page, ``/v1/avatar`` (:func:`headmotion.serve.avatar.mount_avatar`),
+which streams over the same route.
 
 Libraries: the viewer's FastAPI app and uvicorn (the ``websockets`` package provides uvicorn's
 WebSocket protocol); the page uses an AudioWorklet (no ScriptProcessorNode, which is deprecated).
@@ -19,29 +24,28 @@ WebSocket protocol); the page uses an AudioWorklet (no ScriptProcessorNode, whic
 from __future__ import annotations
 
 import contextlib
-import json
-import time
 from pathlib import Path
-
-import numpy as np
 
 from ..errors import ParameterError
 from .server import STATIC
 
 
 def create_live_app(model, *, seed: int | None = None, model_path: str | None = None):
-    """FastAPI app serving the live page and its WebSocket for a loaded causal model."""
-    from fastapi import FastAPI, WebSocketDisconnect
+    """FastAPI app serving the live page, the avatar page and ``/v1/stream`` for a loaded causal model."""
+    from fastapi import FastAPI
     from fastapi.responses import FileResponse
     from fastapi.staticfiles import StaticFiles
 
-    from ..live.frames import frame_records
-    from ..synthesis import open_stream
+    from ..serve.avatar import mount_avatar
+    from ..serve.local import mount_stream
+    from ..synthesis import check_seed, open_stream
 
     if not model.can_stream:
-        raise ParameterError(f"view --live needs a model that streams (tws-basic, tws-hier, le2012, the DNN "
-                             f"systems); "
+        raise ParameterError(f"view --live needs a model that streams (the shipped 'stream' and 'default', "
+                             f"motion-match, tws-basic, tws-hier, le2012, the DNN systems); "
                              f"{model_path or 'the model'} is {getattr(model, 'name', '?')!r}")
+    check_seed(seed, allow_none=True)
+    name, path = _model_name(model_path)
     model_sr = int(model.sample_rate)
     app = FastAPI(title="headmotion live", docs_url=None, redoc_url=None, openapi_url=None)
 
@@ -53,46 +57,24 @@ def create_live_app(model, *, seed: int | None = None, model_path: str | None = 
     def info():
         st = open_stream(model, seed=seed)
         return {"system": model.name, "sample_rate": model_sr, "latency_ms": float(getattr(st, "latency_ms", 0.0)),
-                "model": model_path}
+                "model": model_path, "stream_model": name, "seed": seed}
 
-    async def ws(websocket):  # a plain Starlette route (no annotation for FastAPI to resolve)
-        await websocket.accept()
-        try:
-            hello = json.loads(await websocket.receive_text())
-            sr = int(hello.get("sample_rate", 0))
-            if not 8000 <= sr <= 192000:
-                await websocket.send_text(json.dumps({"error": f"sample_rate must be 8000-192000 Hz; got {sr}"}))
-                await websocket.close()
-                return
-            stream = open_stream(model, seed=seed, sample_rate=sr)
-            frame = 0
-            await websocket.send_text(json.dumps({"ready": True, "latency_ms": float(getattr(stream, "latency_ms", 0.0))}))
-            while True:
-                msg = await websocket.receive()
-                if msg.get("type") == "websocket.disconnect":
-                    break
-                data = msg.get("bytes")
-                if data is None:
-                    if not (msg.get("text") and json.loads(msg["text"]).get("end")):
-                        continue
-                    motion = stream.flush()  # end of the audio: what the resampler and the model still hold
-                else:
-                    motion = stream.push(np.frombuffer(data[: len(data) // 4 * 4], dtype="<f4"))
-                rv, fps = motion.rotvec, float(motion.fps)
-                if len(rv):
-                    recs = frame_records(rv, fps, frame)
-                    frame += len(recs)
-                    await websocket.send_text(json.dumps({"frames": recs, "server_time": time.time()}))
-                if data is None:
-                    break
-        except WebSocketDisconnect:
-            pass
-
-    from starlette.routing import WebSocketRoute
-
-    app.router.routes.append(WebSocketRoute("/ws", ws))
+    mount_stream(app, model, name=name, path=path)
+    mount_avatar(app)
     app.mount("/viewer", StaticFiles(directory=STATIC), name="viewer")
     return app
+
+
+def _model_name(model_path: str | None) -> tuple[str, Path | None]:
+    """The model's name on ``/v1/stream`` (a file's stem, a shipped name as it is) and its file."""
+    if model_path is None:
+        return "stream", None
+    p = Path(model_path)
+    if p.is_file():
+        return p.stem, p
+    from ..serve.engine import SHIPPED
+
+    return str(model_path), SHIPPED.get(str(model_path))
 
 
 @contextlib.contextmanager
