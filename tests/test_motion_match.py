@@ -85,7 +85,8 @@ def test_speech_descriptors_look_back_and_ahead():
                                  {"mirror": "yes"}, {"target_weight": float("nan")}, {"goal_path": 1},
                                  {"pause_speed": "yes"}, {"pause_switch": -1.0}, {"live": "yes"},
                                  {"lowpass": 0.2}, {"lowpass": 12.5}, {"posture_s": -1.0}, {"prosody": "mfcc"},
-                                 {"prosody": "f0e", "live": True}])
+                                 {"prosody": "f0e", "live": True}, {"voicing_threshold": 0.0}, {"voicing_threshold": 1.5},
+                                 {"centred": "yes"}])
 def test_bad_parameters_are_refused(bad, corpus):
     with pytest.raises(ParameterError, match=list(bad)[-1]):
         create("motion-match", **bad).fit(corpus)
@@ -278,6 +279,30 @@ def test_on_f0e_live_prosody_it_streams_with_lookahead_and_the_stream_equals_pre
     assert st.latency_ms == pytest.approx(live_latency(windowed) + 1000.0 * ahead / FPS)
 
 
+@pytest.mark.parametrize("live", [False, True])
+def test_centred_features_and_a_lenient_voicing_threshold_keep_the_stream_equal_to_predict(corpus, live):
+    """``centred`` reads the features' smoothing and deltas 200 ms ahead (5 frames at 25 fps): the
+    stream comes that much later, and still equals ``predict`` bit for bit; a lenient
+    ``voicing_threshold`` calls more frames voiced."""
+    from headmotion.features.streaming import StreamingF0e
+    from headmotion.systems.motion_match import CENTRED_FEATURES
+
+    m = create("motion-match", prosody="f0e-live", live=live, hop=4 if live else 15, centred=True,
+               voicing_threshold=0.45).fit(corpus)
+    audio = corpus[1].audio.slice_seconds(0, 8.0)
+    out = m.predict(audio, seed=2)
+    st = m.stream(seed=2)
+    x = audio.samples
+    parts = [st.push(x[i:i + 480]) for i in range(0, len(x), 480)] + [st.flush()]
+    np.testing.assert_array_equal(np.concatenate([p.rotvec for p in parts]), out.rotvec)
+    assert st.latency_ms >= live_latency(m) + 200.0 - 1e-6
+    strict = StreamingF0e(sample_rate=16000, fps=FPS, voicing=True)
+    lenient = StreamingF0e(sample_rate=16000, fps=FPS, voicing=True, voicing_threshold=0.45)
+    voiced = [np.vstack([e.push(audio.samples), e.flush()])[:, -1].mean() for e in (strict, lenient)]
+    assert voiced[1] > voiced[0]
+    assert CENTRED_FEATURES == {"smooth_lookahead": 1, "delta_lookahead": 2}
+
+
 def live_latency(model) -> float:
     from headmotion.features.streaming import StreamingF0e
     from headmotion.systems.motion_match import LIVE_FEATURES
@@ -370,3 +395,22 @@ def test_repeat_cost_keeps_a_take_from_looping_over_the_same_clips(model):
             assert bool(close) == loops_allowed  # the held input does loop without memory
         finally:
             model.set_params(repeat_cost=0.0)
+
+
+def test_with_ease_in_every_take_opens_at_the_mean_pose_at_rest(corpus):
+    """``ease_in``: the first movement is chosen as if the head were at the mean pose, at rest, and
+    the offset to it settles as a critically damped spring: frame 0 is the mean pose and the
+    first step is small; without it a take opens at its first clip's own pose."""
+    eased = create("motion-match", prosody="f0e-live", ease_in=0.3).fit(corpus)
+    plain = create("motion-match", prosody="f0e-live").fit(corpus)
+    audio = corpus[2].audio.slice_seconds(0, 6.0)
+    opened_away = 0
+    for seed in range(4):
+        a = angles(eased.predict(audio, seed=seed)) - np.degrees(eased.mean_pose_)
+        np.testing.assert_allclose(a[0], 0.0, atol=1e-9)
+        assert np.abs(np.diff(a[:3], axis=0)).max() < 1.0  # eased: a slow start, not a jump
+        b = angles(plain.predict(audio, seed=seed)) - np.degrees(plain.mean_pose_)
+        opened_away += np.abs(b[0]).max() > 0.5
+    assert opened_away >= 2  # the plain model's takes open at their clips' poses
+    with pytest.raises(ParameterError, match="ease_in"):
+        create("motion-match", ease_in=-1.0).fit(corpus)

@@ -81,6 +81,8 @@ SPEAKING_SHARE = 0.2
 #: smoothing or delta lookahead, so a frame is final 39 ms after its start at 16 kHz
 LIVE_NAMES = ("energy", "d_energy", "logf0", "d_logf0", "voiced")
 LIVE_FEATURES = {"smooth_lookahead": 0, "delta_lookahead": 0, "voicing": True}
+#: ``centred``: the smoothing (2 frames at 25 fps) and the 5-frame deltas centred on their frame
+CENTRED_FEATURES = {"smooth_lookahead": 1, "delta_lookahead": 2}
 #: frames of the moving average over the features before they are matched
 SMOOTH = 5
 #: ``amount``: how far the choice leans per doubling — a frame's cost changes by
@@ -179,6 +181,18 @@ class MotionMatch(Synthesizer):
         the choice leans to clips that move more and faster over the next hop (and joins come
         more often), below 1 to calmer ones; 0 holds the mean pose.  No angle is scaled: every
         movement played is a recorded one (:data:`AMOUNT_LEAN`)
+    ease_in : float, seconds; > 0: a take opens from the mean pose at rest — its first movement is
+        chosen as if the head were there, and the offset to it settles as a join does (a critically
+        damped spring over ``blend`` frames, at most ``ease_in``) — so no take opens at a pose far
+        from the mean; 0: the first movement plays from its own pose
+    voicing_threshold : float in (0, 1], f0e-live prosody: the largest YIN aperiodicity of a voiced
+        frame (:class:`~headmotion.features.streaming.StreamingF0e`); 0.35 is strict on noisy or
+        reverberant recordings, where it calls speech unvoiced and a hop of speech a pause
+        (docs/decisions/follow-any-voice.md)
+    centred : bool, f0e-live prosody: smoothing and deltas centred on their frame (they read
+        :data:`CENTRED_FEATURES`' frames ahead, 200 ms at 25 fps), not ending at it — causal
+        features lag the speech by up to 80 ms (the deltas' window centre), a lag the choice then
+        carries into the motion; False: causal (39 ms behind the audio)
     repeat_cost : float, cost of starting a clip within a hop of one started in the last
         :data:`REPEAT_S` seconds: a take does not loop over the few movements that match a long
         silence or a small library (0: no memory)
@@ -207,7 +221,8 @@ class MotionMatch(Synthesizer):
                  target_weight: float = 2.0, ridge: float = 10.0, pause_weight: float = 1.0, goal_path: bool = True,
                  pause_switch: float = 0.0, pause_speed: bool = True, live: bool = False, lowpass: float = 0.0,
                  posture_s: float = 0.0, prosody: str | None = None, amount: float = 1.0,
-                 base_cost: float = 0.0, repeat_cost: float = 0.0, wait_s: float = 0.0, seed: int = 0):
+                 base_cost: float = 0.0, repeat_cost: float = 0.0, wait_s: float = 0.0,
+                 voicing_threshold: float = 0.35, centred: bool = False, ease_in: float = 0.0, seed: int = 0):
         self.hop, self.context, self.lookahead, self.goal_path = hop, context, lookahead, goal_path
         self.lowpass, self.posture_s, self.prosody = lowpass, posture_s, prosody
         self.pause_switch, self.pause_speed = pause_switch, pause_speed
@@ -216,6 +231,7 @@ class MotionMatch(Synthesizer):
         self.switch_cost, self.top_k, self.temperature, self.blend = switch_cost, top_k, temperature, blend
         self.mirror, self.seed, self.live = mirror, seed, live
         self.amount, self.base_cost, self.repeat_cost, self.wait_s = amount, base_cost, repeat_cost, wait_s
+        self.voicing_threshold, self.centred, self.ease_in = voicing_threshold, centred, ease_in
 
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]
@@ -237,11 +253,12 @@ class MotionMatch(Synthesizer):
         **{k: [whole(0)] for k in ("context", "lookahead", "seed")},
         **{k: [real(0)] for k in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "target_weight",
                                   "ridge", "pause_weight", "pause_switch", "lowpass", "posture_s", "base_cost",
-                                  "repeat_cost", "wait_s")},
+                                  "repeat_cost", "wait_s", "ease_in")},
         "temperature": [real(0, closed="neither")],
+        "voicing_threshold": [real(0, 1, closed="right")],
         "amount": [real(*AMOUNT_RANGE)],
         "prosody": [Options(("f0e", "f0e-live")), None],
-        **{k: [BOOLEAN] for k in ("mirror", "goal_path", "pause_speed", "live")},
+        **{k: [BOOLEAN] for k in ("mirror", "goal_path", "pause_speed", "live", "centred")},
     }
 
     def _validate_params(self) -> None:
@@ -277,6 +294,12 @@ class MotionMatch(Synthesizer):
         if self.live:
             return self._live_back, 0
         return int(self.context) + SMOOTH, int(self.hop) + int(self.lookahead) + SMOOTH // 2
+
+    @property
+    def _feature_params(self) -> dict:
+        """The f0e-live extractor's settings (:class:`~headmotion.features.streaming.StreamingF0e`)."""
+        params = {**LIVE_FEATURES, "voicing_threshold": float(self.voicing_threshold)}
+        return {**params, **CENTRED_FEATURES} if self.centred else params
 
     @property
     def _voicing(self) -> int:
@@ -514,8 +537,8 @@ class MotionMatch(Synthesizer):
         if self._live_prosody:  # resampled to the analysis rate, the rate the stream is pushed at
             from ..features import extract
 
-            return np.asarray(extract("f0e-live", audio, fps=FPS, n_frames=n, **LIVE_FEATURES).select(LIVE_NAMES).values,
-                              dtype=np.float32)
+            return np.asarray(extract("f0e-live", audio, fps=FPS, n_frames=n, **self._feature_params)
+                              .select(LIVE_NAMES).values, dtype=np.float32)
         from ..features import extract
 
         return np.concatenate([np.asarray(extract(name, audio, fps=FPS, n_frames=n, **params).select(names).values,
@@ -581,6 +604,7 @@ class _Walk:
         self.last = np.zeros((0, 3))
         self.recent: list[tuple[int, int]] = []  # (frame, library frame) of the clips started lately
         self.quiet = 0  # frames the speech has paused so far
+        self.opening = False  # the offset playing out is the take's opening (ease_in)
         self.lam = 4.0 / float(model.blend)
         #: > 0: the rate (per frame) at which a join's pose offset settles (``posture_s``)
         self.settle = 1.0 / (float(model.posture_s) * FPS) if model.posture_s else 0.0
@@ -597,8 +621,9 @@ class _Walk:
         self.quiet = 0 if speaking else self.quiet + n  # frames of pause so far
         pw = WAIT_PAUSE_WEIGHT if waiting else None
         repeat = max(float(m.repeat_cost), WAIT_REPEAT_COST) if waiting else float(m.repeat_cost)
-        if self.t == 0:
-            cost = m._costs(desc, None, None, goal, speaking, pause_weight=pw)
+        if self.t == 0:  # with ease_in, as if the head were at the mean pose, at rest
+            rest = np.zeros(3) if m.ease_in > 0 else None
+            cost = m._costs(desc, rest, rest, goal, speaking, pause_weight=pw)
         else:
             vel = self.last[-1] - self.last[-2] if len(self.last) >= 2 else np.zeros(3)
             ahead = self.last[-1] + vel
@@ -620,9 +645,15 @@ class _Walk:
         if self.t > 0 and j != pos:  # a join: carry on from where the motion was going
             self.x0 = ahead - m._P[j]
             self.v0 = vel - m._V[j]
-            self.age = 0
+            self.age, self.opening = 0, False
+        elif self.t == 0 and m.ease_in > 0:  # the take opens from the mean pose, at rest
+            self.x0, self.v0, self.age = -m._P[j], -m._V[j], 0
+            self.opening = True
         a = np.arange(self.age, self.age + n, dtype=np.float64)[:, None]
-        if self.settle:  # the pose offset settles slowly, the velocity offset over the blend
+        if self.opening:  # the opening settles within ease_in, as one critically damped spring
+            lam = max(self.lam, 4.0 / (float(m.ease_in) * FPS))
+            off = (self.x0 + (self.v0 + lam * self.x0) * a) * np.exp(-lam * a)
+        elif self.settle:  # the pose offset settles slowly, the velocity offset over the blend
             off = self.x0 * np.exp(-self.settle * a) + self.v0 * a * np.exp(-self.lam * a)
         else:  # both settle as one critically damped spring
             off = (self.x0 + (self.v0 + self.lam * self.x0) * a) * np.exp(-self.lam * a)
@@ -654,7 +685,7 @@ class MotionMatchStream:
         from ..features.streaming import StreamingF0e
 
         self.m = model
-        self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **LIVE_FEATURES)
+        self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **model._feature_params)
         self.latency_ms = self.ex.latency_ms
         self.walk = _Walk(model, seed)
         self.back = model._live_back
@@ -703,7 +734,7 @@ class WindowStream:
         from ..features.streaming import StreamingF0e
 
         self.m = model
-        self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **LIVE_FEATURES)
+        self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **model._feature_params)
         self.back, self.ahead = model._reach
         self.latency_ms = self.ex.latency_ms + 1000.0 * self.ahead / FPS
         self.walk = _Walk(model, seed)
