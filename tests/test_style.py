@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from headmotion.errors import ParameterError
-from headmotion.motion.style import (BAND_NAMES, StyleProfile, apply_style, band_split,
-                                     load_style_reference, style_profile)
+from headmotion.motion.style import BAND_NAMES, StyleProfile, apply_style, band_split, style_profile
 from headmotion.rotations import pitch_yaw_roll_to_rotvec
 from headmotion.types import Motion
+from headmotion.video.reference import load_style_reference
 
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = Path.home() / ".cache" / "headmotion" / "corpus" / "talking_video"

@@ -208,7 +208,8 @@ def test_the_order_of_the_controls_from_the_parts(examples_dir, models):
     """model motion → style → gain about the styled mean pose (the model's when it is kept) →
     offset → fps, spelled out with the parts each control is made of."""
     from headmotion.motion.control import apply_gain, mean_pose_of
-    from headmotion.motion.style import apply_style, load_style_reference, style_profile
+    from headmotion.motion.style import apply_style, style_profile
+    from headmotion.video.reference import load_style_reference
 
     m = models["default"]
     wav = examples_dir / "speech" / "speech_male.wav"

@@ -324,7 +324,8 @@ def _style_reference(controls: Controls):
     ref = controls.style_from
     if ref is None:
         return None
-    from .motion.style import load_style_reference, style_profile
+    from .motion.style import style_profile
+    from .video.reference import load_style_reference
 
     return style_profile(ref if isinstance(ref, Motion) else load_style_reference(ref))
 

@@ -136,8 +136,4 @@ def save_livelink(motion: Motion, path) -> None:
         fh.write(buf.getvalue())
 
 
-def is_livelink(header: str) -> bool:
-    return "Timecode" in header and "HeadYaw" in header
-
-
-__all__ = ["load_livelink", "save_livelink", "COLUMNS", "is_livelink"]
+__all__ = ["load_livelink", "save_livelink", "COLUMNS"]

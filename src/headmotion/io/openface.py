@@ -180,10 +180,4 @@ def load_openface(path, *, fps: float | None = None, min_confidence: float = 0.5
     return Motion(filled[:, :3], fps, translation=t_out, meta=meta)
 
 
-def openface_info(path) -> dict:
-    m = load_openface(path)
-    return {"format": "openface", "n_frames": len(m), "fps": m.fps, "duration": m.duration,
-            "layout": m.meta["layout"]}
-
-
-__all__ = ["load_openface", "openface_info", "snap_rate", "STANDARD_RATES"]
+__all__ = ["load_openface", "snap_rate", "STANDARD_RATES"]

@@ -160,10 +160,4 @@ def load_smpl(path, *, fps: float | None = None, max_gap: float = 0.1) -> Motion
     return Motion(filled, rate, meta=meta)
 
 
-def smpl_info(path) -> dict:
-    m = load_smpl(path)
-    return {"format": "smpl", "model": m.meta["model"], "n_frames": len(m), "fps": m.fps,
-            "duration": m.duration}
-
-
-__all__ = ["load_smpl", "smpl_info", "is_smpl_npz", "MODELS", "NECK", "HEAD", "CHEST"]
+__all__ = ["load_smpl", "is_smpl_npz", "MODELS", "NECK", "HEAD", "CHEST"]

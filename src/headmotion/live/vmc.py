@@ -76,11 +76,6 @@ def package_quat_to_unity(quat_xyzw: np.ndarray) -> np.ndarray:
     return q
 
 
-def unity_quat_to_package(quat_xyzw: np.ndarray) -> np.ndarray:
-    """The inverse of :func:`package_quat_to_unity` (the map is its own inverse)."""
-    return package_quat_to_unity(quat_xyzw)
-
-
 def vmc_bone_quats(rotvec: np.ndarray, neck_share: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Unity-convention local quaternions ``(n, 4)`` (x, y, z, w) of Neck and Head for package
     rotation vectors ``(n, 3)``."""
@@ -167,5 +162,5 @@ class VmcSender:
             pass
 
 
-__all__ = ["VmcSender", "vmc_bone_quats", "package_quat_to_unity", "unity_quat_to_package",
+__all__ = ["VmcSender", "vmc_bone_quats", "package_quat_to_unity",
            "parse_host_port", "VMC_DEFAULT_PORT"]

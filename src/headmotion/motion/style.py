@@ -48,11 +48,10 @@ bank was the first try, above); no maintained package does head-motion style tra
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from ..errors import FormatError, ParameterError
+from ..errors import ParameterError
 from ..rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
 from ..types import Motion
 from .bands import BAND_EDGES_HZ, band_names
@@ -63,9 +62,6 @@ BAND_EDGES = BAND_EDGES_HZ
 BAND_NAMES = band_names()  # ("0_0.5", "0.5_1.5", "1.5_4", "4_up"): the realism measure's spelling
 #: A reference must be at least this long (s) for its slowest band to mean anything.
 MIN_REFERENCE_SECONDS = 2.0
-#: Extensions read as a talking video (through :mod:`headmotion.video`) by
-#: :func:`load_style_reference`; everything else goes to :func:`headmotion.io.load_motion`.
-VIDEO_EXTENSIONS = (".mp4", ".mov", ".mkv", ".avi", ".webm", ".mpg", ".mpeg", ".m4v")
 
 #: Width (octaves) of each raised-cosine crossover.
 TRANSITION_OCTAVES = 0.5
@@ -239,46 +235,4 @@ def apply_style(candidate: Motion, reference, *, strength: float = 1.0, match_me
     return candidate.replace(rotvec=rv, meta=meta)
 
 
-def load_style_reference(path, *, audio=None, **options) -> Motion:
-    """The head motion of a style reference: a motion file or a talking video.
-
-    Parameters
-    ----------
-    path : str or Path
-        Any file :func:`headmotion.io.load_motion` reads, or a video (extension in
-        :data:`VIDEO_EXTENSIONS`); a video's head pose is estimated from the face
-        (:mod:`headmotion.video`, needs mediapipe) and the longest usable stretch is returned.
-    audio : path, optional
-        The video pipeline wants the speech too; a video without an audio track and without a
-        same-named .wav is analysed with a silent stand-in (the audio plays no part in the style).
-    **options : passed to :func:`headmotion.io.load_motion` (e.g. ``head="Head"`` for BVH)
-    """
-    p = Path(path)
-    if p.suffix.lower() not in VIDEO_EXTENSIONS:
-        from ..io.motion import load_motion
-
-        return load_motion(p, **options)
-    if not p.is_file():
-        raise FormatError("style reference video not found", path=p)
-    import tempfile
-
-    from ..video.build import analyse_video, parts_from_analysis
-    from ..video.decode import find_sidecar_audio, probe
-
-    with tempfile.TemporaryDirectory(prefix="headmotion-style-") as tmp:
-        if audio is None:
-            info = probe(p)
-            if not info.has_audio and find_sidecar_audio(p) is None:
-                import soundfile as sf
-
-                audio = Path(tmp) / "silence.wav"
-                dur = max(float(info.duration or 0.0), 1.0) + 1.0
-                sf.write(audio, np.zeros(int(dur * 16000), np.float32), 16000)
-        analysis = analyse_video(p, audio=audio)
-    parts = parts_from_analysis(analysis, rec_id=p.stem)
-    best = max(parts, key=lambda part: len(part.motion))
-    return best.motion.replace(meta={**best.motion.meta, "source": str(p)})
-
-
-__all__ = ["StyleProfile", "style_profile", "apply_style", "band_split", "load_style_reference",
-           "BAND_EDGES", "BAND_NAMES", "VIDEO_EXTENSIONS"]
+__all__ = ["StyleProfile", "style_profile", "apply_style", "band_split", "BAND_EDGES", "BAND_NAMES"]

@@ -125,14 +125,6 @@ def _pair(x, y, names=("x", "y")) -> tuple[np.ndarray, np.ndarray, float | None]
     return a, b, fps
 
 
-def _fps_of(x, fps):
-    if fps is not None:
-        return float(fps)
-    if isinstance(x, (Motion, FeatureTrack)):
-        return float(x.fps)
-    return None
-
-
 def deltas(x, *, order: int = 1) -> np.ndarray:
     """Time derivative per frame (``numpy.gradient``: central differences, same length).
 

@@ -61,7 +61,6 @@ no maintained library implements these head-motion measures as a set.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -401,17 +400,6 @@ def pooled_coupling(rows: Sequence[Mapping], *, n_shifts: int | None = None) -> 
 
 
 # -- everything on one pair ---------------------------------------------------------------------------
-@dataclass
-class RealismInputs:
-    """Optional context of a (reference, candidate) pair."""
-
-    speech_mask: np.ndarray | None = None  # at the motion's rate
-    onsets: np.ndarray | None = None  # speech onset times (s)
-    features: np.ndarray | None = None  # speech features (T, F) at the motion's rate, for coupling
-    limits_deg: np.ndarray | None = None  # (3, 2) clip limits of the system
-    samples: Sequence | None = None  # K samples for the same speech (diversity)
-
-
 def realism(reference, candidate, *, fps: float | None = None, speech_mask=None, onsets=None, features=None,
             limits_deg=None, samples=None, n_shifts: int = 200, seed=0) -> dict:
     """All measures on one (reference, candidate) pair → one flat dict (a metrics.csv row's
