@@ -574,6 +574,11 @@ def bench_epoch(res: Results, quick: bool):
 
 GROUPS = ("startup", "features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server",
           "serve", "scale", "epoch", "batch")
+#: each group's label in the table (its rows' ``group``), also on the row of a group that failed
+LABELS = {"startup": "0 startup", "features": "1 features", "synth": "2 synth", "stream": "4 stream",
+          "train": "5 train", "memory": "6 memory", "render": "7 render", "video": "7 video",
+          "evaluate": "8 evaluate", "server": "9 server", "serve": "10 serve", "scale": "11 scale",
+          "epoch": "12 epoch", "batch": "10 batch"}
 
 
 def main(argv=None) -> int:
@@ -606,7 +611,7 @@ def main(argv=None) -> int:
         try:
             fn(res, args.quick, **kwargs)
         except Exception as exc:  # noqa: BLE001 - one failing group must not hide the others
-            res.add(Row(g, f"{g} group", None, "", "", False, f"error: {type(exc).__name__}: {exc}"[:160]))
+            res.add(Row(LABELS[g], f"{g} group", None, "", "", False, f"error: {type(exc).__name__}: {exc}"[:300]))
     print()
     print(res.table())
     print(f"\ntotal {time.perf_counter() - t_all:.0f} s")

@@ -21,8 +21,29 @@ def test_quick_benchmarks_run(tmp_path):
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "| measured" in proc.stdout and "machine:" in proc.stdout
     rows = json.loads(out.read_text())["rows"]
+    errors = [f"{r['group']}: {r['note']}" for r in rows if r["note"].startswith("error")]
+    assert not errors, "groups that failed:\n" + "\n".join(errors)
     groups = {r["group"].split()[0] for r in rows}
-    assert {"1", "2", "3", "4", "5", "6", "8"} <= groups
-    errors = [r for r in rows if r["note"].startswith("error")]
-    assert not errors, errors
-    assert all(r["figure"] is not None for r in rows if r["group"].startswith(("1", "2", "4", "5")))
+    missing = sorted({"1", "2", "3", "4", "5", "6", "8"} - groups, key=int)
+    assert not missing, f"groups with no row: {missing}; the run's output ends:\n{proc.stdout[-3000:]}"
+    no_figure = [f"{r['group']}: {r['what']} ({r['note']})" for r in rows
+                 if r["group"].startswith(("1", "2", "4", "5")) and r["figure"] is None]
+    assert not no_figure, "rows without a figure:\n" + "\n".join(no_figure)
+
+
+def test_a_failing_group_is_reported_under_its_label(tmp_path, monkeypatch):
+    """A group that raises (a terminated worker, say) gets one row under its table label with the
+    error, so the smoke test above names the group and the reason."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import run as bench
+
+    def broken(res, quick):  # noqa: ARG001
+        raise RuntimeError("a worker process was terminated")
+
+    monkeypatch.setattr(bench, "bench_evaluate", broken)
+    out = tmp_path / "results.json"
+    assert bench.main(["--only", "evaluate", "--out", str(out)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    assert [(r["group"], r["note"]) for r in rows] == [
+        ("8 evaluate", "error: RuntimeError: a worker process was terminated")]
+    assert set(bench.LABELS) == set(bench.GROUPS)

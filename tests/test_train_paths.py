@@ -168,3 +168,16 @@ def test_streamed_epochs_are_timed_by_part_and_the_post_filter_reads_motion_only
         assert motion.feats is None and motion.x is None
         np.testing.assert_array_equal(motion.y, full.y)
         np.testing.assert_array_equal(motion.speaking, full.speaking)
+
+
+def test_a_planted_dataset_too_small_for_a_training_split_says_so(tmp_path):
+    from headmotion.datasets.planted import write_planted_beat2
+
+    # 2 speakers × 1 take each: both takes go to test; at least 5 takes leave one for training
+    with pytest.raises(ParameterError, match=r"gives 2 take\(s\) over 2 speaker\(s\), none of them for training.*"
+                                             r"at least 5 takes are needed \(hours >= 0\.0417"):
+        write_planted_beat2(tmp_path / "beat2", hours=0.02, take_minutes=0.5, speakers=2)
+    assert not (tmp_path / "beat2").exists()
+    root = write_planted_beat2(tmp_path / "ok", hours=5 * 0.5 / 60, take_minutes=0.5, speakers=2)
+    rows = (root / "train_test_split.csv").read_text().split()[1:]
+    assert [r.split(",")[1] for r in rows] == ["test", "test", "val", "val", "train"]

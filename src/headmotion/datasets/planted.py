@@ -51,12 +51,18 @@ def write_planted_beat2(root, *, hours: float, take_minutes: float = 1.0, speake
 
     if hours <= 0 or take_minutes <= 0 or speakers < 1:
         raise ParameterError(f"need hours > 0, take_minutes > 0, speakers >= 1; got {hours}, {take_minutes}, {speakers}")
+    n_takes = max(1, int(round(hours * 60.0 / take_minutes)))
+    if n_takes < 2 * speakers + 1:  # each speaker's first take is test, the second validation
+        raise ParameterError(
+            f"hours={hours:g} in takes of {take_minutes:g} min gives {n_takes} take(s) over {speakers} speaker(s), "
+            f"none of them for training: the split puts each speaker's first take in test and the second in "
+            f"validation, so at least {2 * speakers + 1} takes are needed (hours >= "
+            f"{(2 * speakers + 1) * take_minutes / 60.0:.3g}, or fewer speakers or shorter takes)")
     root = Path(root)
     (root / "smplxflame_30").mkdir(parents=True, exist_ok=True)
     (root / "wave16k").mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     pool = _speech_pool(speech_sources(speech_dir), SAMPLE_RATE)
-    n_takes = max(1, int(round(hours * 60.0 / take_minutes)))
     rows = ["id,type"]
     for k in range(n_takes):
         spk, take = k % speakers, k // speakers
