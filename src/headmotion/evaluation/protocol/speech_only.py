@@ -35,7 +35,7 @@ from .degraded import degrade
 FPS = 25.0
 
 
-def _features(audio: Audio):
+def speech_features(audio: Audio):
     from ...align import n_frames
     from ...features import extract
 
@@ -47,7 +47,7 @@ def fit_projections(corpus) -> CrossSpeakerCCA:
     recs = list(corpus)
     if not recs:
         raise ParameterError("the corpus for the coupling projections holds no recording")
-    return CrossSpeakerCCA().fit([r.motion for r in recs], [_features(r.audio) for r in recs])
+    return CrossSpeakerCCA().fit([r.motion for r in recs], [speech_features(r.audio) for r in recs])
 
 
 def speech_coupling(corpus, systems: Mapping[str, object], speech: Mapping[str, Audio], *,
@@ -78,7 +78,7 @@ def speech_coupling(corpus, systems: Mapping[str, object], speech: Mapping[str, 
     if not speech:
         raise ParameterError("no speech files to synthesise from")
     cca = projections if projections is not None else fit_projections(corpus)
-    feats = {name: _features(a) for name, a in speech.items()}
+    feats = {name: speech_features(a) for name, a in speech.items()}
     models = {name: load_model(m) for name, m in systems.items()}
     rows, results = [], {}
     total, done = len(degradations) * len(models) * len(seeds) * len(speech), 0
@@ -127,4 +127,4 @@ def pooled_table(rows: Sequence[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["speech_coupling", "fit_projections", "pooled_table", "FPS"]
+__all__ = ["speech_coupling", "fit_projections", "pooled_table", "speech_features", "FPS"]
