@@ -86,7 +86,7 @@ def test_speech_descriptors_look_back_and_ahead():
                                  {"pause_speed": "yes"}, {"pause_switch": -1.0}, {"live": "yes"},
                                  {"lowpass": 0.2}, {"lowpass": 12.5}, {"posture_s": -1.0}, {"prosody": "mfcc"},
                                  {"prosody": "f0e", "live": True}, {"voicing_threshold": 0.0}, {"voicing_threshold": 1.5},
-                                 {"centred": "yes"}])
+                                 {"centred": "yes"}, {"pitch_jump": -1.0}])
 def test_bad_parameters_are_refused(bad, corpus):
     with pytest.raises(ParameterError, match=list(bad)[-1]):
         create("motion-match", **bad).fit(corpus)

@@ -189,6 +189,10 @@ class MotionMatch(Synthesizer):
         frame (:class:`~headmotion.features.streaming.StreamingF0e`); 0.35 is strict on noisy or
         reverberant recordings, where it calls speech unvoiced and a hop of speech a pause
         (docs/decisions/follow-any-voice.md)
+    pitch_jump : float, semitones, f0e-live prosody: a voiced frame this far from the last voiced
+        frames' median is taken for an octave error and called unvoiced (the extractor's
+        ``max_jump_semitones``; 0: no guard); 5 also drops real pitch accents and tones, which
+        move more than that within 0.3 s (docs/decisions/follow-any-voice.md)
     centred : bool, f0e-live prosody: smoothing and deltas centred on their frame (they read
         :data:`CENTRED_FEATURES`' frames ahead, 200 ms at 25 fps), not ending at it — causal
         features lag the speech by up to 80 ms (the deltas' window centre), a lag the choice then
@@ -222,7 +226,8 @@ class MotionMatch(Synthesizer):
                  pause_switch: float = 0.0, pause_speed: bool = True, live: bool = False, lowpass: float = 0.0,
                  posture_s: float = 0.0, prosody: str | None = None, amount: float = 1.0,
                  base_cost: float = 0.0, repeat_cost: float = 0.0, wait_s: float = 0.0,
-                 voicing_threshold: float = 0.35, centred: bool = False, ease_in: float = 0.0, seed: int = 0):
+                 voicing_threshold: float = 0.35, pitch_jump: float = 5.0, centred: bool = False,
+                 ease_in: float = 0.0, seed: int = 0):
         self.hop, self.context, self.lookahead, self.goal_path = hop, context, lookahead, goal_path
         self.lowpass, self.posture_s, self.prosody = lowpass, posture_s, prosody
         self.pause_switch, self.pause_speed = pause_switch, pause_speed
@@ -232,6 +237,7 @@ class MotionMatch(Synthesizer):
         self.mirror, self.seed, self.live = mirror, seed, live
         self.amount, self.base_cost, self.repeat_cost, self.wait_s = amount, base_cost, repeat_cost, wait_s
         self.voicing_threshold, self.centred, self.ease_in = voicing_threshold, centred, ease_in
+        self.pitch_jump = pitch_jump
 
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]
@@ -253,7 +259,7 @@ class MotionMatch(Synthesizer):
         **{k: [whole(0)] for k in ("context", "lookahead", "seed")},
         **{k: [real(0)] for k in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "target_weight",
                                   "ridge", "pause_weight", "pause_switch", "lowpass", "posture_s", "base_cost",
-                                  "repeat_cost", "wait_s", "ease_in")},
+                                  "repeat_cost", "wait_s", "ease_in", "pitch_jump")},
         "temperature": [real(0, closed="neither")],
         "voicing_threshold": [real(0, 1, closed="right")],
         "amount": [real(*AMOUNT_RANGE)],
@@ -298,7 +304,8 @@ class MotionMatch(Synthesizer):
     @property
     def _feature_params(self) -> dict:
         """The f0e-live extractor's settings (:class:`~headmotion.features.streaming.StreamingF0e`)."""
-        params = {**LIVE_FEATURES, "voicing_threshold": float(self.voicing_threshold)}
+        params = {**LIVE_FEATURES, "voicing_threshold": float(self.voicing_threshold),
+                  "max_jump_semitones": float(self.pitch_jump)}
         return {**params, **CENTRED_FEATURES} if self.centred else params
 
     @property
