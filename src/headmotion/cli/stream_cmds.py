@@ -1,11 +1,12 @@
-"""``headmotion stream``: speech in as it comes (raw PCM on stdin, an audio file paced in real time,
-or the microphone) → head rotation out (JSON lines, VMC over OSC, a WebSocket), with any causal
-model (docs/design.md "CLI").
+"""``headmotion stream``: speech in as it comes (raw PCM on stdin or a named pipe, an audio file
+paced in real time, or the microphone) and, with ``--hear``, the other party's audio the head
+listens to → head rotation out (JSON lines, VMC over OSC, a WebSocket), with any causal model
+(docs/design.md "CLI").
 
 It parses its options once into :class:`headmotion.synthesis.Controls` and calls
-:func:`headmotion.live.session.stream_live`, which resamples the input on the stream (one
-``soxr.ResampleStream`` for the session) to the model's rate, pushes it through
-:func:`headmotion.synthesis.open_stream` and runs the outputs of :mod:`headmotion.live`.
+:func:`headmotion.live.session.stream_live`, which pushes the inputs through one
+:func:`headmotion.synthesis.open_stream` (resampling them on the stream to the model's rate; the
+heard audio through its ``hear``) and runs the outputs of :mod:`headmotion.live`.
 """
 
 from __future__ import annotations
@@ -26,11 +27,18 @@ def stream(
                                         "('stream', the default, 39 ms behind the audio; 'default', about 1.1 s "
                                         "behind) or a model file."),
     input: str = typer.Option("-", "--input", "-i", help="'-' raw 16-bit mono PCM on stdin, 'mic' the microphone, "
-                              "or an audio file."),
+                              "a named pipe of raw PCM, or an audio file."),
+    hear: Optional[str] = typer.Option(None, "--hear", metavar="SOURCE", help="The other party's audio, which the "
+                                       "head listens to (on the same timeline as --input): an audio file, '-' raw "
+                                       "PCM on stdin, 'mic', or a named pipe of raw PCM (see synth --hear)."),
+    hear_rate: Optional[int] = typer.Option(None, "--hear-rate", help="Rate of --hear's raw PCM (default: "
+                                            "--sample-rate's)."),
+    listening: float = typer.Option(1.0, "--listening", help="How much the head listens (with --hear), 0 to 3 "
+                                    "(see synth --listening)."),
     realtime: bool = typer.Option(False, "--realtime", help="Pace a file at speech speed (demos, latency tests)."),
     device: Optional[str] = typer.Option(None, "--device", help="Microphone: index or part of its name "
                                          "(default: the system's input)."),
-    sample_rate: Optional[int] = typer.Option(None, "--sample-rate", help="Rate of the PCM on stdin (default: the model's)."),
+    sample_rate: Optional[int] = typer.Option(None, "--sample-rate", help="Rate of the raw PCM (default: the model's)."),
     chunk_ms: float = typer.Option(10.0, "--chunk-ms", help="Read the input in chunks of this many milliseconds."),
     vmc: Optional[str] = typer.Option(None, "--vmc", help="Also send the VMC protocol (OSC/UDP) to HOST:PORT "
                                       "(VSeeFace, Warudo, VMagicMirror, EVMC4U; default port 39539)."),
@@ -58,16 +66,19 @@ def stream(
 
     if chunk_ms <= 0:
         raise ParameterError(f"--chunk-ms must be positive; got {chunk_ms}")
+    if hear_rate is not None and not 1000 <= hear_rate <= 192000:
+        raise ParameterError(f"--hear-rate must be between 1000 and 192000 Hz; got {hear_rate}")
     if neck_share is not None and not 0.0 <= neck_share <= 1.0:
         raise ParameterError(f"--neck-share must be between 0 and 1; got {neck_share}")
     from ..synthesis import Controls
 
     controls = Controls.parse(gain=gain, offset_degrees=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
-                              offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll), amount=amount)
+                              offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll), amount=amount,
+                              listening=listening)
     m = load_cli_model(model, default="stream")  # the shipped default reads ahead: 'stream' decides as it hears
     stats = stream_live(m, input=input, sample_rate=sample_rate, realtime=realtime, device=device, chunk_ms=chunk_ms,
                 json_stream=None if no_json else sys.stdout, vmc=vmc, websocket=websocket, neck_share=neck_share,
-                seed=seed, controls=controls,
+                seed=seed, controls=controls, hear=hear, hear_rate=hear_rate,
                 on_message=lambda msg: err_console.print(msg, markup=False, highlight=False))
     if stats["frames"] == 0 and input != "mic":  # a microphone stopped at once is no error
         _no_frames(input, stats["chunks"], m, sample_rate)

@@ -1,10 +1,14 @@
-"""Live audio inputs, resampled on the stream (the seeds are silent on live use).
+"""Live audio inputs (the seeds are silent on live use).
 
-Every source is an iterator of mono float32 chunks at ``out_rate`` (the model's rate), each about
-``chunk_ms`` long, resampled on the fly by :class:`Resampler` (``soxr.ResampleStream``):
+Every source is an iterator of mono float32 chunks, each about ``chunk_ms`` long, at its own
+``sample_rate`` — or, given ``out_rate``, resampled on the fly to that rate by :class:`Resampler`
+(``soxr.ResampleStream``).  ``headmotion stream`` takes the chunks at their own rate and lets its
+:class:`headmotion.synthesis.SpeechStream` resample them (the one resampling of every live path);
+``resample`` is the source's choice of :data:`headmotion.io.resampler.QUALITY` for that:
 
-* :class:`PcmSource` — raw 16-bit little-endian mono PCM from a binary stream (stdin).  A stream
-  that stops in the middle of a sample drops the odd byte and says so through ``on_message``.
+* :class:`PcmSource` — raw 16-bit little-endian mono PCM from a binary stream (stdin) or a named
+  pipe (opened when read).  A stream that stops in the middle of a sample drops the odd byte and
+  says so through ``on_message``.
 * :class:`FileSource` — any audio file :func:`headmotion.io.load_audio` reads; ``realtime=True``
   releases each chunk when its last sample would have been spoken (for demos, tests and the
   end-to-end latency benchmark).
@@ -18,10 +22,10 @@ first chunk is in), or ``None`` when the input is not paced (stdin at full speed
 file).  The end-to-end latency of a frame at audio time ``τ`` is ``emit_wall − (t0 + τ)``.
 
 Resampling latency (measured here with 10 ms chunks, 48 kHz → 16 kHz): soxr releases output in
-internal blocks, so the stream's output trails its input by a median 11 ms (max 20 ms) at quality
-``"LQ"`` — the default for stdin, the microphone and a paced file — and 21 ms (max 37 ms) at
-``"HQ"`` (a file read at full speed: the samples ``synth`` resamples, so the same frames); ``"QQ"`` (cubic, no anti-alias
-filter) adds nothing.  LQ's pass band (to ~0.8 · Nyquist = 6.4 kHz at 16 kHz out) covers the F0
+internal blocks, so the stream's output trails its input by a median 11 ms (max 20 ms) with
+``"fast"`` (soxr's LQ) — the choice for stdin, a named pipe, the microphone and a paced file — and
+21 ms (max 37 ms) with ``"exact"`` (HQ; a file read at full speed: the samples ``synth`` resamples,
+so the same frames).  LQ's pass band (to ~0.8 · Nyquist = 6.4 kHz at 16 kHz out) covers the F0
 and energy the features use.  Same rate in and out: no resampler, no delay.
 
 Libraries considered: sounddevice (PortAudio; maintained, numpy buffers) rather than PyAudio
@@ -32,8 +36,9 @@ Libraries considered: sounddevice (PortAudio; maintained, numpy buffers) rather 
 from __future__ import annotations
 
 import abc
-
+import os
 import queue
+import stat
 import sys
 import threading
 import time
@@ -42,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.resampler import Resampler
+from ..io.resampler import Resampler, check_resample
 from ..errors import AudioDeviceError, ParameterError
 
 Message = Callable[[str], None]
@@ -53,16 +58,28 @@ def _stderr(msg: str) -> None:
 
 
 class AudioSource(abc.ABC):
-    """Base of the sources: iterate for chunks at ``out_rate``; ``close()`` stops early."""
+    """Base of the sources: iterate for chunks at ``out_rate`` (the input's own ``sample_rate``
+    when None); ``close()`` stops early; ``resample`` the :data:`~headmotion.io.resampler.QUALITY`
+    name a stream resampling the chunks should use."""
 
-    out_rate: int
+    sample_rate: int
+    out_rate: int | None = None
+    resample: str = "fast"
     t0: float | None = None
     paced: bool = False
     name: str = "audio"
 
     @abc.abstractmethod
     def __iter__(self) -> Iterator[np.ndarray]:
-        """The chunks (float32, mono, at ``out_rate``) until the input ends or ``close()``."""
+        """The chunks (float32, mono, at ``out_rate`` or ``sample_rate``) until the input ends or ``close()``."""
+
+    @property
+    def chunk_rate(self) -> int:
+        """The rate of the chunks: ``out_rate``, or the input's own."""
+        return int(self.out_rate or self.sample_rate)
+
+    def _resampler(self) -> Resampler:
+        return Resampler(self.sample_rate, self.chunk_rate, quality=check_resample(self.resample))
 
     def close(self) -> None:  # noqa: B027 (an optional hook: a source with nothing to release keeps it)
         pass
@@ -73,26 +90,42 @@ class PcmSource(AudioSource):
 
     Parameters
     ----------
-    stream : binary file object (``read(n)``), default ``sys.stdin.buffer``
+    stream : binary file object (``read(n)``), default ``sys.stdin.buffer``, or the path of a
+        named pipe (opened when the source is read, so that opening it waits for its writer there)
     sample_rate : int, rate of the PCM
-    out_rate : int, rate of the chunks produced
+    out_rate : int, optional, rate of the chunks produced (default: ``sample_rate``)
     chunk_ms : float, read size
+    resample : ``"fast"`` or ``"exact"`` (:data:`headmotion.io.resampler.QUALITY`)
     """
 
-    def __init__(self, stream=None, *, sample_rate: int, out_rate: int, chunk_ms: float = 10.0,
-                 quality: str = "LQ", on_message: Message = _stderr):
+    def __init__(self, stream=None, *, sample_rate: int, out_rate: int | None = None, chunk_ms: float = 10.0,
+                 resample: str = "fast", on_message: Message = _stderr):
         if chunk_ms <= 0:
             raise ParameterError(f"chunk_ms must be positive; got {chunk_ms}")
+        self.path = stream if isinstance(stream, (str, os.PathLike)) else None
         self.stream = sys.stdin.buffer if stream is None else stream
-        self.sample_rate, self.out_rate = int(sample_rate), int(out_rate)
+        self.sample_rate, self.out_rate, self.resample = int(sample_rate), out_rate, resample
         self.nbytes = max(2, int(round(self.sample_rate * chunk_ms / 1000.0)) * 2)
-        self.resampler = Resampler(self.sample_rate, self.out_rate, quality=quality)
+        self.resampler = self._resampler()
         self.on_message = on_message
-        self.name = getattr(self.stream, "name", "stdin")
+        self.name = str(self.path) if self.path is not None else getattr(self.stream, "name", "stdin")
         self.dropped_bytes = 0
         self._closed = False
 
     def __iter__(self):
+        if self.path is None:
+            yield from self._chunks()
+            return
+        try:
+            self.stream = open(self.path, "rb")  # noqa: SIM115 (closed below, read chunk by chunk)
+        except OSError as exc:
+            raise AudioDeviceError(f"{self.path}: cannot open the pipe ({exc.strerror})") from None
+        try:
+            yield from self._chunks()
+        finally:
+            self.stream.close()
+
+    def _chunks(self):
         leftover = b""
         while not self._closed:
             data = self.stream.read(self.nbytes)
@@ -121,30 +154,30 @@ class FileSource(AudioSource):
     Parameters
     ----------
     path : audio or video file
-    out_rate : int
+    out_rate : int, optional (default: the file's rate)
     chunk_ms : float
     realtime : bool, release each chunk when its last sample would have been spoken
-    quality : soxr quality; default ``"LQ"`` when ``realtime`` (latency), else ``"HQ"`` — the
-        resampling :func:`headmotion.io.audio.resample` does for ``synth``, and soxr's stream
-        resampler gives its samples exactly, so a file streamed at full speed gives ``synth``'s
-        frames (with ``"LQ"`` the template systems' choices diverge on the tiny feature
-        differences: 0.35 rad within 9 s)
+    resample : ``"fast"`` or ``"exact"``; default ``"fast"`` when ``realtime`` (latency), else
+        ``"exact"`` — the resampling :func:`headmotion.io.audio.resample` does for ``synth``, and
+        soxr's stream resampler gives its samples exactly, so a file streamed at full speed gives
+        ``synth``'s frames (with ``"fast"`` the template systems' choices diverge on the tiny
+        feature differences: 0.35 rad within 9 s)
     clock, sleep : injectable time functions (tests)
     """
 
-    def __init__(self, path, *, out_rate: int, chunk_ms: float = 10.0, realtime: bool = False,
-                 quality: str | None = None, clock=time.monotonic, sleep=time.sleep):
+    def __init__(self, path, *, out_rate: int | None = None, chunk_ms: float = 10.0, realtime: bool = False,
+                 resample: str | None = None, clock=time.monotonic, sleep=time.sleep):
         from ..io import load_audio
 
         if chunk_ms <= 0:
             raise ParameterError(f"chunk_ms must be positive; got {chunk_ms}")
         self.path = Path(path)
         self.audio = load_audio(self.path)
-        self.out_rate = int(out_rate)
+        self.sample_rate, self.out_rate = int(self.audio.sample_rate), out_rate
         self.chunk = max(1, int(round(self.audio.sample_rate * chunk_ms / 1000.0)))
-        if quality is None:  # paced: low latency; at full speed: synth's resampling, so the frames are synth's
-            quality = "LQ" if realtime else "HQ"
-        self.resampler = Resampler(self.audio.sample_rate, self.out_rate, quality=quality)
+        # paced: low latency; at full speed: synth's resampling, so the frames are synth's
+        self.resample = resample or ("fast" if realtime else "exact")
+        self.resampler = self._resampler()
         self.paced = bool(realtime)
         self.clock, self.sleep = clock, sleep
         self.name = str(self.path)
@@ -232,7 +265,7 @@ class MicSource(AudioSource):
     Parameters
     ----------
     device : None (default input), an index, or a part of the device's name
-    out_rate : int
+    out_rate : int, optional (default: the capture rate)
     chunk_ms : float, PortAudio block size
     sample_rate : int, optional, capture rate (default: the device's default rate)
     max_queue : int, chunks buffered between the audio thread and the consumer; when the consumer
@@ -242,15 +275,15 @@ class MicSource(AudioSource):
         ``InputStream`` (tests)
     """
 
-    def __init__(self, device=None, *, out_rate: int, chunk_ms: float = 10.0, sample_rate: int | None = None,
-                 max_queue: int = 50, quality: str = "LQ", sd=None, clock=time.monotonic,
-                 on_message: Message = _stderr):
+    def __init__(self, device=None, *, out_rate: int | None = None, chunk_ms: float = 10.0,
+                 sample_rate: int | None = None, max_queue: int = 50, resample: str = "fast", sd=None,
+                 clock=time.monotonic, on_message: Message = _stderr):
         self.sd = _import_sounddevice() if sd is None else sd
         self.index, self.device_name, default_rate = pick_device(device, self.sd)
         self.sample_rate = int(sample_rate or default_rate or 48000)
-        self.out_rate = int(out_rate)
+        self.out_rate, self.resample = out_rate, resample
         self.block = max(1, int(round(self.sample_rate * chunk_ms / 1000.0)))
-        self.resampler = Resampler(self.sample_rate, self.out_rate, quality=quality)
+        self.resampler = self._resampler()
         self.paced = True
         self.name = f"microphone {self.index}: {self.device_name}"
         self.clock = clock
@@ -300,20 +333,34 @@ class MicSource(AudioSource):
         self._stop.set()
 
 
-def open_input(spec: str, *, out_rate: int, sample_rate: int | None = None, realtime: bool = False,
-               device=None, chunk_ms: float = 10.0, quality: str | None = None, stdin=None,
-               on_message: Message = _stderr, sd=None) -> AudioSource:
-    """The source for ``--input``: ``-`` (PCM on stdin at ``sample_rate``, default ``out_rate``),
-    ``mic``, or a file path.  ``quality``: soxr's, by default ``"LQ"`` for stdin and the microphone
-    (latency) and :class:`FileSource`'s choice for a file."""
-    if spec == "-":
-        return PcmSource(stdin, sample_rate=sample_rate or out_rate, out_rate=out_rate, chunk_ms=chunk_ms,
-                          quality=quality or "LQ", on_message=on_message)
+def is_pipe(spec) -> bool:
+    """True when ``spec`` names a named pipe (FIFO)."""
+    try:
+        return stat.S_ISFIFO(os.stat(spec).st_mode)
+    except (OSError, ValueError):
+        return False
+
+
+def open_input(spec: str, *, out_rate: int | None = None, sample_rate: int | None = None, realtime: bool = False,
+               device=None, chunk_ms: float = 10.0, resample: str | None = None, stdin=None,
+               on_message: Message = _stderr, sd=None, pcm_rate: int | None = None) -> AudioSource:
+    """The source for ``--input`` (or ``--hear``): ``-`` (PCM on stdin at ``sample_rate``, default
+    ``pcm_rate``, then ``out_rate``), ``mic`` (at ``sample_rate``, default the device's), a named
+    pipe of PCM (as stdin), or an audio file.  Chunks at
+    ``out_rate``, or at the input's own rate when None.  ``resample``
+    (:data:`headmotion.io.resampler.QUALITY`): by default ``"fast"`` for stdin, a pipe and the
+    microphone (latency) and :class:`FileSource`'s choice for a file."""
+    if spec == "-" or is_pipe(spec):
+        rate = sample_rate or pcm_rate or out_rate
+        if rate is None:
+            raise ParameterError(f"{'stdin' if spec == '-' else spec}: raw PCM needs its sample rate")
+        return PcmSource(stdin if spec == "-" else spec, sample_rate=rate, out_rate=out_rate, chunk_ms=chunk_ms,
+                         resample=resample or "fast", on_message=on_message)
     if spec == "mic":
         return MicSource(device, out_rate=out_rate, chunk_ms=chunk_ms, sample_rate=sample_rate,
-                          quality=quality or "LQ", sd=sd, on_message=on_message)
-    return FileSource(spec, out_rate=out_rate, chunk_ms=chunk_ms, realtime=realtime, quality=quality)
+                         resample=resample or "fast", sd=sd, on_message=on_message)
+    return FileSource(spec, out_rate=out_rate, chunk_ms=chunk_ms, realtime=realtime, resample=resample)
 
 
-__all__ = ["Resampler", "AudioSource", "PcmSource", "FileSource", "MicSource", "open_input",
+__all__ = ["Resampler", "AudioSource", "PcmSource", "FileSource", "MicSource", "open_input", "is_pipe",
            "input_devices", "pick_device"]

@@ -9,7 +9,9 @@ paced source blocks on a full queue rather than losing audio), pushes each chunk
 (:func:`~headmotion.live.frames.frame_records`) to every output (``send(records)``,
 ``close()``): :class:`~headmotion.live.frames.JsonLinesOutput`,
 :class:`~headmotion.live.vmc.VmcSender`, :class:`~headmotion.live.websocket.WebSocketBroadcaster`.
-An output that fails is reported once and dropped; the others keep receiving.
+An output that fails is reported once and dropped; the others keep receiving.  A second source,
+``heard`` (:class:`~headmotion.live.heard.HeardInput`), is what the head hears: the other party's
+audio, given to the stream's ``hear`` on the speech's timeline.
 
 End-to-end latency: when the source is paced (``source.t0`` set: a real-time file or a
 microphone), every frame's latency is ``wall time of emission − (t0 + frame time)``, the frame
@@ -63,11 +65,13 @@ class LiveSession:
     outputs : list of objects with ``send(records)`` and ``close()``
     fps : float, the motion's frame rate (for the frame times)
     max_queue : chunks buffered between the reader thread and the synthesis loop
+    heard : HeardInput, optional, the other party's audio (the stream needs ``hear(samples)``)
     """
 
     def __init__(self, source, stream, outputs, *, fps: float, max_queue: int = 50,
-                 clock=time.monotonic, on_message=_stderr):
-        self.source, self.stream = source, stream
+                 clock=time.monotonic, on_message=_stderr, heard=None):
+        self.source, self.stream, self.heard = source, stream, heard
+        self.speech_samples = 0  # at the chunks' rate
         self.outputs = list(outputs)
         self.fps = float(fps)
         self.clock = clock
@@ -120,14 +124,20 @@ class LiveSession:
         """Ask :meth:`run` to finish (from another thread or a signal handler)."""
         self._stop.set()
         self.source.close()
+        if self.heard is not None:
+            self.heard.stop()
 
     def run(self, *, max_seconds: float | None = None) -> dict:
         """Process until the source ends (or ``max_seconds`` of wall time, or :meth:`stop`);
         flushes the stream; returns ``{frames, chunks, latency: {frames, median_ms, p95_ms,
-        max_ms}}``.  Outputs are not closed (the caller owns them)."""
+        max_ms}}`` (and ``heard_seconds`` with a heard input).  Outputs are not closed (the caller
+        owns them)."""
         reader = threading.Thread(target=self._reader, name="headmotion-input", daemon=True)
         start = self.clock()
         reader.start()
+        if self.heard is not None:
+            self.heard.start()
+        ended = False
         try:
             while True:
                 if max_seconds is not None and self.clock() - start > max_seconds:
@@ -140,19 +150,43 @@ class LiveSession:
                         break
                     continue
                 if item is _END:
+                    ended = True
                     break
                 if isinstance(item, BaseException):
                     if isinstance(item, HeadMotionError):
                         raise item
                     raise item
                 self.chunks += 1
+                self._hear_up_to(len(item))
                 self._emit(self.stream.push(item))
+            if ended and self.heard is not None:  # the head listens to the end of the heard audio
+                def keep_going():
+                    return not self._stop.is_set() and (max_seconds is None or self.clock() - start <= max_seconds)
+
+                self.speech_samples = self.heard.silence_after_speech(self.stream, self.speech_samples,
+                                                                      self._speech_rate(), self._emit, keep_going)
             self._emit(self.stream.flush())
         finally:
             self._stop.set()
             self.source.close()
             reader.join(timeout=2.0)
-        return {"frames": self.frames, "chunks": self.chunks, "latency": self.latency.summary()}
+            if self.heard is not None:
+                self.heard.close()
+        stats = {"frames": self.frames, "chunks": self.chunks, "latency": self.latency.summary()}
+        if self.heard is not None:
+            stats["heard_seconds"] = round(self.heard.seconds, 4)
+        return stats
+
+    def _speech_rate(self) -> int:
+        return int(getattr(self.source, "chunk_rate", None) or self.stream.sample_rate)
+
+    def _hear_up_to(self, n: int) -> None:
+        """Before ``n`` more speech samples: the heard audio up to their end (waited for unless the
+        speech is paced: :mod:`headmotion.live.heard`)."""
+        self.speech_samples += n
+        if self.heard is not None:
+            self.heard.up_to(self.stream, self.speech_samples / self._speech_rate(),
+                             wait=not getattr(self.source, "paced", False))
 
 
 def open_outputs(*, json_stream=None, vmc: str | None = None, websocket: str | None = None,
@@ -187,11 +221,13 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
                 device=None, chunk_ms: float = 10.0, json_stream=None, vmc: str | None = None,
                 websocket: str | None = None, neck_share: float | None = None, seed: int | None = None,
                 controls=None, stdin=None, max_seconds: float | None = None,
-                on_message=_stderr, sd=None) -> dict:
+                on_message=_stderr, sd=None, hear: str | None = None, hear_rate: int | None = None) -> dict:
     """Everything ``headmotion stream`` does, as one call: open the input (``"-"`` PCM on
-    ``stdin`` at ``sample_rate``, ``"mic"`` with ``device``, or a file, ``realtime`` pacing it),
-    resampled on the stream to the model's rate; :func:`headmotion.synthesis.open_stream` with
-    ``seed`` and ``controls`` (:class:`~headmotion.synthesis.Controls`);
+    ``stdin`` at ``sample_rate``, ``"mic"`` with ``device``, a named pipe of PCM, or a file,
+    ``realtime`` pacing it) and, with ``hear``, the other party's audio the head listens to (the
+    same kinds of input; PCM at ``hear_rate``, default ``sample_rate``);
+    :func:`headmotion.synthesis.open_stream` with ``seed`` and ``controls``
+    (:class:`~headmotion.synthesis.Controls`), resampling the inputs to the model's rate;
     the outputs of :func:`open_outputs`; run until the input ends or Ctrl-C; close the outputs.
     Returns the statistics of :meth:`LiveSession.run`."""
     from ..errors import ParameterError
@@ -200,20 +236,30 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
     if not getattr(model, "can_stream", getattr(model, "causal", False)):
         raise ParameterError(f"system {getattr(model, 'name', '?')!r} cannot stream (neither causal nor "
                              "streaming); use a tws-basic, tws-hier, le2012, DNN or motion-match[live=true] model")
+    if hear is not None and hear in ("-", "mic") and hear == input:
+        raise ParameterError(f"--hear {hear} and --input {input}: the speech and the heard audio need two inputs")
     rate = int(model.sample_rate)
     fps = float(model.frame_rate)
     from ..synthesis import open_stream
 
-    stream = open_stream(model, seed=seed, controls=controls)
-    source = open_input(input, out_rate=rate, sample_rate=sample_rate, realtime=realtime, device=device,
+    source = open_input(input, sample_rate=sample_rate, pcm_rate=rate, realtime=realtime, device=device,
                         chunk_ms=chunk_ms, stdin=stdin, on_message=on_message, sd=sd)
+    heard = None
+    if hear is not None:
+        from .heard import HeardInput
+
+        heard = HeardInput(open_input(hear, sample_rate=hear_rate, pcm_rate=sample_rate or rate, realtime=realtime,
+                                      device=device, chunk_ms=chunk_ms, stdin=stdin, on_message=on_message, sd=sd))
+    stream = open_stream(model, seed=seed, controls=controls, sample_rate=source.chunk_rate, resample=source.resample,
+                         heard_rate=None if heard is None else heard.rate)
     outputs = open_outputs(json_stream=json_stream, vmc=vmc, websocket=websocket, neck_share=neck_share)
     names = ", ".join(getattr(o, "name", type(o).__name__) for o in outputs) or "no output"
     ws = [o for o in outputs if hasattr(o, "port") and getattr(o, "name", "") == "WebSocket"]
     where = f" (ws://{ws[0].host}:{ws[0].port})" if ws else ""
-    on_message(f"streaming with {getattr(model, 'name', '?')}: {source.name} → {names}{where}; "
+    heard_from = "" if heard is None else f", hearing {heard.source.name}"
+    on_message(f"streaming with {getattr(model, 'name', '?')}: {source.name}{heard_from} → {names}{where}; "
                f"algorithmic latency {float(getattr(stream, 'latency_ms', float('nan'))):.0f} ms")
-    session = LiveSession(source, stream, outputs, fps=fps, on_message=on_message)
+    session = LiveSession(source, stream, outputs, fps=fps, on_message=on_message, heard=heard)
     try:
         stats = session.run(max_seconds=max_seconds)
     except KeyboardInterrupt:
