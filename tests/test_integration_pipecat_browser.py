@@ -172,7 +172,6 @@ def _local_speech(script: list):
 def _played(rec) -> tuple[np.ndarray, float]:
     """The page's played audio on its audio clock (from sample 0 of the player's context) and the
     wall time (ms, performance.now) of audio-clock time 0 at the output."""
-    rate = rec["rate"]
     end = max(p["f"] + len(p["x"]) for p in rec["played"])
     y = np.zeros(end, np.float32)
     for p in rec["played"]:
