@@ -84,11 +84,13 @@ def lpc_frames(audio: Audio, *, fps: float, n_frames: int, order: int = 16, wind
         return (a, np.zeros((0, order))) if return_reflection else a
     frames = frames * np.hamming(win)[None, :]
     if method == "burg":
-        import librosa
+        from ..numba_cache import first_use, import_librosa
 
+        librosa = import_librosa()  # its compiled functions first used under a machine-wide lock
         # a deterministic -100 dB dither keeps silent (all-zero) frames well conditioned
         frames = frames + 1e-5 * np.random.default_rng(0).standard_normal(frames.shape)
-        a = np.asarray(librosa.lpc(frames, order=order, axis=-1), dtype=np.float64)
+        with first_use("librosa.lpc"):
+            a = np.asarray(librosa.lpc(frames, order=order, axis=-1), dtype=np.float64)
         return (a, lpc_to_reflection(a)) if return_reflection else a
     # direct lags 0..order: cheaper than an FFT for order << window
     r = np.stack([np.einsum("tw,tw->t", frames[:, : win - lag], frames[:, lag:])

@@ -313,13 +313,15 @@ def diversity(samples: Sequence, reference) -> float:
 # -- beat consistency ---------------------------------------------------------------------------------
 def speech_onsets(audio) -> np.ndarray:
     """Speech onset times (s) by ``librosa.onset.onset_detect`` (spectral flux, default peak
-    picking)."""
-    import librosa
+    picking); librosa's compiled functions are first used under :mod:`headmotion.numba_cache`'s lock."""
+    from ...numba_cache import first_use, import_librosa
 
+    librosa = import_librosa()
     y = np.asarray(audio.samples, dtype=np.float32)
     if y.ndim > 1:
         y = y.mean(axis=1)
-    return librosa.onset.onset_detect(y=y, sr=int(audio.sample_rate), units="time")
+    with first_use("librosa.onset.onset_detect"):
+        return librosa.onset.onset_detect(y=y, sr=int(audio.sample_rate), units="time")
 
 
 def motion_beats(motion, *, fps: float | None = None, order_s: float = 7 / 30) -> np.ndarray:
