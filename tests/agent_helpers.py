@@ -48,6 +48,8 @@ def utterances(messages: list[dict], *, angles: bool = False) -> list[dict]:
     also carries its pitch, yaw and roll)."""
     out, cur = [], {"numbers": [], "rotvec": []}
     for m in messages:
+        if m["type"] == "audio-start":  # marks where an utterance's audio begins
+            continue
         if m["type"] == "frames":
             assert m["fps"] == FPS
             for f in m["frames"]:

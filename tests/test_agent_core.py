@@ -280,7 +280,8 @@ def test_pacer_interruption_settles_from_the_last_frame_sent(model, speech):
     np.testing.assert_allclose(msgs[0]["frames"][0]["rotvec"], expected[0], atol=5e-7)
     rest = pacer.due(100.5 + 12 / FPS)
     assert _frames_of(rest) == list(range(14, 26)) and rest[-1] == {"type": "end", "frames": 26,
-                                                                      "audio_seconds": 2.7771}
+                                                                      "audio_seconds": 2.7771, "utterance": 1}
+    assert all(m["utterance"] == 1 and m["settling"] for m in msgs + rest[:-1])
     assert rest[-2]["frames"][-1]["rotvec"] == [0.0, 0.0, 0.0]
     pacer.interrupt()  # nothing spoken: nothing happens
     assert pacer.pending == 0

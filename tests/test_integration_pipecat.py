@@ -90,10 +90,17 @@ def test_utterance_frames_equal_the_stream_and_audio_passes_unchanged(rate):
     np.testing.assert_allclose(utt["rotvec"][:n], ref, atol=TOL, rtol=0)
     check_settling(ref, utt["rotvec"][n:], proc.core.settle_frames)
     assert utt["end"] == {"type": "end", "frames": n + proc.core.settle_frames,
-                          "audio_seconds": round(len(pcm) / rate, 4)}
-    # each message follows the audio frame that completed its frames, before the next audio frame
-    first_msg = next(i for i, f in enumerate(down) if isinstance(f, OutputTransportMessageFrame))
+                          "audio_seconds": round(len(pcm) / rate, 4), "utterance": 1}
+    # the utterance's audio is preceded by its audio-start message, in order with it
+    first_audio = next(i for i, f in enumerate(down) if isinstance(f, TTSAudioRawFrame))
+    assert down[first_audio - 1].message == {"type": "audio-start", "utterance": 1}
+    assert msgs[0] == {"type": "audio-start", "utterance": 1}
+    # each frames message follows the audio frame that completed its frames, before the next audio frame
+    first_msg = next(i for i, f in enumerate(down) if isinstance(f, OutputTransportMessageFrame)
+                     and f.message["type"] == "frames")
     assert isinstance(down[first_msg - 1], TTSAudioRawFrame)
+    assert all(m["utterance"] == 1 for m in msgs)
+    assert [m.get("settling", False) for m in msgs if m["type"] == "frames"][-1]
 
 
 def test_interruption_settles_and_the_next_utterance_starts_fresh():
@@ -147,7 +154,10 @@ def test_paced_frames_go_out_as_their_audio_plays():
     down, _ = asyncio.run(run_test(proc, frames_to_send=[TTSStartedFrame(), *audio, TTSStoppedFrame()],
                                    observers=[seen]))
     _assert_audio_unchanged(audio, _audio_out(down))
-    assert _messages(down, OutputTransportMessageFrame) == []
+    # in order with the audio: only the audio-start message, right before the utterance's audio
+    assert _messages(down, OutputTransportMessageFrame) == [{"type": "audio-start", "utterance": 1}]
+    first_audio = next(i for i, f in enumerate(down) if isinstance(f, TTSAudioRawFrame))
+    assert isinstance(down[first_audio - 1], OutputTransportMessageFrame)
     (utt,) = utterances(_messages(down, OutputTransportMessageUrgentFrame), angles=True)
     ref = reference(pcm, 16000)
     np.testing.assert_allclose(utt["rotvec"][:len(ref)], ref, atol=TOL, rtol=0)

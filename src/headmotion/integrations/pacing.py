@@ -57,6 +57,10 @@ class Pacer:
         self._playhead = -math.inf  # when the audio handed to the output so far ends playing
         self._segments: list[tuple[float, float]] = []  # (audio offset, wall start) of the utterance
         self._paused_at: float | None = None
+        self._listening_turns: set[int] = set()
+        self._interrupted: set[int] = set()
+        #: the utterance whose audio the last :meth:`audio` call began (None: it went on one)
+        self.audio_started: int | None = None
 
     def _now(self, now):
         return self.clock() if now is None else float(now)
@@ -76,6 +80,7 @@ class Pacer:
         an end or an interruption starts a new utterance; audio at another rate than the
         utterance's so far ends it and starts another).  Returns the frames made."""
         now = self._now(now)
+        self.audio_started = None
         start = max(now, self._playhead)
         if self.core.listening:  # the agent takes the turn: the listening turn ends now
             for item in self.core.end_listening():
@@ -85,6 +90,7 @@ class Pacer:
             self._sent[self._utt] = 0
             self._sent = {u: n for u, n in self._sent.items() if u >= self._utt - 1}
             self._segments = []
+            self.audio_started = self._utt
             if self.pace:  # the last utterance's settling gives way to this one's speech
                 self._cut(start + self.delay_s)
         try:
@@ -112,6 +118,7 @@ class Pacer:
             self._sent[self._utt] = 0
             self._sent = {u: n for u, n in self._sent.items() if u >= self._utt - 1}
             self._segments = []
+            self._listening_turns = {u for u in self._listening_turns if u >= self._utt - 1} | {self._utt}
         batch = self.core.hear(samples, sample_rate)
         due = now + self.delay_s if self.pace else -math.inf
         for k, row in enumerate(batch.rotvec):
@@ -148,6 +155,7 @@ class Pacer:
         if not (self.core.speaking or speech_waiting):
             return
         self._entries = [e for e in self._entries if e.utt != utt]
+        self._interrupted = {u for u in self._interrupted if u >= utt - 1} | {utt}
         items = self.core.interrupt(shown=self._sent.get(utt, 0))
         t0 = now + self.delay_s
         last = t0
@@ -215,19 +223,35 @@ class Pacer:
         def close():
             if group:
                 rv = np.vstack([g.row for g in group])
-                out.append(FrameBatch(group[0].number, self.core.fps, rv, group[-1].audio_time).message())
+                m = FrameBatch(group[0].number, self.core.fps, rv, group[-1].audio_time).message()
+                out.append(self._mark(m, group[-1]))
                 group.clear()
 
         for e in entries:
             if e.number < 0:
                 close()
-                out.append(e.row.message())
+                out.append({**e.row.message(), "utterance": e.utt})
                 continue
-            if group and (e.utt != group[-1].utt or e.number != group[-1].number + 1):
+            if group and (e.utt != group[-1].utt or e.number != group[-1].number + 1
+                          or e.settling != group[-1].settling):
                 close()
             group.append(e)
         close()
         return out
+
+    def _mark(self, message: dict, e: _Entry) -> dict:
+        """A frames message with its utterance's number, and what its frames are when they do not
+        follow the agent's audio: ``settling`` (easing to rest after it; ``interrupted``: after
+        the audio was cut off, wherever it stopped), ``listening`` (a listening turn's, made from
+        the user's audio)."""
+        message["utterance"] = e.utt
+        if e.settling:
+            message["settling"] = True
+            if e.utt in self._interrupted:
+                message["interrupted"] = True
+        if e.utt in self._listening_turns:
+            message["listening"] = True
+        return message
 
     def _wall(self, t: float) -> float:
         """When the utterance's audio time ``t`` plays (the timeline of its pushes)."""

@@ -23,6 +23,11 @@ docs/integrations.md)::
   (``hear_frames=()`` turns this off).
 * ``rtvi=True``: the messages go as ``RTVIServerMessageFrame`` (a Pipecat client's
   ``onServerMessage``) instead of transport messages.
+* Each utterance's audio is preceded by ``{"type": "audio-start", "utterance": n}``, in order with
+  the audio (an ``OutputTransportMessageFrame``; with ``rtvi``, in RTVI's server-message form), and
+  every message carries its ``utterance``: where audio and messages share one ordered channel (the
+  WebSocket transports) a page finds each frame's place in the audio it plays by it, however the
+  audio is delayed on its way (docs/integrations.md, Timing).
 
 Importing this module without Pipecat raises :class:`~headmotion.errors.MissingDependencyError`.
 """
@@ -106,6 +111,14 @@ class HeadMotionProcessor(FrameProcessor):
             return RTVIServerMessageFrame(data=message)
         return (OutputTransportMessageUrgentFrame if urgent else OutputTransportMessageFrame)(message=message)
 
+    def _in_band(self, message: dict):
+        """A message that goes in order with the audio (RTVI's server-message form with ``rtvi``)."""
+        if self.rtvi:
+            from pipecat.processors.frameworks.rtvi.models import ServerMessage
+
+            message = ServerMessage(data=message).model_dump(exclude_none=True)
+        return OutputTransportMessageFrame(message=message)
+
     async def _send_now(self, message: dict) -> None:
         await self.push_frame(self._frame(message, urgent=True))
 
@@ -136,8 +149,12 @@ class HeadMotionProcessor(FrameProcessor):
             await self._send_in_order()
         elif direction == FrameDirection.DOWNSTREAM and isinstance(frame, self.audio_frames):
             if frame.audio:
+                self.pacer.audio_started = None
                 self._motion(lambda: self.pacer.audio(pcm16_to_float(frame.audio, frame.num_channels),
                                                       int(frame.sample_rate)))
+                if self.pacer.audio_started is not None:  # in order: right before the utterance's audio
+                    await self.push_frame(self._in_band({"type": "audio-start",
+                                                         "utterance": self.pacer.audio_started}))
             await self.push_frame(frame, direction)
             await self._send_in_order()
         elif direction == FrameDirection.DOWNSTREAM and self.hear_frames and isinstance(frame, self.hear_frames):

@@ -16,6 +16,15 @@
 //   renderMs        the last 200 draws' durations
 //   frames, status, error, ready (the server's ready message), ended
 //   start("mic" | File), stop(), setRotvec([rx, ry, rz]) (drive the bones from another source)
+//   follow(message, given)  an agent's message (audio-start, frames, end) timed by the audio the page
+//                   plays: `given` the seconds of the agent's audio the page's player had been given
+//                   when it came.  A frame goes on the bones once played() reaches its place in that
+//                   audio (its utterance's audio-start plus its time), so a gap in the audio's way or
+//                   in playback holds the head as long as the voice; settling frames go on at their
+//                   pace once the player is idle; listening frames (and frames with no utterance) once
+//                   the audio given with them has played.  Returns {shownAt, rotation}, filled in then
+//   played(position, idle)  seconds of the agent's audio the player has played (or dropped); idle:
+//                   it has played all it was given
 //   sentAudio()     {sampleRate, encoding, base64} of the audio sent (with record=1)
 import { mountAvatar } from "./avatar.js";
 import { stream } from "../client/index.js";
@@ -40,6 +49,8 @@ const st = window.headmotionAvatar = {
     return { median: quantile(l, 0.5), p95: quantile(l, 0.95), n: l.length };
   },
   setRotvec(r) { if (avatar) { avatar.setRotvec(r); dirty = true; } },
+  follow: (message, given) => follow(message, given),
+  played: (position, idle) => played(position, idle),
   start: (what) => start(what),
   stop: () => stop(),
   sentAudio() {
@@ -56,6 +67,7 @@ function setStatus(s) { st.status = s; $("status").textContent = s; }
 function fail(msg) { st.error = msg; $("error").textContent = msg; }
 
 function draw() {
+  if (waiting.length) release();
   if (dirty && avatar) {
     const t = performance.now();
     avatar.renderNow(); dirty = false;
@@ -83,6 +95,79 @@ function show(batch) {
     audioTime: batch.audioTime });
   if (st.shown.length > KEEP) st.shown.splice(0, st.shown.length - KEEP);
   st.frames += batch.frames.length;
+  dirty = true;
+}
+
+// Frames waiting for their audio to play (follow/played).  An agent's integration marks where each
+// utterance's audio begins (an audio-start message in order with the audio), so a frame's place in
+// the audio the player was given is that start plus its time, however the audio was delayed on its
+// way or in the player.  Settling frames go on at their own pace from the end of the voice: when
+// the player has played the utterance's audio (up to the first settling frame's place) or, after an
+// interruption, when it has played all it was given.  A listening turn's frames (made from the
+// user's audio), and frames from a source that marks no utterance, go on when the player has played
+// the audio it had when they came.
+const waiting = [];
+const starts = new Map();  // utterance → where its audio begins in the audio given to the player (s)
+const settles = new Map();  // utterance → {time of its first settling frame, when the voice ended}
+let playedTo = -Infinity, idle = false;
+
+function follow(message, given) {
+  const entry = { shownAt: null, rotation: null };
+  if (message && message.type === "audio-start") {
+    starts.set(message.utterance, given);
+    for (const m of [starts, settles]) for (const u of m.keys()) if (u < message.utterance - 8) m.delete(u);
+    for (const w of waiting) if (w.utterance === message.utterance) w.target = given + w.time;
+  } else if (message && message.type === "frames" && message.frames.length) {
+    const f = message.frames[message.frames.length - 1], u = message.utterance;
+    let target = given, settle = null;
+    if (u !== undefined && !message.listening) target = starts.has(u) ? starts.get(u) + f.time : Infinity;
+    if (message.settling) {
+      if (!settles.has(u)) settles.set(u, { time: message.frames[0].time, ended: null, cut: !!message.interrupted });
+      settle = settles.get(u);
+    }
+    waiting.push({ message, utterance: u, time: f.time, target, settle, entry });
+  }
+  release();
+  return entry;
+}
+
+function played(position, isIdle = false) {
+  playedTo = Math.max(playedTo, position);
+  idle = !!isIdle;
+  release();
+}
+
+/** Whether a settling frame is due: its time after the first settling frame has passed since the
+ * voice ended. */
+function settled(w, now) {
+  const s = w.settle, start = starts.get(w.utterance);
+  if (s.ended === null) {
+    const spoken = start !== undefined && playedTo >= start + s.time - 0.01;
+    if (spoken || (s.cut && idle) || (start === undefined && idle)) s.ended = now;
+  }
+  return s.ended !== null && now - s.ended >= 1000 * (w.time - s.time) - 1e-6;
+}
+
+/** Put on the bones the newest frame due (those before it go by). */
+function release() {
+  const now = performance.now();
+  let k = -1;
+  for (let i = 0; i < waiting.length; i += 1) {  // a settling is not cut short by what comes after it
+    const w = waiting[i], due = w.settle ? settled(w, now) : w.target <= playedTo + 1e-9;
+    if (due) k = i;
+    else if (w.settle) break;
+  }
+  for (let i = 0; i < k; i += 1) {  // a settling ends on its last frame before the next turn's come
+    if (waiting[i].settle && waiting[i].utterance !== waiting[k].utterance && !waiting[i + 1].settle) k = i;
+  }
+  if (k < 0 || !avatar) return;
+  const due = waiting.splice(0, k + 1), m = due[k].message, f = m.frames[m.frames.length - 1];
+  avatar.setRotvec(f.rotvec);
+  const at = performance.now(), rotation = avatar.headRotation();
+  for (const d of due) Object.assign(d.entry, { shownAt: at, rotation });
+  st.shown.push({ frame: f.frame, time: f.time, at, latencyMs: null, rotation, audioTime: m.audio_time });
+  if (st.shown.length > KEEP) st.shown.splice(0, st.shown.length - KEEP);
+  st.frames += due.reduce((n, d) => n + d.message.frames.length, 0);
   dirty = true;
 }
 
