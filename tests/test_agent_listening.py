@@ -69,6 +69,12 @@ def test_the_pacer_listens_only_after_the_agents_audio_has_played(voices):
     msgs = pacer.due(now=t + 2.0)
     frames = [m for m in msgs if m["type"] == "frames"]
     assert frames and frames[0]["first"] == 0
+    # the listening turn is the second utterance, its frames marked as not following the agent's audio
+    listen = [m for m in frames if m["utterance"] == 2]
+    assert listen and all(m.get("listening") and "settling" not in m for m in listen)
+    assert all(m["utterance"] == 1 and "listening" not in m for m in frames if m not in listen)
+    assert any(m.get("settling") for m in frames if m not in listen)  # the reply's settling
     pacer.audio(a[:1600], 16000, now=t + 2.0)   # the agent speaks: the listening turn ends
+    assert pacer.audio_started == 3
     msgs = pacer.due(now=t + 2.0)
     assert [m["type"] for m in msgs][0] == "end"
