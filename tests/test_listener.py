@@ -182,6 +182,24 @@ def test_the_stream_hears_as_the_offline_head_does():
     np.testing.assert_array_equal(np.vstack(parts), off.rotvec)
 
 
+def test_a_stream_builds_its_listening_layer_when_it_first_hears():
+    from headmotion.synthesis import open_stream, synthesize
+
+    own, heard, _ = _conversation()
+    off = synthesize(own, "stream", seed=2, hear=heard)[0]
+    s = open_stream("stream", seed=2)
+    x, y, parts, late = own.samples, heard.samples, [], 5 * 16000  # the first heard audio after 5 s
+    for i in range(0, late, 320):
+        parts.append(s.push(x[i:i + 320]).rotvec)
+    assert s._listener is None  # nothing heard yet: no layer, the model's frames
+    s.hear(y[:late])
+    for i in range(late, len(x), 320):
+        s.hear(y[i:i + 320])
+        parts.append(s.push(x[i:i + 320]).rotvec)
+    parts.append(s.flush().rotvec)
+    np.testing.assert_array_equal(np.vstack(parts), off.rotvec)  # as if it had heard from the start
+
+
 def test_listening_is_checked():
     from headmotion.synthesis import Controls
 

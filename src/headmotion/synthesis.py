@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -429,6 +430,11 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: 
     return out
 
 
+#: seconds of a stream's own speech kept for a listening layer built when the head first hears
+#: (more than the layer looks back, OWN_HOLD_S, plus the model's lookahead and the resampler's delay)
+SPOKEN_KEPT_S = 2.0
+
+
 class SpeechStream:
     """Speech in as it comes, head motion out: :meth:`push` samples, get the frames now final —
     the one stream of every live path (``headmotion stream``, the live page, ``headmotion
@@ -453,24 +459,50 @@ class SpeechStream:
         self._resample = Resampler(self.sample_rate, int(model.sample_rate), quality=check_resample(resample))
         self._identity = not (controls.still or controls.moves_pose)  # decided once, not per 10 ms push
         self._made = 0  # the model's frames so far (the listening layer's frame numbers)
+        # The listening layer is built when the head first hears (until then it would add nothing):
+        # the own speech's last seconds are kept for it, in the chunks pushed.
         self._listener = None
-        if controls.listening > 0:
-            from .listener.head import ListeningLayer
-
-            self._listener = ListeningLayer(model, fps=self.frame_rate, speech_rate=self.sample_rate,
-                                            heard_rate=self.heard_rate, listening=controls.listening, seed=seed)
+        self._seed = seed
+        self._spoken: deque = deque()
+        self._spoken_kept = self._spoken_before = 0
 
     def push(self, samples) -> Motion:
         """Frames made final by these float32 mono samples (at :attr:`sample_rate`; may be none)."""
         if self._listener is not None:
             self._listener.speech(samples)
+        elif self.controls.listening > 0:
+            self._keep_spoken(samples)
         return self._controlled(self._inner.push(self._resample(samples)))
 
     def hear(self, samples) -> None:
         """What the head hears: float32 mono samples at :attr:`heard_rate`, from the start of the
         stream on (the frames made after them listen to them)."""
-        if self._listener is not None:  # listening 0: nothing heard changes the frames
-            self._listener.hear(samples)
+        if self.controls.listening <= 0:  # listening 0: nothing heard changes the frames
+            return
+        if self._listener is None:
+            self._listener = self._listening_layer()
+        self._listener.hear(samples)
+
+    def _keep_spoken(self, samples) -> None:
+        x = np.array(samples, dtype=np.float32).reshape(-1)
+        self._spoken.append(x)
+        self._spoken_kept += len(x)
+        while self._spoken and self._spoken_kept - len(self._spoken[0]) >= SPOKEN_KEPT_S * self.sample_rate:
+            self._spoken_kept -= len(self._spoken[0])
+            self._spoken_before += len(self._spoken.popleft())
+
+    def _listening_layer(self):
+        """The listening layer as if it had been given the speech from the start: the seconds of it
+        kept, after frames counted silent that no frame to come looks back at."""
+        from .listener.head import ListeningLayer
+
+        layer = ListeningLayer(self.model, fps=self.frame_rate, speech_rate=self.sample_rate,
+                               heard_rate=self.heard_rate, listening=self.controls.listening, seed=self._seed)
+        x = np.concatenate(list(self._spoken)) if self._spoken else np.zeros(0, np.float32)
+        start = layer.skip_speech(self._spoken_before)
+        layer.speech(x[start - self._spoken_before:])
+        self._spoken.clear()
+        return layer
 
     def flush(self) -> Motion:
         """The frames still held, at the end of the speech."""

@@ -136,6 +136,14 @@ class ListeningLayer:
             self._heard.extend(voiced)
             self._due += self.cues.push(rows[:, 0], voiced)
 
+    def skip_speech(self, samples: int) -> int:
+        """Start the own speech ``samples`` in (rounded up to a whole 10 ms frame, which is
+        returned): a layer built on a stream under way, given the speech from there on.  The frames
+        skipped count as silent; a frame made later looks back at most ``OWN_HOLD_S`` at them."""
+        n = -(-int(samples) // self._own_hop)
+        self._own.flags.extend(bytes(n))
+        return n * self._own_hop
+
     def speech(self, samples) -> None:
         """This head's own speech (float32 mono at ``speech_rate``), in order."""
         x = np.concatenate([self._own_rest, np.asarray(samples, dtype=np.float32).reshape(-1)])
