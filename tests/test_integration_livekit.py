@@ -136,7 +136,8 @@ def test_reply_frames_equal_the_stream_and_audio_passes_unchanged(rate, channels
     assert utt["numbers"] == list(range(n + n_settle))
     np.testing.assert_allclose(utt["rotvec"][:n], ref, atol=TOL, rtol=0)
     check_settling(ref, utt["rotvec"][n:], n_settle)
-    assert utt["end"] == {"type": "end", "frames": n + n_settle, "audio_seconds": round(len(pcm) / rate, 4)}
+    assert utt["end"] == {"type": "end", "frames": n + n_settle, "audio_seconds": round(len(pcm) / rate, 4),
+                          "utterance": 1}
 
 
 def test_interruption_settles_and_the_next_reply_starts_fresh():
