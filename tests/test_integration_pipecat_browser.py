@@ -9,13 +9,14 @@ transport (``ProtobufFrameSerializer``) on localhost, in the app that also serve
 tests/pipecat_client/).  Headless Chromium opens the avatar page with a fake microphone playing
 real speech; the client plays the bot's audio and gives each frame message to the avatar page's
 ``follow`` with the audio its player had been given, and the page puts the frame on the bones when
-the player has played that audio (``played``, counted in the audio graph).
+the player has played the frame's audio (``played``, counted in the audio graph).
 
-From what the page records — the audio its player plays (tapped in the audio graph, on the audio
-clock) and when each frame reached the bones — the test checks that the head moves in time with
-the audio the page plays (p95 offset ≤ 100 ms), settles to rest when the speech is interrupted, and
-listens (a listening turn, its attentive posture) when the fake microphone speaks while the bot is
-silent.
+From what the page records — the bot audio it was given, every block its player output (on the
+audio clock) and when each frame reached the bones — the test places every played sample exactly
+(each player node's output found sample for sample in the audio given) and checks that the head
+moves in time with the audio the page plays (p95 offset ≤ 100 ms over the frames whose audio was
+played), settles to rest when the speech is interrupted, and listens (a listening turn, its
+attentive posture) when the fake microphone speaks while the bot is silent.
 
 Runs in the Pipecat environment of scripts/test-integrations.sh (``pipecat-ai[websocket]``,
 ``playwright``); skips with a reason without them, without Chromium or without npm."""
