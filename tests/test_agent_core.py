@@ -281,7 +281,7 @@ def test_pacer_interruption_settles_from_the_last_frame_sent(model, speech):
     rest = pacer.due(100.5 + 12 / FPS)
     assert _frames_of(rest) == list(range(14, 26)) and rest[-1] == {"type": "end", "frames": 26,
                                                                       "audio_seconds": 2.7771, "utterance": 1}
-    assert all(m["utterance"] == 1 and m["settling"] for m in msgs + rest[:-1])
+    assert all(m["utterance"] == 1 and m["settling"] and m["interrupted"] for m in msgs + rest[:-1])
     assert rest[-2]["frames"][-1]["rotvec"] == [0.0, 0.0, 0.0]
     pacer.interrupt()  # nothing spoken: nothing happens
     assert pacer.pending == 0
