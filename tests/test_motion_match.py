@@ -103,8 +103,8 @@ def test_a_tracking_glitch_ends_a_clip():
     m.lib_motion_, m.lib_lengths_ = motion, np.array([60])
     m.lib_feats_ = np.random.default_rng(0).normal(size=(60, 6)).astype(np.float32)
     m._index()
-    assert list(m._end[[0, 29, 30, 59]]) == [30, 30, 60, 60]
-    starts = np.flatnonzero(m._ok)
+    assert list(m.library_.ends[[0, 29, 30, 59]]) == [30, 30, 60, 60]
+    starts = np.flatnonzero(m.library_.can_start)
     assert not np.any((starts + m.hop >= 30) & (starts < 30))   # nothing plays across the jump
     assert 0 in starts and 23 in starts and 24 not in starts and 30 in starts and 53 in starts and 54 not in starts
 
@@ -112,11 +112,13 @@ def test_a_tracking_glitch_ends_a_clip():
 def test_a_takes_first_movement_is_drawn_from_distinct_clips():
     """The cheapest frames are neighbours in one clip; the first draw of a take chooses among
     frames at least a hop apart (cost = frame index: the candidates are 0, hop, 2·hop, …)."""
-    m = create("motion-match", hop=5, top_k=3, temperature=100.0)
+    from headmotion.systems.motion_match import Library
+
     cost = np.arange(100, dtype=float)
     rng = np.random.default_rng(0)
-    assert {m._draw(cost, rng, distinct=True) for _ in range(200)} == {0, 5, 10}
-    assert {m._draw(cost, rng) for _ in range(200)} == {0, 1, 2}
+    draw = dict(top_k=3, temperature=100.0, hop=5)
+    assert {Library.draw(cost, rng, distinct=True, **draw) for _ in range(200)} == {0, 5, 10}
+    assert {Library.draw(cost, rng, **draw) for _ in range(200)} == {0, 1, 2}
 
 
 def test_the_goal_is_followed_over_the_whole_hop(model, corpus):
@@ -132,7 +134,7 @@ def test_the_goal_is_followed_over_the_whole_hop(model, corpus):
                    switch_cost=0.0, pause_weight=0.0, top_k=1, target_weight=1.0).fit(corpus)
         goal = m.goals(speech_descriptors(feats, m._taps))
         x = m.generate(feats, seed=0)
-        ax = m._goal_axes
+        ax = m.library_.goal_axes
         assert ax[0] and not ax[1:].any()  # mirrored library: only the pitch has a goal
         miss[path] = np.mean((x[:, ax] - goal[:, ax]) ** 2)
     assert miss[True] < 0.8 * miss[False]
@@ -167,7 +169,7 @@ def test_in_a_pause_the_head_holds_still():
     x = m.generate(np.zeros((90, 6), np.float32), seed=0)
     assert np.abs(np.diff(x, axis=0)).max() < 1e-9
     blind = _pause_library(pause_speed=False)
-    a2 = blind._tables["A2"]  # net displacement over the hop cannot tell the nod from stillness
+    a2 = blind.library_.tables["A2"]  # net displacement over the hop cannot tell the nod from stillness
     assert a2[:135].max() < 1e-9 and a2[150:].max() < 1e-9
 
 
@@ -177,16 +179,16 @@ def test_in_a_pause_leaving_the_clip_costs_switch_cost_times_pause_switch():
     nod costs) it keeps nodding.  (The join's spring has settled by the third hop.)"""
     for pause_switch, still_after in ((0.0, True), (1.0, False)):
         m = _pause_library(pause_speed=True, pause_switch=pause_switch, switch_cost=1e6)
-        cost = np.full(len(m._P), np.inf)
+        cost = np.full(len(m.library_.poses), np.inf)
         cost[0] = 0.0  # force the first decision onto the nod
-        first = m._draw
+        first = m.library_.draw
         calls = []
 
-        def draw(c, rng, distinct=False, first=first, calls=calls, cost=cost):
+        def draw(c, rng, first=first, calls=calls, cost=cost, **kw):
             calls.append(1)
-            return first(cost if len(calls) == 1 else c, rng, distinct=distinct)
+            return first(cost if len(calls) == 1 else c, rng, **kw)
 
-        m._draw = draw
+        m.library_.draw = draw
         x = m.generate(np.zeros((60, 6), np.float32), seed=0)
         later = np.abs(np.diff(x[45:], axis=0)).max()
         assert (later < 1e-3) == still_after and (later > 0.5) != still_after
@@ -199,10 +201,10 @@ def test_the_goal_stays_among_the_librarys_poses(model, corpus):
     n = int(len(audio.samples) / audio.sample_rate * FPS)
     feats = ((model._prosody(audio, n) - model.feat_mean_) / model.feat_std_).astype(np.float32)
     desc = speech_descriptors(feats, model._taps)
-    lo, hi = np.percentile(model._P, [1.0, 99.0], axis=0)
+    lo, hi = np.percentile(model.library_.poses, [1.0, 99.0], axis=0)
     wild = model.goals(desc * 50.0)
     assert np.all(wild >= lo - 1e-9) and np.all(wild <= hi + 1e-9) and np.any(wild[:, 0] == hi[0])
-    raw = np.c_[desc.astype(np.float64), np.ones(n)] @ model._W
+    raw = np.c_[desc.astype(np.float64), np.ones(n)] @ model.library_.goal_weights
     inside = np.all((raw >= lo) & (raw <= hi), axis=1)
     assert inside.mean() > 0.5
     np.testing.assert_allclose(model.goals(desc)[inside], raw[inside])
@@ -367,7 +369,7 @@ def test_posture_s_keeps_a_reached_posture_for_seconds():
         m._index()
         w = _Walk(m, 0)
         w.t, w.pos, w.last = 25, -1, np.array([[6.0, 0.0, 0.0], [6.0, 0.0, 0.0]])
-        frames = w.hop(np.zeros(m._S.shape[1], np.float32), None, 1.0, 26)
+        frames = w.hop(np.zeros(m.library_.descriptors.shape[1], np.float32), None, 1.0, 26)
         assert frames[0, 0] == pytest.approx(6.0)  # no step at the join
         assert frames[25, 0] == pytest.approx(after_1s, abs=1e-3)
 

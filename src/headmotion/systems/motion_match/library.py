@@ -1,0 +1,258 @@
+"""The library of recorded movements: speech descriptors, clips, and the search tables with the costs and the draw."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: frames per second of the library and the output
+FPS = 25.0
+#: the prosody matched (``prosody="f0e"``), by feature set and name: the MFCC front end's energy and
+#: its delta, Praat's log F0, energy, Δlog F0 and voicing
+PROSODY = (("mfcc", {}, ("energy", "d_energy")), ("f0e", {"voicing": True}, ("logf0", "energy", "d_logf0", "voiced")))
+#: a frame-to-frame change above this (degrees at 25 fps, 250 °/s) is a tracking glitch: clips end there
+MAX_STEP_DEG = 10.0
+#: the voicing column within PROSODY's columns
+VOICING = 5
+#: a hop is speech when at least this share of its frames is voiced (else a pause)
+SPEAKING_SHARE = 0.2
+#: the f0e-live prosody matched (the shipped models; ``live``), by name, and its settings: no
+#: smoothing or delta lookahead, so a frame is final 39 ms after its start at 16 kHz
+LIVE_NAMES = ("energy", "d_energy", "logf0", "d_logf0", "voiced")
+LIVE_FEATURES = {"smooth_lookahead": 0, "delta_lookahead": 0, "voicing": True}
+#: ``centred``: the smoothing (2 frames at 25 fps) and the 5-frame deltas centred on their frame
+CENTRED_FEATURES = {"smooth_lookahead": 1, "delta_lookahead": 2}
+#: frames of the moving average over the features before they are matched
+SMOOTH = 5
+#: ``amount``: how far the choice leans per doubling — a frame's cost changes by
+#: ``AMOUNT_LEAN · log2(amount)`` times how much more (in SDs of log speed) its next hop moves than
+#: the library's average hop (docs/decisions/amount.md)
+AMOUNT_LEAN = 0.5
+
+
+def _smooth(x: np.ndarray, width: int, *, causal: bool = False) -> np.ndarray:
+    """Moving average over ``width`` frames along axis 0, centred or (``causal``) ending at each
+    frame; edges repeated."""
+    if width <= 1 or len(x) == 0:
+        return x
+    before = width - 1 if causal else width // 2
+    pad = np.concatenate([np.repeat(x[:1], before, 0), x, np.repeat(x[-1:], width - 1 - before, 0)])
+    c = np.cumsum(np.concatenate([np.zeros((1, x.shape[1])), pad]), axis=0)
+    return (c[width:] - c[:-width]) / width
+
+
+def speech_descriptors(feats: np.ndarray, taps: np.ndarray, *, causal: bool = False) -> np.ndarray:
+    """``(T, len(taps) * D)``: the (smoothed) features of each frame at the offsets ``taps``
+    (frames; edges repeated) — the speech around a frame, as matched.  ``causal``: the smoothing
+    reads no frame after the one it is for (with taps ≤ 0, nothing after the frame is read)."""
+    T = len(feats)
+    s = _smooth(feats.astype(np.float64), SMOOTH, causal=causal)
+    idx = np.clip(np.arange(T)[:, None] + taps[None, :], 0, max(T - 1, 0))
+    return s[idx].reshape(T, -1).astype(np.float32)
+
+
+def clip_starts(motion: np.ndarray) -> np.ndarray:
+    """``(T,)`` bool: the frames of one recording's motion (degrees, 25 fps) where a clip starts —
+    the first frame, and each frame after a jump above :data:`MAX_STEP_DEG` (a tracking glitch)."""
+    starts = np.zeros(len(motion), bool)
+    starts[:1] = True
+    starts[1:] = np.abs(np.diff(motion, axis=0)).max(axis=1) > MAX_STEP_DEG
+    return starts
+
+
+def clean_clips(motion: np.ndarray, starts: np.ndarray, hz: float, *, fps: float = FPS) -> np.ndarray:
+    """One recording's motion with each clip (``starts``: :func:`clip_starts`) low-passed at ``hz``
+    by a zero-phase 4th-order Butterworth filter (``scipy.signal.sosfiltfilt``), so a face
+    tracker's frame-to-frame jitter is not replayed; clips too short for the filter's padding are
+    padded less, clips under 4 frames kept as they are."""
+    from scipy.signal import butter, sosfiltfilt
+
+    sos = butter(4, hz, fs=fps, output="sos")
+    out = np.array(motion, dtype=np.float64)
+    bounds = np.r_[np.flatnonzero(starts), len(motion)]
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b - a >= 4:
+            out[a:b] = sosfiltfilt(sos, out[a:b], axis=0, padlen=min(b - a - 1, 15))
+    return out.astype(np.asarray(motion).dtype)
+
+
+def descriptor_of_last(past: np.ndarray, taps: np.ndarray) -> np.ndarray:
+    """The causal descriptor (:func:`speech_descriptors` with ``causal=True``) of the last row of
+    ``past`` — the rows up to that frame, at least as many as the taps and the smoothing reach
+    back, or every row since the start (which is then repeated before it, as there)."""
+    need = int(-taps.min()) + SMOOTH
+    p = np.asarray(past[-need:])
+    if len(p) < need:
+        p = np.concatenate([np.repeat(p[:1], need - len(p), 0), p])
+    return speech_descriptors(p, taps, causal=True)[-1]
+
+
+
+@dataclass(frozen=True)
+class Weights:
+    """The cost settings a decision is scored with (the estimator's parameters of the same names)."""
+
+    speech_weight: float
+    target_weight: float
+    pause_weight: float
+    pause_speed: bool
+    pose_weight: float
+    velocity_weight: float
+    amount: float
+    base_cost: float
+
+    @classmethod
+    def of(cls, params) -> "Weights":
+        """The settings of ``params`` (an object with these attributes, e.g. the estimator)."""
+        return cls(**{k: getattr(params, k) for k in cls.__dataclass_fields__})
+
+
+class Library:
+    """The search tables over the library's frames, built once per model: per frame its speech
+    descriptor, pose (``poses``, degrees), velocity (``velocities``), the pose change over the next
+    ``hop`` frames, where its clip ends (``ends``: the end of its recording, or a jump above
+    :data:`MAX_STEP_DEG` in the recorded motion — a tracking glitch is never played) and whether a
+    clip may start there (``can_start``: ``hop`` frames must follow before that end); the pose goal's
+    ridge regression; and, with :meth:`costs` and :meth:`draw`, a decision's scores and choice.
+
+    Parameters
+    ----------
+    motion, feats, lengths : the library's motion (degrees), standardised prosody and recording lengths
+    starts : bool per frame, where a clip starts (:func:`clip_starts`), or None: found from ``motion``
+    own : bool per recording, an adapted model's speaker's own (the others are the base's), or None
+    hop, taps, goal_steps, mirror, ridge : the estimator's settings; causal : descriptors from the past only
+    """
+
+    def __init__(self, motion: np.ndarray, feats: np.ndarray, lengths: np.ndarray, *, starts: np.ndarray | None,
+                 own: np.ndarray | None, hop: int, taps: np.ndarray, goal_steps: np.ndarray, mirror: bool,
+                 ridge: float, causal: bool):
+        S, P, V, ok, A, end, Q, mine = [], [], [], [], [], [], [], []
+        start, offset, H = 0, 0, int(hop)
+        for r, n in enumerate(lengths):
+            m = motion[start:start + n].astype(np.float64)
+            d = speech_descriptors(feats[start:start + n], taps, causal=causal)
+            clip = starts[start:start + n] if starts is not None else clip_starts(m)
+            bounds = np.r_[np.flatnonzero(clip), n]
+            clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends
+            good = np.arange(n) + H + 1 < clip_end
+            ahead = np.clip(np.arange(n)[:, None] + goal_steps[None, :], 0, n - 1)
+            nxt = np.clip(np.arange(n)[:, None] + np.arange(1, H + 1)[None, :], 0, n - 1)
+            v = np.vstack([m[1:2] - m[:1], np.diff(m, axis=0)])
+            q = (v[nxt] ** 2).mean(axis=1)  # (n, 3): mean squared velocity over the next hop (a mirror's too)
+            flips = [np.ones(3), np.array([1.0, -1.0, -1.0])] if mirror else [np.ones(3)]
+            for f in flips:
+                c = m * f
+                S.append(d)
+                P.append(c)
+                A.append(c[ahead] - c[:, None, :])  # (n, len(goal steps), 3): the pose change k frames on
+                V.append(v * f)
+                Q.append(q)
+                mine.append(np.full(n, own is None or bool(own[r])))
+                ok.append(good)
+                end.append(clip_end + offset)
+                offset += n
+            start += n
+        self.descriptors = np.concatenate(S).astype(np.float32)
+        self.poses = np.concatenate(P)
+        self.velocities = np.concatenate(V)
+        self.can_start = np.concatenate(ok)
+        self.ends = np.concatenate(end)  # where each frame's clip (in its recording's copy) ends
+        self._fit_goal(np.concatenate(mine), np.concatenate(Q), np.concatenate(A), float(ridge))
+
+    def _fit_goal(self, own: np.ndarray, Q: np.ndarray, A: np.ndarray, ridge: float) -> None:
+        """The scales, the ``amount`` table, the pose goal's regression and the scaled tables."""
+        # an adapted model's range, posture and goal are the speaker's: fitted on their frames only
+        fit = slice(None) if own.all() else own
+        #: an adapted model: 1 on the base library's frames (the ones ``base_cost`` is paid on); else None
+        self.base_frames = None if own.all() else (~own).astype(np.float64)
+        self.pose_sd = np.maximum(self.poses[fit].std(axis=0), 1e-3)
+        self.vel_sd = np.maximum(self.velocities[fit].std(axis=0), 1e-4)
+        speed2 = (Q / self.vel_sd ** 2).sum(axis=1) / 3.0
+        # ``amount``: how much each frame's next hop moves, in SDs of the library's log speed
+        ls = np.log(speed2 + 1e-3)
+        self.lively = ((ls - ls.mean()) / max(ls.std(), 1e-6)).astype(np.float32)
+        path = A / self.pose_sd  # (N, steps, 3)
+        moved = path[:, -1, :]
+        # the pose path the speech asks for: ridge regression of the pose on the speech around a
+        # frame, each axis scaled to the library's SD (a regression predicts the average head)
+        X = np.c_[self.descriptors.astype(np.float64), np.ones(len(self.descriptors))][fit]
+        reg = ridge * np.eye(X.shape[1])
+        reg[-1, -1] = 0.0
+        self.goal_weights = np.linalg.solve(X.T @ X + reg, X.T @ self.poses[fit])
+        pred_sd = (X @ self.goal_weights).std(axis=0)
+        # a goal stays among the poses the library holds (speech unlike any training speech, e.g.
+        # the silence before a file's first word, would otherwise ask for a pose no one took)
+        self.goal_range = np.percentile(self.poses[fit], [1.0, 99.0], axis=0)
+        # axes the speech predicts (with ``mirror``, yaw and roll are predicted as 0: no goal for them)
+        self.goal_axes = pred_sd > 0.02 * self.pose_sd
+        self.goal_weights *= np.where(self.goal_axes, np.minimum(self.pose_sd / np.maximum(pred_sd, 1e-12), 10.0),
+                                      0.0)
+        scaled = {"S": self.descriptors, "P": self.poses / self.pose_sd, "V": self.velocities / self.vel_sd,
+                  "A": moved, "G": path[:, :, self.goal_axes].reshape(len(path), -1)}
+        self.tables = {"Q2": speed2}
+        for k, x in scaled.items():
+            x = np.ascontiguousarray(x, dtype=np.float32)
+            self.tables[k], self.tables[k + "2"] = x, np.einsum("ij,ij->i", x, x, dtype=np.float64)
+
+    def goals(self, desc: np.ndarray) -> np.ndarray:
+        """The pose goal ``(T, 3)`` (degrees; 0 on axes without a goal) for speech descriptors
+        ``desc`` (:func:`speech_descriptors`): the ridge prediction, clipped to the 1st–99th
+        percentile of the library's poses."""
+        return np.clip(np.c_[desc.astype(np.float64), np.ones(len(desc))] @ self.goal_weights, *self.goal_range)
+
+    def costs(self, w: Weights, s: np.ndarray, pose: np.ndarray | None, vel: np.ndarray | None,
+              goal: np.ndarray | None = None, speaking: float = 1.0, only: int | None = None,
+              pause_weight: float | None = None):
+        """The cost (with the settings ``w``) of starting a clip at every library frame (or at the
+        frame ``only``, a float) for the speech descriptor ``s``, the next pose and velocity the
+        motion is heading for, the pose ``goal`` at the goal steps and whether the hop is speech (1)
+        or a pause (0); ``pause_weight`` replaces ``w``'s.
+        Squared distances are expanded (|a|² − 2a·b + |b|²) around the library's stored norms."""
+        at = slice(None) if only is None else slice(only, only + 1)
+        t = self.tables
+
+        def sq(name: str, q: np.ndarray) -> np.ndarray:
+            return t[name + "2"][at] - 2.0 * (t[name][at] @ q) + float(q @ q)
+
+        c = float(w.speech_weight) / len(s) * sq("S", s)
+        if goal is not None and w.target_weight > 0 and speaking > 0 and self.goal_axes.any():
+            ax = self.goal_axes
+            step = ((goal - (pose if pose is not None else 0.0)) / self.pose_sd)[..., ax].astype(np.float32).ravel()
+            c = c + float(w.target_weight) / len(step) * sq("G", step)
+        pw = float(w.pause_weight if pause_weight is None else pause_weight)
+        if pw > 0 and speaking < 1.0:  # in a pause, clips that hold
+            c = c + pw * (1.0 - speaking) * (
+                t["Q2"][at] if w.pause_speed else t["A2"][at] / 3.0)
+        if pose is not None:
+            c = c + float(w.pose_weight) / 3.0 * sq("P", (pose / self.pose_sd).astype(np.float32))
+            c = c + float(w.velocity_weight) / 3.0 * sq("V", (vel / self.vel_sd).astype(np.float32))
+        if w.amount > 0 and w.amount != 1:  # lean to clips that move more (amount > 1) or less
+            c = c - AMOUNT_LEAN * float(np.log2(w.amount)) * self.lively[at]
+        if w.base_cost > 0 and self.base_frames is not None:  # an adapted model prefers the speaker's own
+            c = c + float(w.base_cost) * self.base_frames[at]
+        return float(c[0]) if only is not None else np.where(self.can_start, c, np.inf)
+
+    @staticmethod
+    def draw(cost: np.ndarray, rng: np.random.Generator, *, top_k: int, temperature: float, hop: int,
+             distinct: bool = False) -> int:
+        """One of the ``top_k`` cheapest library frames, drawn with weight exp(−Δcost / temperature);
+        ``distinct``: candidates at least ``hop`` frames apart (different movements, not one clip's neighbours)."""
+        k = min(int(top_k), int(np.isfinite(cost).sum()))
+        if distinct:
+            m = min(len(cost), 20 * k)
+            pool = np.argpartition(cost, m - 1)[:m]
+            pool = pool[np.argsort(cost[pool], kind="stable")]
+            keep: list[int] = []
+            for j in pool:
+                if np.isfinite(cost[j]) and all(abs(int(j) - i) >= int(hop) for i in keep):
+                    keep.append(int(j))
+                    if len(keep) == k:
+                        break
+            idx = np.array(keep)
+            k = len(idx)
+        else:
+            idx = np.argpartition(cost, k - 1)[:k]
+            idx = idx[np.argsort(cost[idx], kind="stable")]
+        w = np.exp(-(cost[idx] - cost[idx[0]]) / float(temperature))
+        return int(idx[rng.choice(k, p=w / w.sum())])

@@ -1,0 +1,131 @@
+"""The streams of a motion-match model: audio pushed in, frames out as ``predict`` gives them."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...align import fit_length
+from ...align import n_frames as _n_frames
+from ...types import Motion
+from .library import FPS, LIVE_NAMES
+from .walk import _Walk
+
+
+def _tail_rows(last: np.ndarray | None, raw: np.ndarray, n: int) -> np.ndarray:
+    """The feature rows still to come at a stream's end, ``n`` of them, as ``predict``'s features
+    are fitted to the audio's length: ``raw`` trimmed, or padded by repeating its last row — or,
+    when ``raw`` is empty, the last row seen before (``last``; None when nothing was seen)."""
+    if last is None:
+        return fit_length(raw, n)
+    return fit_length(np.concatenate([last[None], raw]), n + 1)[1:]
+
+
+class MotionMatchStream:
+    """:meth:`MotionMatch.stream` (``live`` models): push float samples at the model's
+    ``sample_rate``; a frame is final once its f0e-live features are (``latency_ms``, 39 ms at
+    16 kHz), and the frames equal ``predict``'s.  Every ``hop`` frames a decision is made from the
+    prosody so far and its frames are emitted as their features arrive.  State: the feature
+    extractor, the last frames of prosody a decision reads, the take's walk — bounded."""
+
+    def __init__(self, model, *, seed: int):
+        from ...features.streaming import StreamingF0e
+
+        self.m = model
+        self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **model._feature_params)
+        self.latency_ms = self.ex.latency_ms
+        self.walk = _Walk(model, seed)
+        self.back = model._live_back
+        self.cols = [list(self.ex.names).index(n) for n in LIVE_NAMES]  # the matched columns, by name
+        self.past = np.zeros((0, len(LIVE_NAMES)), np.float32)
+        self.pending = np.zeros((0, 3))
+        self.k = 0            # frames emitted
+        self.samples = 0      # samples pushed
+        self.raw_last = None  # the last raw feature row (repeated if the file ends before its frames)
+
+    def _frames(self, raw: np.ndarray) -> Motion:
+        m, H = self.m, int(self.m.hop)
+        out = np.zeros((len(raw), 3))
+        for i, row in enumerate(raw):
+            f = ((row[self.cols] - m.feat_mean_) / m.feat_std_).astype(np.float32)
+            self.past = np.concatenate([self.past, f[None]])[-self.back:]
+            if self.k % H == 0:
+                self.pending = self.walk.hop(*m.live_inputs(self.past), H)
+            out[i] = self.pending[self.k % H]
+            self.k += 1
+        if len(raw):
+            self.raw_last = raw[-1]
+        return m._degrees_to_motion(out)
+
+    def push(self, samples: np.ndarray) -> Motion:
+        x = np.asarray(samples, dtype=np.float64).reshape(-1)
+        self.samples += len(x)
+        return self._frames(self.ex.push(x))
+
+    def flush(self) -> Motion:
+        """The remaining frames: as many in all as ``predict`` gives for the audio pushed."""
+        raw = np.asarray(self.ex.flush()).reshape(-1, len(self.ex.names))
+        n = max(_n_frames(self.samples, int(self.m.sample_rate_), FPS) - self.k, 0)
+        return self._frames(_tail_rows(self.raw_last, raw, n))
+
+
+class WindowStream:
+    """:meth:`MotionMatch.stream` for models on the f0e-live prosody that read ahead (not ``live``):
+    push float samples at the model's ``sample_rate``; a decision is made once the prosody of its
+    window (:attr:`MotionMatch._reach`) is final, and its hop of frames is emitted then, so a frame
+    comes ``latency_ms`` after its start (the features' 39 ms and the window's reach ahead, about
+    1.1 s by default).  The frames equal ``predict``'s: the same windows, the same decisions.
+    State: the feature extractor, the prosody rows a decision can still read, the take's walk."""
+
+    def __init__(self, model, *, seed: int):
+        from ...features.streaming import StreamingF0e
+
+        self.m = model
+        self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **model._feature_params)
+        self.back, self.ahead = model._reach
+        self.latency_ms = self.ex.latency_ms + 1000.0 * self.ahead / FPS
+        self.walk = _Walk(model, seed)
+        self.cols = [list(self.ex.names).index(n) for n in LIVE_NAMES]  # the matched columns, by name
+        self.rows = np.zeros((0, len(LIVE_NAMES)), np.float32)  # standardised prosody from frame row0
+        self.row0 = 0
+        self.t = 0            # the next decision's frame
+        self.samples = 0      # samples pushed
+        self.raw_last = None  # the last raw feature row (repeated if the file ends before its frames)
+
+    def _add(self, raw: np.ndarray) -> None:
+        if len(raw):
+            m = self.m
+            f = ((np.asarray(raw)[:, self.cols] - m.feat_mean_) / m.feat_std_).astype(np.float32)
+            self.rows = np.concatenate([self.rows, f])
+            self.raw_last = raw[-1]
+
+    def _decide(self, total: int | None) -> Motion:
+        """Every decision whose window is final: all rows to ``t + ahead`` are known and will be
+        in the file (fewer than the frames of the samples pushed), or ``total`` (the file's frames) is known."""
+        H, out = int(self.m.hop), []
+        known = self.row0 + len(self.rows)
+        while self.t < (total if total is not None else 0) or (
+                total is None and self.t + self.ahead < min(known, _n_frames(self.samples, int(self.m.sample_rate_), FPS))):
+            lo = max(0, self.t - self.back)
+            window = self.rows[lo - self.row0:self.t + self.ahead + 1 - self.row0]
+            n = H if total is None else min(H, total - self.t)
+            out.append(self.walk.hop(*self.m.window_inputs(window, self.t - lo), n))
+            self.t += H
+        keep = max(0, self.t - self.back) - self.row0  # rows no later decision reads
+        if keep > 0:
+            self.rows, self.row0 = self.rows[keep:], self.row0 + keep
+        return self.m._degrees_to_motion(np.vstack(out) if out else np.zeros((0, 3)))
+
+    def push(self, samples: np.ndarray) -> Motion:
+        x = np.asarray(samples, dtype=np.float64).reshape(-1)
+        self.samples += len(x)
+        self._add(self.ex.push(x))
+        return self._decide(None)
+
+    def flush(self) -> Motion:
+        """The remaining frames: as many in all as ``predict`` gives for the audio pushed."""
+        raw = np.asarray(self.ex.flush()).reshape(-1, len(self.ex.names))
+        total = _n_frames(self.samples, int(self.m.sample_rate_), FPS)
+        have = self.row0 + len(self.rows)
+        self._add(_tail_rows(self.raw_last, raw, total if self.raw_last is None else max(total - have, 0)))
+        self.rows = self.rows[:max(total - self.row0, 0)]
+        return self._decide(total)
