@@ -25,7 +25,7 @@ FPS = 25.0
 SETTINGS = {
     "before (f0e-live, causal)": {"prosody": "f0e-live", "wait_s": 2},
     "after (centred, voicing 0.45)": {"prosody": "f0e-live", "wait_s": 2, "centred": True, "voicing_threshold": 0.45,
-                                      "ease_in": 0.3},
+                                      "ease_in": 0.3, "repeat_cost": 1.0},
 }
 
 
