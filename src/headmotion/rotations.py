@@ -151,6 +151,13 @@ def pitch_yaw_roll_to_rotvec_one(pitch: float, yaw: float, roll: float) -> list[
     x = cy * sx * cz + sy * cx * sz
     y = sy * cx * cz - cy * sx * sz
     z = cy * cx * sz - sy * sx * cz
+    return quaternion_to_rotvec_one(w, x, y, z)
+
+
+def quaternion_to_rotvec_one(w: float, x: float, y: float, z: float) -> list[float]:
+    """One unit quaternion ``(w, x, y, z)`` → its rotation vector, as scipy computes it: made
+    ``w >= 0``, then ``θ / sin(θ/2) · (x, y, z)`` with ``θ = 2 atan2(|v|, w)`` (the series
+    ``2 + θ²/12 + 7θ⁴/2880`` below 1e-3 rad)."""
     if w < 0:
         w, x, y, z = -w, -x, -y, -z
     angle = 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), w)
@@ -231,6 +238,7 @@ __all__ = [
     "euler_to_rotvec",
     "pitch_yaw_roll_to_rotvec",
     "pitch_yaw_roll_to_rotvec_one",
+    "quaternion_to_rotvec_one",
     "rotvec_to_pitch_yaw_roll",
     "relative_rotvec",
     "unwrap_rotvec",

@@ -27,6 +27,7 @@ import math
 import numpy as np
 
 from ..errors import ParameterError
+from ..rotations import quaternion_to_rotvec_one
 from . import DEFAULT_LISTENING, LISTENING_RANGE
 from .cues import CueDetector, CueRule
 from .nods import nod_bank
@@ -237,12 +238,7 @@ def turned(rotvec, pyr) -> list[float]:
     x = pw * qx + qw * px + py * qz - pz * qy
     y = pw * qy + qw * py + pz * qx - px * qz
     z = pw * qz + qw * pz + px * qy - py * qx
-    if w < 0:
-        w, x, y, z = -w, -x, -y, -z
-    angle = 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), w)
-    a2 = angle * angle
-    scale = 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0 if angle <= 1e-3 else angle / math.sin(0.5 * angle)
-    return [scale * x, scale * y, scale * z]
+    return quaternion_to_rotvec_one(w, x, y, z)
 
 
 def listen(motion, speech, heard, model, *, listening: float = DEFAULT_LISTENING, seed: int = 0):
