@@ -16,8 +16,13 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.mark.slow
 def test_quick_benchmarks_run(tmp_path):
     out = tmp_path / "results.json"
-    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "run.py"), "--quick", "--out", str(out)],
-                          capture_output=True, text=True, timeout=900, cwd=ROOT)
+    try:
+        proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "run.py"), "--quick", "--out", str(out)],
+                              capture_output=True, text=True, timeout=900, cwd=ROOT)
+    except subprocess.TimeoutExpired as exc:  # the rows printed so far say which groups finished
+        so_far = exc.stdout.decode(errors="replace") if isinstance(exc.stdout, bytes) else (exc.stdout or "")
+        pytest.fail(f"benchmarks/run.py --quick ran past {exc.timeout:g} s (a loaded machine?); the groups after "
+                    f"the last row printed did not finish:\n{so_far[-3000:]}")
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "| measured" in proc.stdout and "machine:" in proc.stdout
     rows = json.loads(out.read_text())["rows"]
