@@ -16,12 +16,10 @@ default into BVH, in this process after a warm-up, the median of 3 runs (every o
 from __future__ import annotations
 
 import shutil
-import statistics
 import tempfile
-import time
 from pathlib import Path
 
-from harness import Row
+from harness import Row, time_median
 
 
 def _library(src: Path, dest: Path, n: int) -> list[Path]:
@@ -32,15 +30,6 @@ def _library(src: Path, dest: Path, n: int) -> list[Path]:
         files.append(dest / f"line{i:03d}{s.suffix}")
         shutil.copy(s, files[-1])
     return files
-
-
-def _median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def _spin(n: int) -> int:
@@ -55,10 +44,10 @@ def _control_speedup() -> float:
     from concurrent.futures import ProcessPoolExecutor
 
     n = 4_000_000
-    one = _median_time(lambda: (_spin(n), _spin(n)), 3)
+    one = time_median(lambda: (_spin(n), _spin(n)), repeats=3, warmup=0)
     with ProcessPoolExecutor(2) as ex:
         list(ex.map(_spin, [1, 1]))
-        two = _median_time(lambda: list(ex.map(_spin, [n, n])), 3)
+        two = time_median(lambda: list(ex.map(_spin, [n, n])), repeats=3, warmup=0)
     return one / two
 
 
@@ -79,9 +68,9 @@ def bench_batch(res, quick: bool, *, speech_dir: Path) -> None:
             assert len(r.written) == n, r.failed
 
         batch(1)
-        one = _median_time(lambda: batch(1), 3)
-        two = _median_time(lambda: batch(2), 3)
-        synth = _median_time(lambda: [synthesize(f, model) for f in files], 3)
+        one = time_median(lambda: batch(1), repeats=3, warmup=0)
+        two = time_median(lambda: batch(2), repeats=3, warmup=0)
+        synth = time_median(lambda: [synthesize(f, model) for f in files], repeats=3, warmup=0)
         control = _control_speedup()
     speedup = one / two
     res.add(Row("10 batch", f"synth of {n} files ({seconds / 60:.1f} min of speech) to BVH: 2 jobs vs 1",

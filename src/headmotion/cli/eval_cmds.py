@@ -81,9 +81,7 @@ def evaluate_cmd(
     corpus = Corpus.load(corpus_dir)
     if speaker:
         corpus = corpus.filter(speaker=speaker)
-    if exclude:
-        prefixes = tuple(p.strip() for p in exclude.split(",") if p.strip())
-        corpus = corpus.subset([i for i, rid in enumerate(corpus.ids) if not rid.startswith(prefixes)])
+    corpus = without_prefixes(corpus, exclude)
     if min_seconds > 0:
         corpus = corpus.subset([i for i, r in enumerate(corpus) if r.duration >= min_seconds])
     if not len(corpus):
@@ -131,6 +129,15 @@ def evaluate_cmd(
     if out["motions"]:
         console.print(f"wrote {len(out['motions'])} held-out motions under {Path(output) / 'motions'}")
     console.print(f"wrote {out['report']} and {out['metrics']}")
+
+
+def without_prefixes(corpus, exclude: str | None):
+    """``corpus`` without the recordings whose ids start with one of the comma-separated prefixes
+    of ``exclude`` (``--exclude``)."""
+    if not exclude:
+        return corpus
+    prefixes = tuple(p.strip() for p in exclude.split(",") if p.strip())
+    return corpus.subset([i for i, rid in enumerate(corpus.ids) if not rid.startswith(prefixes)])
 
 
 def detectability_line(system: str, result) -> str:

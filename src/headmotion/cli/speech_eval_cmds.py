@@ -80,6 +80,7 @@ def evaluate_speech_cmd(
     from ..io import load_audio
     from ..io.atomic import atomic_write_text
     from ..systems.spec import split_systems
+    from .eval_cmds import without_prefixes
 
     names = split_systems(systems)
     if not names:
@@ -91,9 +92,7 @@ def evaluate_speech_cmd(
     seed_list = parse_seeds(seeds)
     files = speech_files(list(speech))
     corpus = Corpus.load(corpus_dir)
-    if exclude:
-        prefixes = tuple(p.strip() for p in exclude.split(",") if p.strip())
-        corpus = corpus.subset([i for i, rid in enumerate(corpus.ids) if not rid.startswith(prefixes)])
+    corpus = without_prefixes(corpus, exclude)
     audio = {}
     for f in files:
         key = f.stem if f.stem not in audio else str(f)

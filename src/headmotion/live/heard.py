@@ -28,6 +28,21 @@ import numpy as np
 _END = object()
 
 
+def feed(source, q: queue.Queue, stop: threading.Event) -> bool:
+    """Put each chunk of ``source`` on ``q`` (a reader thread's work), waiting while it is full;
+    True once the source ended, False when ``stop`` was set first."""
+    for chunk in source:
+        while not stop.is_set():
+            try:
+                q.put(chunk, timeout=0.1)
+                break
+            except queue.Full:
+                continue
+        if stop.is_set():
+            return False
+    return True
+
+
 class HeardInput:
     """A reader thread over ``source`` (chunks at its own rate, ``source.chunk_rate``) and the
     bookkeeping of how much of it the stream has heard."""
@@ -51,16 +66,8 @@ class HeardInput:
 
     def _read(self) -> None:
         try:
-            for chunk in self.source:
-                while not self._stop.is_set():
-                    try:
-                        self._q.put(chunk, timeout=0.1)
-                        break
-                    except queue.Full:
-                        continue
-                if self._stop.is_set():
-                    return
-            self._q.put(_END)
+            if feed(self.source, self._q, self._stop):
+                self._q.put(_END)
         except BaseException as exc:  # forwarded to the session's thread
             self._q.put(exc)
 

@@ -30,8 +30,10 @@ import numpy as np
 
 from ..errors import HeadMotionError
 from .frames import frame_records
+from .heard import feed
 
 _END = object()
+
 
 
 def _stderr(msg: str) -> None:
@@ -84,15 +86,7 @@ class LiveSession:
 
     def _reader(self) -> None:
         try:
-            for chunk in self.source:
-                while not self._stop.is_set():
-                    try:
-                        self._q.put(chunk, timeout=0.1)
-                        break
-                    except queue.Full:
-                        continue
-                if self._stop.is_set():
-                    break
+            feed(self.source, self._q, self._stop)
             self._q.put(_END)
         except BaseException as exc:  # forwarded to run()
             self._q.put(exc)
