@@ -5,7 +5,7 @@ app that also answers ``/v1/stream`` (``view --live``, or an agent's own server)
 
 * ``/v1/avatar``          — the page (``web/static/avatar.html``, script ``avatar-page.js``);
 * ``/v1/avatar/static/``  — ``web/static``: ``avatar.js`` (three.js, its GLTFLoader and
-  @pixiv/three-vrm bundled by ``web/js/build.mjs``), ``avatar.vrm`` (the project's VRM 1.0 bust,
+  @pixiv/three-vrm bundled into ``vendor/`` by ``web/js/build.mjs``), ``avatar.vrm`` (the project's VRM 1.0 bust,
   written by ``python -m headmotion.web.build_assets``), the page's script and style;
 * ``/v1/avatar/client/``  — ``@headmotion/client`` (``serve/static/client``), which the page
   streams with.

@@ -1,8 +1,10 @@
 """The browser viewer: a three.js head that plays speech and head motion in sync.
 
 * ``static/viewer.js`` — the viewer component, an ES module exporting ``mountViewer(element,
-  {motions, audioUrl, ...})`` (API documented at the top of ``js/src/viewer.js``); three.js from the
-  npm registry is bundled into it at build time, so nothing is fetched from a CDN at run time.
+  {motions, audioUrl, ...})`` (API documented at the top of ``js/src/viewer.js``; its shaders in
+  ``js/src/head.vert`` and ``head.frag``); three.js from the npm registry is bundled at build time
+  into ``static/vendor/`` (one copy for the viewer and the avatar), so nothing is fetched from a
+  CDN at run time.
 * ``static/head_mesh.bin`` — the project's head model (:mod:`headmotion.render.mesh`, detail 0).
 * ``static/index.html`` — the page ``headmotion view`` serves (:mod:`headmotion.web.server`).
 
@@ -10,7 +12,7 @@ The listening-test app mounts ``static/`` under ``/viewer`` and imports ``/viewe
 
 Rebuilding the static files (only needed after editing ``js/src/viewer.js`` or the mesh)::
 
-    cd src/headmotion/web/js && npm ci && npm run build      # → static/viewer.js (minified)
+    cd src/headmotion/web/js && npm ci && npm run build      # → static/viewer.js, avatar.js, vendor/ (minified)
     python -m headmotion.web.build_assets                     # → static/head_mesh.bin
 """
 
