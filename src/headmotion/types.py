@@ -36,7 +36,8 @@ def _readonly(a: np.ndarray, source) -> np.ndarray:
     return c
 
 
-def _check_rate(name: str, value: float) -> float:
+def check_rate(name: str, value: float) -> float:
+    """``value`` as a positive finite float, else a :class:`ParameterError` naming ``name``."""
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -78,7 +79,7 @@ class Audio:
         s = _pcm_to_float(s)
         if not np.all(np.isfinite(s)):
             raise ParameterError("Audio buffer is not finite everywhere (NaN or inf samples)")
-        rate = _check_rate("sample_rate", self.sample_rate)
+        rate = check_rate("sample_rate", self.sample_rate)
         if rate != int(rate):
             raise ParameterError(f"sample_rate must be a whole number of Hz; got {self.sample_rate!r}")
         object.__setattr__(self, "samples", _readonly(s, self.samples))
@@ -101,8 +102,29 @@ class Audio:
         return f"Audio({self.duration:.3f} s at {self.sample_rate} Hz)"
 
 
+class _Frames:
+    """Frame count, duration and frame times of a value whose ``len`` is its number of frames at
+    ``fps`` (:class:`Motion`, :class:`FeatureTrack`)."""
+
+    fps: float
+
+    @property
+    def n_frames(self) -> int:
+        return len(self)
+
+    @property
+    def duration(self) -> float:
+        """Length in seconds."""
+        return len(self) / self.fps
+
+    @property
+    def times(self) -> np.ndarray:
+        """Frame times in seconds, ``(T,)``."""
+        return np.arange(len(self)) / self.fps
+
+
 @dataclass(frozen=True, eq=False)
-class Motion:
+class Motion(_Frames):
     """Head rotation over time.
 
     Attributes
@@ -131,7 +153,7 @@ class Motion:
             bad = int(np.sum(~np.all(np.isfinite(r), axis=1)))
             raise ParameterError(f"Motion.rotvec contains NaN or inf in {bad} of {len(r)} frames")
         object.__setattr__(self, "rotvec", _readonly(r, self.rotvec))
-        object.__setattr__(self, "fps", _check_rate("fps", self.fps))
+        object.__setattr__(self, "fps", check_rate("fps", self.fps))
         if self.translation is not None:
             t = np.asarray(self.translation, dtype=np.float64)
             if t.shape != r.shape:
@@ -143,22 +165,8 @@ class Motion:
             object.__setattr__(self, "translation", _readonly(t, self.translation))
         object.__setattr__(self, "meta", dict(self.meta))
 
-    # -- basic properties -------------------------------------------------------------------
     def __len__(self) -> int:
         return len(self.rotvec)
-
-    @property
-    def n_frames(self) -> int:
-        return len(self.rotvec)
-
-    @property
-    def duration(self) -> float:
-        return len(self.rotvec) / self.fps
-
-    @property
-    def times(self) -> np.ndarray:
-        """Frame times in seconds, ``(T,)``."""
-        return np.arange(len(self.rotvec)) / self.fps
 
     # -- conversions ------------------------------------------------------------------------
     def as_matrix(self) -> np.ndarray:
@@ -212,7 +220,7 @@ class Motion:
         last frame hold it.  A constant frame rate is assumed."""
         from scipy.spatial.transform import Rotation, Slerp
 
-        fps = _check_rate("fps", fps)
+        fps = check_rate("fps", fps)
         if abs(fps - self.fps) < 1e-9:
             return self
         n_new = max(1, int(round(self.duration * fps)))
@@ -238,7 +246,7 @@ class Motion:
 
 
 @dataclass(frozen=True, eq=False)
-class FeatureTrack:
+class FeatureTrack(_Frames):
     """Frame-wise features.
 
     Attributes
@@ -268,22 +276,14 @@ class FeatureTrack:
             )
         object.__setattr__(self, "values", _readonly(v, self.values))
         object.__setattr__(self, "names", names)
-        object.__setattr__(self, "fps", _check_rate("fps", self.fps))
+        object.__setattr__(self, "fps", check_rate("fps", self.fps))
 
     def __len__(self) -> int:
         return len(self.values)
 
     @property
-    def n_frames(self) -> int:
-        return len(self.values)
-
-    @property
     def dim(self) -> int:
         return self.values.shape[1]
-
-    @property
-    def duration(self) -> float:
-        return len(self.values) / self.fps
 
     def slice_frames(self, start: int, stop: int | None = None) -> "FeatureTrack":
         return FeatureTrack(self.values[start:stop], self.fps, self.names)

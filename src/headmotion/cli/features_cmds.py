@@ -17,21 +17,15 @@ import typer
 
 from ..errors import ParameterError
 from .app import app, console
+from .key_values import key_values
 
 
-def _parse_params(items: list[str] | None) -> dict:
-    params = {}
-    for item in items or []:
-        if "=" not in item:
-            raise ParameterError(f"--param expects KEY=VALUE; got {item!r}")
-        key, raw = item.split("=", 1)
-        key = key.strip().replace("-", "_")
-        try:
-            value = json.loads(raw)
-        except json.JSONDecodeError:
-            value = {"true": True, "false": False}.get(raw.strip().lower(), raw)
-        params[key] = value
-    return params
+def _param_value(raw: str):
+    """A ``--param`` value: JSON, else ``true``/``false``, else the text."""
+    try:
+        return json.loads(raw)
+    except json.JSONDecodeError:
+        return {"true": True, "false": False}.get(raw.strip().lower(), raw)
 
 
 def write_features(track, path: Path, config: dict | None = None) -> None:
@@ -85,7 +79,7 @@ def features(
         raise ParameterError(f"{output}: expected an output ending in .npz or .csv")
     from ..io.audio import load_audio
 
-    params = _parse_params(param)
+    params = key_values(param, "--param", _param_value)
     cfg = F.FeatureConfig(feature_set, fps=fps, params=params)
     t0 = time.perf_counter()
     snd = load_audio(audio)

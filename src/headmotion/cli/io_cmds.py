@@ -20,6 +20,7 @@ from rich.markup import escape
 
 from ..errors import FormatError, ParameterError
 from .app import app, console, print_warning
+from .key_values import key_values
 
 AUDIO_EXT = {".wav", ".flac", ".ogg", ".mp3", ".mp4", ".mkv", ".mpg", ".m4a", ".aac", ".opus", ".webm", ".aiff", ".aif"}
 
@@ -194,20 +195,14 @@ def info(
                       f"{_num(g.get('long_gaps'), 'd')} long gap(s)", highlight=False)
 
 
-def _parse_options(opts: list[str] | None) -> dict:
-    out = {}
-    for o in opts or []:
-        if "=" not in o:
-            raise ParameterError(f"--option must be KEY=VALUE; got {o!r}")
-        k, v = o.split("=", 1)
-        if "," in v:
-            out[k] = [x.strip() for x in v.split(",") if x.strip()]
-        else:
-            try:
-                out[k] = float(v) if any(c in v for c in ".e") else int(v)
-            except ValueError:
-                out[k] = v
-    return out
+def _option_value(v: str):
+    """A ``--option`` value: a comma-separated list, else a number, else the text."""
+    if "," in v:
+        return [x.strip() for x in v.split(",") if x.strip()]
+    try:
+        return float(v) if any(c in v for c in ".e") else int(v)
+    except ValueError:
+        return v
 
 
 @app.command("convert")
@@ -233,7 +228,7 @@ def convert(
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        motion = load_motion(src, format=in_format, **_parse_options(option))
+        motion = load_motion(src, format=in_format, **key_values(option, "--option", _option_value))
     for w in caught:
         print_warning(w.message)
     if fps is not None:

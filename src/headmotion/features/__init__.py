@@ -50,7 +50,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ..errors import ParameterError
-from ..types import Audio, FeatureTrack
+from ..types import Audio, FeatureTrack, check_rate
 from .normalize import Normalizer
 
 DEFAULT_FPS = 100.0
@@ -185,12 +185,7 @@ def extract(name: str, audio: Audio, *, fps: float = DEFAULT_FPS, n_frames: int 
 
     if not isinstance(audio, Audio):
         raise ParameterError(f"extract needs an Audio; got {type(audio).__name__}")
-    try:
-        fps = float(fps)
-    except (TypeError, ValueError):
-        raise ParameterError(f"fps must be a positive number; got {fps!r}") from None
-    if not np.isfinite(fps) or fps <= 0:
-        raise ParameterError(f"fps must be a positive number; got {fps!r}")
+    fps = check_rate("fps", fps)
     if n_frames is None:
         n_frames = count_frames(len(audio), audio.sample_rate, fps)
     elif isinstance(n_frames, bool) or int(n_frames) != n_frames or n_frames < 0:
@@ -240,12 +235,7 @@ class FeatureConfig:
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
             raise ParameterError(f"FeatureConfig.name must be a feature name; got {self.name!r}")
-        try:
-            fps = float(self.fps)
-        except (TypeError, ValueError):
-            raise ParameterError(f"FeatureConfig.fps must be a positive number; got {self.fps!r}") from None
-        if not np.isfinite(fps) or fps <= 0:
-            raise ParameterError(f"FeatureConfig.fps must be a positive number; got {self.fps!r}")
+        fps = check_rate("FeatureConfig.fps", self.fps)
         params = dict(self.params or {})
         try:
             json.dumps(params)

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..align import DEFAULT_TOLERANCE_S, resample_track
 from ..errors import FormatError, LengthMismatchError, ParameterError
+from ..io._limits import check_file
 from ..types import FeatureTrack
 
 
@@ -94,9 +95,7 @@ def load_feature_file(path, *, file_fps: float | None = None) -> FeatureTrack:
     -------
     FeatureTrack
     """
-    path = Path(path)
-    if not path.is_file():
-        raise FormatError("feature file not found", path=path)
+    path = check_file(path, expected="a feature file (.npz, .csv, .tsv, .txt, .npy)")
     ext = path.suffix.lower()
     if ext == ".npz":
         try:

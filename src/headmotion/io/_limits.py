@@ -75,6 +75,20 @@ def parse_count(token: str, *, path=None, line: int | None = None, what: str = "
     return int(t)
 
 
+def check_file(path, *, expected: str) -> Path:
+    """``path`` as a :class:`~pathlib.Path` to a file with something in it, else a
+    :class:`FormatError` naming it: not found, a folder (``expected`` says what should have been
+    there, e.g. ``"a motion file"``) or empty."""
+    p = Path(path)
+    if not p.exists():
+        raise FormatError("file not found", path=p)
+    if p.is_dir():
+        raise FormatError(f"is a directory, expected {expected}", path=p)
+    if p.stat().st_size == 0:
+        raise FormatError("file is empty (0 bytes)", path=p)
+    return p
+
+
 def check_size(path, *, limit: int = MAX_TEXT_BYTES, what: str = "file") -> int:
     """The file's size in bytes; :class:`FormatError` when it is above ``limit``."""
     p = Path(path)
@@ -231,5 +245,5 @@ def zlib_error():
     return zlib.error
 
 
-__all__ = ["FPS_RANGE", "SAMPLE_RATE_RANGE", "check_fps", "parse_count", "check_size", "read_text",
+__all__ = ["FPS_RANGE", "SAMPLE_RATE_RANGE", "check_fps", "parse_count", "check_file", "check_size", "read_text",
            "csv_rows", "json_depth", "load_json", "load_npz_arrays"]

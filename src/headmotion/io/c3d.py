@@ -191,23 +191,24 @@ def _unit(v):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
+def _gram_schmidt(a, b):
+    """Unit ``a``, unit ``b`` made orthogonal to it, and their cross product: a right-handed frame."""
+    ea = _unit(a)
+    eb = _unit(b - np.sum(b * ea, -1, keepdims=True) * ea)
+    return ea, eb, np.cross(ea, eb)
+
+
 def head_basis(lfhd, rfhd, lbhd, rbhd) -> np.ndarray:
-    """``(T, 3, 3)`` head frames, columns x (left), y (up), z (forward) in lab coordinates."""
-    f = (lfhd + rfhd) / 2 - (lbhd + rbhd) / 2
-    left = (lfhd + lbhd) / 2 - (rfhd + rbhd) / 2
-    z = _unit(f)
-    x = _unit(left - np.sum(left * z, -1, keepdims=True) * z)
-    y = np.cross(z, x)
+    """``(T, 3, 3)`` head frames, columns x (left), y (up), z (forward) in lab coordinates: z along
+    back-to-front, x along right-to-left made orthogonal to it."""
+    z, x, y = _gram_schmidt((lfhd + rfhd) / 2 - (lbhd + rbhd) / 2, (lfhd + lbhd) / 2 - (rfhd + rbhd) / 2)
     return np.stack([x, y, z], axis=-1)
 
 
 def torso_basis(c7, t10, clav, strn) -> np.ndarray:
-    """``(T, 3, 3)`` torso frames, columns x (left), y (up), z (forward) in lab coordinates."""
-    u = (c7 + clav) / 2 - (t10 + strn) / 2
-    f = (clav + strn) / 2 - (c7 + t10) / 2
-    y = _unit(u)
-    z = _unit(f - np.sum(f * y, -1, keepdims=True) * y)
-    x = np.cross(y, z)
+    """``(T, 3, 3)`` torso frames, columns x (left), y (up), z (forward) in lab coordinates: y along
+    bottom-to-top, z along back-to-front made orthogonal to it."""
+    y, z, x = _gram_schmidt((c7 + clav) / 2 - (t10 + strn) / 2, (clav + strn) / 2 - (c7 + t10) / 2)
     return np.stack([x, y, z], axis=-1)
 
 

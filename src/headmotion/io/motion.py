@@ -40,6 +40,7 @@ import numpy as np
 
 from ..errors import FormatError, ParameterError
 from ..types import Motion
+from ._limits import check_file
 
 READ_FORMATS = ("bvh", "optitrack", "c3d", "openface", "livelink", "smpl", "csv", "json", "npz", "gltf")
 WRITE_FORMATS = ("bvh", "csv", "json", "npz", "livelink", "gltf")
@@ -105,15 +106,6 @@ def detect_format(path) -> str:
     return fmt
 
 
-def _check_readable(p: Path) -> None:
-    if not p.exists():
-        raise FormatError("file not found", path=p)
-    if p.is_dir():
-        raise FormatError("is a directory, expected a motion file", path=p)
-    if p.stat().st_size == 0:
-        raise FormatError("file is empty", path=p)
-
-
 def load_motion(path, *, format: str | None = None, **options) -> Motion:
     """Read head motion from ``path``.
 
@@ -132,8 +124,7 @@ def load_motion(path, *, format: str | None = None, **options) -> Motion:
     -------
     Motion, ``rotvec (T, 3)`` radians in the convention of :mod:`headmotion.rotations`.
     """
-    p = Path(path)
-    _check_readable(p)
+    p = check_file(path, expected="a motion file")
     fmt = detect_format(p) if format is None else _norm_format(format, READ_FORMATS)
     try:
         if fmt == "bvh":
@@ -226,8 +217,7 @@ def save_motion(motion: Motion, path, *, format: str | None = None, **options) -
 
 def motion_info(path) -> dict:
     """What a motion file holds: format, frames, fps, duration, joints/markers, head SD (deg)."""
-    p = Path(path)
-    _check_readable(p)
+    p = check_file(path, expected="a motion file")
     fmt = detect_format(p)
     info: dict = {"path": str(p), "format": fmt}
     if fmt == "bvh":

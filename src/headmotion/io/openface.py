@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._limits import csv_rows
+from ._limits import FPS_RANGE, check_fps, csv_rows
 from ..errors import FormatError, ParameterError
 from ..rotations import euler_to_rotvec, unwrap_rotvec
 from ..types import Motion
@@ -50,7 +50,6 @@ from ._mocap import fill_gaps
 REQUIRED = ("pose_Rx", "pose_Ry", "pose_Rz")
 #: Frame rates a measured rate is snapped to (video and camera rates).
 STANDARD_RATES = (23.976, 24.0, 25.0, 29.97, 30.0, 50.0, 59.94, 60.0, 100.0, 120.0)
-MIN_FPS, MAX_FPS = 1.0, 1000.0
 
 
 def snap_rate(fps: float, *, span: float | None = None, tolerance: float = 0.005) -> float:
@@ -142,16 +141,12 @@ def load_openface(path, *, fps: float | None = None, min_confidence: float = 0.5
             raise FormatError("cannot infer the frame rate: the 'timestamp' column does not advance; "
                               "pass fps= (or an fps column in corpus.csv)", path=path)
         fps = snap_rate(steps / span, span=span)
-        if not (MIN_FPS <= fps <= MAX_FPS):
+        lo, hi = FPS_RANGE
+        if not (lo <= fps <= hi):
             raise FormatError(f"timestamps give a frame rate of {fps:.6g} fps ({steps} frames in "
-                              f"{span:.6g} s); expected {MIN_FPS:g}–{MAX_FPS:g} fps; pass fps=", path=path)
+                              f"{span:.6g} s); expected {lo:g}–{hi:g} fps; pass fps=", path=path)
     else:
-        try:
-            fps = float(fps)
-        except (TypeError, ValueError):
-            raise ParameterError(f"{path}: fps must be a number; got {fps!r}") from None
-        if not (np.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS):
-            raise ParameterError(f"{path}: fps must be within {MIN_FPS:g}–{MAX_FPS:g}; got {fps!r}")
+        fps = check_fps(fps, path=path, what="fps=", error=ParameterError)
     if not ok.any():
         raise FormatError("no frame with success == 1 and enough confidence", path=path)
     n = int(pos[-1]) + 1

@@ -55,6 +55,7 @@ from scipy.spatial.transform import Rotation
 from ..errors import FormatError, HeadMotionError, ParameterError
 from ..rotations import unwrap_rotvec
 from ..types import Motion
+from ._limits import FPS_RANGE, check_fps
 from ._mocap import fill_gaps
 
 #: ``poses`` width → (model name, joints).
@@ -62,7 +63,6 @@ MODELS = {72: ("smpl", 24), 156: ("smpl-h", 52), 165: ("smpl-x", 55)}
 #: Joint indices (in ``poses``) of the chest's child chain to the head, shared by the three models.
 NECK, HEAD, CHEST = 12, 15, 9
 RATE_KEYS = ("mocap_frame_rate", "mocap_framerate")
-MIN_FPS, MAX_FPS = 1.0, 1000.0
 
 
 def is_smpl_npz(files) -> bool:
@@ -73,13 +73,7 @@ def is_smpl_npz(files) -> bool:
 
 def _rate(z, path, fps):
     if fps is not None:
-        try:
-            v = float(fps)
-        except (TypeError, ValueError):
-            raise ParameterError(f"{path}: fps must be a number; got {fps!r}") from None
-        if not (np.isfinite(v) and MIN_FPS <= v <= MAX_FPS):
-            raise ParameterError(f"{path}: fps must be within {MIN_FPS:g}–{MAX_FPS:g}; got {fps!r}")
-        return v, "fps="
+        return check_fps(fps, path=path, what="fps=", error=ParameterError), "fps="
     for key in RATE_KEYS:
         if key in z.files:
             a = np.asarray(z[key])
@@ -87,9 +81,10 @@ def _rate(z, path, fps):
                 v = float(a.reshape(-1)[0]) if a.size == 1 else float("nan")
             except (TypeError, ValueError):
                 v = float("nan")
-            if not (np.isfinite(v) and MIN_FPS <= v <= MAX_FPS):
+            lo, hi = FPS_RANGE
+            if not (np.isfinite(v) and lo <= v <= hi):
                 raise FormatError(f"{key} = {a.tolist()!r}; expected one frame rate within "
-                                  f"{MIN_FPS:g}–{MAX_FPS:g} fps", path=path)
+                                  f"{lo:g}–{hi:g} fps", path=path)
             return v, key
     raise FormatError(f"no frame rate: none of {', '.join(RATE_KEYS)} in the file (arrays: "
                       f"{', '.join(z.files)}); pass fps= or add an fps column to corpus.csv", path=path)

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FormatError, ParameterError
+from ..io._limits import check_file
 
 RATING_KINDS = ("mos", "mushra")
 
@@ -55,9 +56,7 @@ def load_results(path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
         One per stored answer, long format (participant, trial_index, phase, kind, item, speaker,
         group, slot, condition, value, other, response_ms, demo_*).
     """
-    path = Path(path)
-    if not path.is_file():
-        raise FormatError("the results file does not exist", path=path)
+    path = check_file(path, expected="a results file (.json, .csv or .sqlite)")
     suffix = path.suffix.lower()
     if suffix == ".json":
         try:

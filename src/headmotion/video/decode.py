@@ -22,6 +22,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from ..errors import AudioLoadingError, FormatError
+from ..io._limits import check_file
 from ..types import Audio
 
 #: Sample rate of the audio written into corpora (thesis §3.4: 16 kHz for features).
@@ -62,13 +63,7 @@ class VideoInfo:
 def _open(path: Path):
     import av
 
-    path = Path(path)
-    if not path.exists():
-        raise FormatError("video file not found", path=path)
-    if path.is_dir():
-        raise FormatError("is a directory, not a video file", path=path)
-    if path.stat().st_size == 0:
-        raise FormatError("video file is empty (0 bytes)", path=path)
+    path = check_file(path, expected="a video file")
     try:
         return av.open(str(path))
     except (av.error.FFmpegError, UnicodeDecodeError, ValueError) as exc:

@@ -16,13 +16,10 @@ class CccaeSystem(DnnSystem):
     default_alpha = 1.0
 
 
-class AeDnnSystem(DnnSystem):
+class AeDnnSystem(CccaeSystem):
     """M_AE (paper §4.2): the same pipeline with a plain autoencoder (α = 0)."""
 
     name = "ae-dnn"
-    capabilities = frozenset({EMBEDDING, STREAMING})
-    default_feature = "wav"
-    uses_embedding = True
     default_alpha = 0.0
     alpha_fixed = True
 
