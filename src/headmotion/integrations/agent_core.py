@@ -36,6 +36,7 @@ import numpy as np
 from .. import quaternions
 from ..errors import HeadMotionError, ParameterError, SampleRateError
 from ..io.resampler import QUALITY
+from ..live.blas import one_blas_thread
 from ..synthesis import DEFAULT_STREAM_MODEL, Controls, load_model, open_stream
 
 log = logging.getLogger("headmotion.integrations")
@@ -157,6 +158,7 @@ class HeadMotionCore:
                                  f"got {sorted(controls_kwargs)}")
         self.controls = Controls.parse(**controls_kwargs) if controls is None else controls
         self.model = load_model(model)
+        one_blas_thread()  # an audio loop every 10 ms (headmotion.live.blas)
         self.seed = seed
         self.resample = _check_choice(resample, RESAMPLE, "resample")
         self.settle_s = check_seconds(settle_s, SETTLE_RANGE_S, "settle_s")

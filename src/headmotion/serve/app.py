@@ -270,8 +270,11 @@ def app_from_env():
     """The app of one worker process (``uvicorn --factory``): settings from ``HEADMOTION_SERVE_CONFIG``."""
     from .metrics import setup_logging
 
+    from ..live.blas import one_blas_thread
+
     config = ServeConfig.from_env()
     setup_logging(config.log_level)
+    one_blas_thread()  # a worker carries many streams (headmotion.live.blas)
     return create_app(config)
 
 
