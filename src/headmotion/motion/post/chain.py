@@ -26,6 +26,7 @@ per 10 ms chunk) gives what :meth:`PostChain.push` of that frame gives.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 
@@ -107,21 +108,19 @@ class PostTables:
                                             or float(self.drift_share) > 0)
 
 
-class _Restore:
-    def __init__(self, t: PostTables, rng):
-        self.post = CausalPost(gv=t.gv, band_gains=t.band_gains, share=float(t.drift_share), sd=t.drift_sd,
-                               fps=float(t.fps), tau_s=float(t.drift_tau_s), rng=rng)
+class _Map:
+    """A stage that passes each block of frames through ``fn`` (a function, or a stateful object's
+    ``push``) and needs no speech flags."""
+
+    def __init__(self, fn):
+        self.fn = fn
 
     def push(self, x, flags):  # noqa: ARG002
-        return self.post.push(x)
+        return self.fn(x)
 
 
-class _Denormalise:
-    def __init__(self, t: PostTables):
-        self.mean, self.sd = t.norm_mean, t.norm_sd
-
-    def push(self, x, flags):  # noqa: ARG002
-        return np.asarray(np.asarray(x, dtype=np.float64) * self.sd + self.mean, dtype=np.float64)
+def _denormalise(x, mean, sd):
+    return np.asarray(np.asarray(x, dtype=np.float64) * sd + mean, dtype=np.float64)
 
 
 class _ToRotvec:
@@ -148,45 +147,29 @@ class _Settle:
         return self.settler.push_one(x, self.weight.push_one(flag))
 
 
-class _Amplify:
-    def __init__(self, t: PostTables):
-        self.gains, self.centre = np.asarray(t.amplitude_gains, dtype=np.float64), t.amplitude_centre
-
-    def push(self, x, flags):  # noqa: ARG002
-        return apply_gain_angles(x, self.centre, self.gains)
-
-
-class _Shape:
-    def __init__(self, t: PostTables):
-        self.shaper = product_shaper(t.speed_map, float(t.fps))
-
-    def push(self, x, flags):  # noqa: ARG002
-        return self.shaper.push(x)
-
-
-class _Limit:
-    def __init__(self, t: PostTables):
-        self.centre, self.bounds = t.range_centre, t.range_bounds
-
-    def push(self, x, flags):  # noqa: ARG002
-        return soft_range(x, self.centre, self.bounds)
-
-
 def _stage(name: str, t: PostTables, rng):
     """The stage ``name`` with fresh state, or None when its table says it is off."""
     if name == "restore":
-        return _Restore(t, rng) if t.restores else None
+        if not t.restores:
+            return None
+        return _Map(CausalPost(gv=t.gv, band_gains=t.band_gains, share=float(t.drift_share), sd=t.drift_sd,
+                               fps=float(t.fps), tau_s=float(t.drift_tau_s), rng=rng).push)
     if name == "denormalise":
-        return _Denormalise(t) if t.norm_mean is not None else None
+        return None if t.norm_mean is None else _Map(partial(_denormalise, mean=t.norm_mean, sd=t.norm_sd))
     if name == "to_rotvec":
         return _ToRotvec()
     if name == "settle":
         return _Settle(t) if t.settles else None
     if name == "amplify":
-        return _Amplify(t) if t.amplitude_gains is not None else None
+        if t.amplitude_gains is None:
+            return None
+        gains = np.asarray(t.amplitude_gains, dtype=np.float64)
+        return _Map(partial(apply_gain_angles, mean_pose=t.amplitude_centre, gain=gains))
     if name == "shape":
-        return _Shape(t) if t.speed_map is not None else None
-    return _Limit(t) if t.range_bounds is not None else None
+        return _Map(product_shaper(t.speed_map, float(t.fps)).push) if t.speed_map is not None else None
+    if t.range_bounds is None:
+        return None
+    return _Map(partial(soft_range, centre=t.range_centre, bounds=t.range_bounds))
 
 
 class PostChain:
