@@ -3,7 +3,8 @@
 :func:`mount_avatar` adds the page and its files to a FastAPI app — ``headmotion serve``'s, and any
 app that also answers ``/v1/stream`` (``view --live``, or an agent's own server):
 
-* ``/v1/avatar``          — the page (``web/static/avatar.html``, script ``avatar-page.js``);
+* ``/v1/avatar``          — the page (:mod:`.pages`: body ``web/static/avatar.body.html``, script
+  ``avatar-page.js``, styles ``page.css`` and ``avatar.css``);
 * ``/v1/avatar/static/``  — ``web/static``: ``avatar.js`` (three.js, its GLTFLoader and
   @pixiv/three-vrm bundled into ``vendor/`` by ``web/js/build.mjs``), ``avatar.vrm`` (the project's VRM 1.0 bust,
   written by ``python -m headmotion.web.build_assets``), the page's script and style;
@@ -18,24 +19,24 @@ from __future__ import annotations
 
 from pathlib import Path
 
-#: the web components' files (the viewer's and the avatar's bundles, the VRM, the pages)
-WEB_STATIC = Path(__file__).resolve().parents[1] / "web" / "static"
+from .pages import WEB_STATIC, page_response
+
 #: @headmotion/client
 CLIENT = Path(__file__).resolve().parent / "static" / "client"
-PAGE = WEB_STATIC / "avatar.html"
+#: where ``web/static`` is mounted
+STATIC_URL = "/v1/avatar/static"
 
 
 def mount_avatar(app) -> None:
     """Add ``/v1/avatar`` and its static files to the FastAPI ``app`` (module docstring)."""
-    from fastapi.responses import FileResponse
     from fastapi.staticfiles import StaticFiles
 
     @app.get("/v1/avatar", include_in_schema=False)
     def avatar_page():
-        return FileResponse(PAGE, media_type="text/html")
+        return page_response("avatar", "avatar", static=STATIC_URL, stylesheets=("avatar.css",))
 
-    app.mount("/v1/avatar/static", StaticFiles(directory=WEB_STATIC), name="avatar-static")
+    app.mount(STATIC_URL, StaticFiles(directory=WEB_STATIC), name="avatar-static")
     app.mount("/v1/avatar/client", StaticFiles(directory=CLIENT), name="avatar-client")
 
 
-__all__ = ["mount_avatar", "WEB_STATIC", "CLIENT", "PAGE"]
+__all__ = ["mount_avatar", "WEB_STATIC", "CLIENT", "STATIC_URL"]

@@ -6,7 +6,9 @@
   into ``static/vendor/`` (one copy for the viewer and the avatar), so nothing is fetched from a
   CDN at run time.
 * ``static/head_mesh.bin`` — the project's head model (:mod:`headmotion.render.mesh`, detail 0).
-* ``static/index.html`` — the page ``headmotion view`` serves (:mod:`headmotion.web.server`).
+* ``static/index.body.html``, ``static/live.body.html``, ``static/avatar.body.html`` and ``page.css`` —
+  the bodies and the shared style of the pages ``headmotion view``, ``view --live`` and ``/v1/avatar``
+  serve (:mod:`headmotion.serve.pages` writes their one head).
 
 The listening-test app mounts ``static/`` under ``/viewer`` and imports ``/viewer/viewer.js``.
 

@@ -1,7 +1,7 @@
 """``headmotion view --live``: the bundled viewer driven by the microphone or an audio file through
 a WebSocket, with any model that streams (the shipped ``stream`` model by default).
 
-The page (``static/live.html``) captures audio in the browser — ``getUserMedia`` for the
+The page (body ``static/live.body.html``) captures audio in the browser — ``getUserMedia`` for the
 microphone, or a chosen file decoded and played — and streams it over ``WS /v1/stream``, the
 service's protocol (docs/serve.md; :func:`headmotion.serve.local.mount_stream` answers it with the
 very session ``headmotion serve`` runs): a start message ``{"type": "start", "sample_rate": sr,
@@ -27,15 +27,11 @@ import contextlib
 from pathlib import Path
 
 from ..errors import ParameterError
-from .server import STATIC
+from .server import page_app
 
 
 def create_live_app(model, *, seed: int | None = None, model_path: str | None = None):
     """FastAPI app serving the live page, the avatar page and ``/v1/stream`` for a loaded causal model."""
-    from fastapi import FastAPI
-    from fastapi.responses import FileResponse
-    from fastapi.staticfiles import StaticFiles
-
     from ..serve.avatar import mount_avatar
     from ..serve.local import mount_stream
     from ..synthesis import check_seed, open_stream
@@ -47,11 +43,7 @@ def create_live_app(model, *, seed: int | None = None, model_path: str | None = 
     check_seed(seed, allow_none=True)
     name, path = _model_name(model_path)
     model_sr = int(model.sample_rate)
-    app = FastAPI(title="headmotion live", docs_url=None, redoc_url=None, openapi_url=None)
-
-    @app.get("/")
-    def index():
-        return FileResponse(STATIC / "live.html", media_type="text/html")
+    app = page_app("live", "live")
 
     @app.get("/api/live")
     def info():
@@ -61,7 +53,6 @@ def create_live_app(model, *, seed: int | None = None, model_path: str | None = 
 
     mount_stream(app, model, name=name, path=path)
     mount_avatar(app)
-    app.mount("/viewer", StaticFiles(directory=STATIC), name="viewer")
     return app
 
 

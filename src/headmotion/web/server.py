@@ -2,12 +2,14 @@
 
 A small FastAPI app (the framework the listening tests use too) served by uvicorn on localhost:
 
-* ``/``                  — the page (``static/index.html``) that mounts the viewer component;
+* ``/``                  — the page (body ``static/index.body.html``, :mod:`headmotion.serve.pages`)
+  that mounts the viewer component;
 * ``/api/session``       — ``{motions: [{label, url}], audioUrl, mask, style}`` for the page;
 * ``/motion/{i}.json``   — one motion as ``{fps, rotvec, translation?}`` (:func:`motion_payload`);
 * ``/audio.wav``         — the speech as 16-bit WAV (served as a file, so HTTP range requests and
   hence seeking work in every browser);
-* ``/viewer/...``        — the static files: ``viewer.js`` (three.js bundled) and ``head_mesh.bin``.
+* ``/viewer/...``        — the static files: ``viewer.js`` (three.js bundled), ``head_mesh.bin`` and
+  the page's stylesheet.
 
 Libraries considered: ``http.server`` (no range requests for audio seeking, which Chromium needs),
 Flask (not otherwise used in the project); FastAPI/Starlette's ``FileResponse`` handles ranges.
@@ -57,12 +59,30 @@ def _write_wav(audio, tmpdir: str) -> str | None:
     return path
 
 
+def page_app(name: str, title: str):
+    """A FastAPI app titled ``headmotion TITLE`` (no API docs) whose ``/`` is the page ``name``
+    (:func:`headmotion.serve.pages.page_html`) and which serves ``static/`` under ``/viewer``: the
+    viewer's and the live view's."""
+    from fastapi import FastAPI
+    from fastapi.staticfiles import StaticFiles
+
+    from ..serve.pages import page_response
+
+    app = FastAPI(title=f"headmotion {title}", docs_url=None, redoc_url=None, openapi_url=None)
+
+    @app.get("/")
+    def index():
+        return page_response(name, title, static="/viewer")
+
+    app.mount("/viewer", StaticFiles(directory=STATIC), name="viewer")
+    return app
+
+
 def create_app(motions, *, labels=None, audio_path: str | None = None, mask: bool = True,
                style: str = "textured"):
     """The FastAPI app for a list of motions (audio already written as a WAV file, or None)."""
-    from fastapi import FastAPI, HTTPException
+    from fastapi import HTTPException
     from fastapi.responses import FileResponse, JSONResponse
-    from fastapi.staticfiles import StaticFiles
 
     ms = [motions] if isinstance(motions, Motion) else list(motions)
     if not ms:
@@ -73,11 +93,7 @@ def create_app(motions, *, labels=None, audio_path: str | None = None, mask: boo
     if style not in ("textured", "smooth", "silhouette"):
         raise ParameterError(f"style must be textured, smooth or silhouette; got {style!r}")
     payloads = [motion_payload(m, label=lab) for m, lab in zip(ms, labels)]
-    app = FastAPI(title="headmotion viewer", docs_url=None, redoc_url=None, openapi_url=None)
-
-    @app.get("/")
-    def index():
-        return FileResponse(STATIC / "index.html", media_type="text/html")
+    app = page_app("index", "viewer")
 
     @app.get("/api/session")
     def session():
@@ -99,7 +115,6 @@ def create_app(motions, *, labels=None, audio_path: str | None = None, mask: boo
             raise HTTPException(404, "no audio")
         return FileResponse(audio_path, media_type="audio/wav")
 
-    app.mount("/viewer", StaticFiles(directory=STATIC), name="viewer")
     return app
 
 
@@ -171,4 +186,4 @@ def serve(motions, *, labels=None, audio=None, host: str = "127.0.0.1", port: in
         wait_until_interrupted(url, open_browser=open_browser, announce=announce)
 
 
-__all__ = ["create_app", "running_app", "running_server", "serve", "wait_until_interrupted", "motion_payload", "STATIC"]
+__all__ = ["create_app", "page_app", "running_app", "running_server", "serve", "wait_until_interrupted", "motion_payload", "STATIC"]
