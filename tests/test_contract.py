@@ -14,6 +14,7 @@ from headmotion.align import n_frames
 from headmotion.errors import NotFittedError, ParameterError
 from headmotion.io.audio import resample
 from headmotion.rotations import pitch_yaw_roll_to_rotvec, rotvec_to_pitch_yaw_roll
+from headmotion.synthesis import synthesize
 from headmotion.systems import CAUSAL, EMBEDDING, SYSTEMS, create, load_model
 from headmotion.types import Audio
 
@@ -92,11 +93,12 @@ def check_synthesizer(name: str, corpus, audio: Audio, tmp_path) -> None:
     other = Audio(resample(audio.samples, audio.sample_rate, 22050), 22050)
     assert abs(len(model.predict(other, seed=1)) - len(out)) <= 1
     assert model.sample_rate == corpus[0].audio.sample_rate
-    # gain / offset: one meaning (about the training mean pose, pitch / yaw / roll)
-    still = model.predict(audio, seed=1, gain=0.0, offset=(0.01, 0.0, -0.02))
+    # gain / offset, applied by the product to every system's motion: one meaning (about the
+    # training mean pose, pitch / yaw / roll)
+    still = synthesize(audio, model, seed=1, gain=0.0, offset=(0.01, 0.0, -0.02))[0]
     pose = pitch_yaw_roll_to_rotvec(*(model.mean_pose_ + [0.01, 0.0, -0.02]))
     np.testing.assert_allclose(still.rotvec, np.tile(pose, (len(still), 1)), atol=1e-12)
-    loud = rotvec_to_pitch_yaw_roll(model.predict(audio, seed=1, gain=1.5).rotvec)
+    loud = rotvec_to_pitch_yaw_roll(synthesize(audio, model, seed=1, gain=1.5)[0].rotvec)
     np.testing.assert_allclose(loud.std(axis=0), 1.5 * rotvec_to_pitch_yaw_roll(out.rotvec).std(axis=0), rtol=1e-9)
     # a bad parameter set after fitting is refused by predict
     model.set_params(**BAD[name])

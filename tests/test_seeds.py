@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from headmotion.errors import ParameterError
-from headmotion.seeds import DEFAULT_SEED, SEED_MAX, check_seed, model_seed
+from headmotion.seeds import DEFAULT_SEED, SEED_MAX, check_seed, model_seed, resolve_seed
 from headmotion.synthesis import open_stream, synthesize
 from headmotion.systems import create
 
@@ -63,3 +63,28 @@ def test_model_seed_falls_back_to_the_default():
         pass
 
     assert model_seed(NoSeed(), None) == DEFAULT_SEED and model_seed(NoSeed(), 5) == 5
+
+
+def test_resolve_seed_fills_in_the_models_own_and_checks_it():
+    class Own:
+        def __init__(self, seed):
+            self.seed = seed
+
+    assert resolve_seed(Own(None), None) == DEFAULT_SEED
+    assert resolve_seed(Own(7), None) == 7 and resolve_seed(Own(7), 5) == 5
+    assert type(resolve_seed(Own(7), np.int64(3))) is int
+    with pytest.raises(ParameterError, match=r"from 0 to 4294967295; got -1"):
+        resolve_seed(Own(-1), None)  # a bad seed parameter is refused when it fills in
+    with pytest.raises(ParameterError, match=rf"from 0 to {SEED_MAX - 1} \(seed \+ samples - 1"):
+        resolve_seed(Own(SEED_MAX), None, samples=2)
+
+
+def test_a_model_whose_seed_is_none_synthesises_with_the_default_seed(corpus):
+    """``seed=None`` as a model's parameter is the default seed, in ``predict`` as in ``synthesize``
+    (not a fresh draw each call)."""
+    audio = corpus[0].audio.slice_seconds(0, 4.0)
+    m = create("tws-basic", n_components=1, n_init=1, seed=None).fit(corpus)
+    want = m.predict(audio, seed=DEFAULT_SEED).rotvec
+    np.testing.assert_array_equal(m.predict(audio).rotvec, want)
+    np.testing.assert_array_equal(synthesize(audio, m)[0].rotvec, want)
+    assert not np.array_equal(m.predict(audio, seed=1).rotvec, want)  # the seed matters to this model

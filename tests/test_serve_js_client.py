@@ -15,6 +15,7 @@ from conftest import CHROMIUM
 from serve_helpers import ROOT, SPEECH, registry, speech_f32
 
 from headmotion.io import load_audio
+from headmotion.synthesis import synthesize
 
 pytestmark = [pytest.mark.browser, pytest.mark.timeout(180)]
 CLIENT = ROOT / "src" / "headmotion" / "serve" / "static" / "client"
@@ -69,7 +70,7 @@ def test_motion_of_a_file_is_the_librarys(page_at):
         const bytes = Uint8Array.from(atob(wav), (c) => c.charCodeAt(0));
         return await hm.motion(new Blob([bytes], { type: "audio/wav" }), { model: "stream", seed: 3, gain: [1.2, 0.5, 1] });
     }""", wav)
-    want = registry().models["stream"].predict(load_audio(SPEECH), seed=3, gain=(1.2, 0.5, 1.0))
+    want = synthesize(load_audio(SPEECH), registry().models["stream"], seed=3, gain=(1.2, 0.5, 1.0))[0]
     np.testing.assert_allclose(np.array(doc["frames"]), want.rotvec, atol=1e-9)
     assert not errors, errors
 

@@ -12,6 +12,7 @@ import pytest
 from serve_helpers import SPEECH, client, registry, speech_f32
 
 from headmotion.io import load_audio
+from headmotion.synthesis import synthesize
 
 
 @pytest.fixture(scope="module")
@@ -27,7 +28,7 @@ def _npz(data: bytes):
 
 def test_offline_equals_library_predict(c):
     model = registry().models["stream"]
-    want = model.predict(load_audio(SPEECH), seed=3, gain=(1.2, 0.5, 1.2), offset=(np.radians(4.0), 0.0, 0.0))
+    want = synthesize(load_audio(SPEECH), model, seed=3, gain=(1.2, 0.5, 1.2), offset=(np.radians(4.0), 0.0, 0.0))[0]
     r = c.post("/v1/motion?model=stream&seed=3&format=npz&gain=1.2&gain_yaw=0.5&offset_pitch=4",
                content=SPEECH.read_bytes(), headers={"content-type": "audio/wav"})
     assert r.status_code == 200, r.text

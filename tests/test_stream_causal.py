@@ -121,7 +121,7 @@ def test_memory_bounded_over_ten_minutes(models, examples_dir):
     a = _at16k(load_audio(examples_dir / "speech" / "speech_male.wav"), 11.0)
     x = np.tile(a.samples, int(np.ceil(600 / a.duration)))[: 600 * 16000]  # 10 minutes of speech
     for name in ("tws-hier", "le2012"):
-        st = models[name].stream(seed=0).inner
+        st = models[name].stream(seed=0)
         sizes = []
         n_out = 0
         for i in range(0, len(x), 16000):  # 1 s chunks

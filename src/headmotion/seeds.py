@@ -5,7 +5,9 @@ A synthesis seed picks a take: the same seed, the same motion.  ``headmotion syn
 same seeds — whole numbers from 0 to :data:`SEED_MAX` (numpy's legacy seeds, which some systems
 use) — and with ``samples=K`` sample ``k`` uses ``seed + k``, so ``seed + K - 1`` must fit too.
 A seed left out (None) is the model's own ``seed`` parameter, or :data:`DEFAULT_SEED` for a model
-without one.
+without one.  :func:`resolve_seed` applies both rules, once per synthesis: in a system's public
+``predict`` / ``stream``, or in :func:`headmotion.synthesize` / :func:`headmotion.open_stream`,
+which then call the system's ``predict_seeded`` / ``stream_seeded`` with the seed it gave.
 """
 
 from __future__ import annotations
@@ -43,4 +45,14 @@ def model_seed(model, seed) -> int:
     return DEFAULT_SEED if own is None else int(own)
 
 
-__all__ = ["DEFAULT_SEED", "SEED_MAX", "check_seed", "model_seed"]
+def resolve_seed(model, seed, samples: int = 1) -> int:
+    """The seed a synthesis with ``model`` uses (the rule of :func:`model_seed`), checked by
+    :func:`check_seed` with ``samples`` — the seed given, or the model's own that fills in for None."""
+    if seed is None:
+        own = getattr(model, "seed", None)
+        seed = DEFAULT_SEED if own is None else own
+    check_seed(seed, samples)
+    return int(seed)
+
+
+__all__ = ["DEFAULT_SEED", "SEED_MAX", "check_seed", "model_seed", "resolve_seed"]

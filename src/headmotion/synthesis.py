@@ -34,7 +34,7 @@ import numpy as np
 from .errors import AudioLoadingError, ParameterError
 from .io._limits import FPS_RANGE
 from .motion.control import AMOUNT_RANGE
-from .seeds import DEFAULT_SEED, SEED_MAX, check_seed, model_seed
+from .seeds import DEFAULT_SEED, SEED_MAX, check_seed, resolve_seed
 from .shipped import ShippedModel, list_models
 from .types import Audio, Motion
 
@@ -240,7 +240,7 @@ def load_model(model=DEFAULT_MODEL):
         from .systems.base import load_model as load_file
 
         return load_file(model)  # a shipped name or a file
-    if hasattr(model, "frame_rate") and (hasattr(model, "predict") or hasattr(model, "stream")):
+    if hasattr(model, "frame_rate") and hasattr(model, "predict_seeded"):
         return model
     raise ParameterError(f"model must be a shipped name, a model file or a loaded model; got {type(model).__name__}")
 
@@ -395,10 +395,8 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: 
         ``samples`` motions, at ``controls.fps`` or the model's frame rate.
     """
     c = _controls(controls, controls_kwargs)
-    check_seed(seed, samples, allow_none=True)
     m = load_model(model)
-    seed = model_seed(m, seed)
-    check_seed(seed, samples)
+    seed = resolve_seed(m, seed, samples)
     speech, duration, in_blocks = _speech(audio, m)
     _check_long_enough(audio, duration, m.frame_rate)
     heard = None
@@ -417,7 +415,7 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: 
             report = None if progress is None else (lambda s, d=done: progress(d + s, total))
             motion = predict_file_in_blocks(m, speech, seed=seed + k, progress=report)
         else:
-            motion = m.predict(speech, seed=seed + k)
+            motion = m.predict_seeded(speech, seed + k)
         if heard is not None:
             from .listener.head import listen
 
@@ -555,10 +553,8 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int | None = None, sample_r
         ``flush() -> Motion``.
     """
     c = _controls(controls, controls_kwargs)
-    check_seed(seed, allow_none=True)
     m = load_model(model)
-    seed = model_seed(m, seed)
-    check_seed(seed)
+    seed = resolve_seed(m, seed)
     if c.style_from is not None:
         raise ParameterError("style_from needs the whole recording: use synthesize, not a stream")
     if c.fps is not None and c.fps != float(m.frame_rate):
@@ -571,7 +567,7 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int | None = None, sample_r
                                    or heard_rate < 1000):
         raise ParameterError(f"heard_rate must be a whole number of Hz >= 1000; got {heard_rate!r}")
     m = _with_amount(_with_stochastic(m, c.stochastic, 1), c.amount)
-    inner = m.stream(seed=seed)
+    inner = m.stream_seeded(seed)
     return SpeechStream(m, inner, c, int(m.sample_rate) if sample_rate is None else int(sample_rate),
                         resample=resample, heard_rate=heard_rate, seed=seed)
 

@@ -235,10 +235,10 @@ class Adapt(Synthesizer):
         self.model_._validate_params()
         return self.model_
 
-    def _predict(self, audio, *, seed: int | None):
+    def _predict(self, audio, *, seed: int):
         return self._model()._predict(audio, seed=seed)
 
-    def _stream(self, *, seed: int | None):
+    def _stream(self, *, seed: int):
         return self._model()._stream(seed=seed)
 
     def _get_state(self):

@@ -8,7 +8,8 @@ A system is an estimator in scikit-learn's manner:
   never in ``__init__``, so ``set_params`` may change them.
 * ``random_state`` is the *training* randomness (EM / k-means / network initialisation, data
   splits); ``seed`` is the *synthesis* randomness (what a stochastic system samples).  A system
-  with a ``seed`` parameter uses it when ``predict(seed=None)``.
+  with a ``seed`` parameter uses it when ``predict(seed=None)``; the rule and its check are
+  :func:`headmotion.seeds.resolve_seed`, applied once per synthesis.
 * ``stochastic`` — what a stochastic system samples — is an ordinary parameter with one
   vocabulary for every system, :data:`STOCHASTIC`: ``"none"``, ``"choice"`` (the discrete choice:
   tws-basic's speed class, tws-hier's cluster; the thesis's words ``"class"`` and ``"cluster"``
@@ -21,14 +22,17 @@ A system is an estimator in scikit-learn's manner:
 
 Synthesis::
 
-    predict(audio, *, seed=None, gain=1.0, offset=0.0) -> Motion     # at model.frame_rate
-    stream(*, seed=None, gain=1.0, offset=0.0) -> MotionStream         # CAUSAL or STREAMING systems
+    predict(audio, *, seed=None) -> Motion        # at model.frame_rate
+    stream(*, seed=None) -> MotionStream          # CAUSAL or STREAMING systems
 
 ``audio`` may be at any sample rate: it is resampled once, where the features are computed.
 :attr:`Synthesizer.sample_rate` is the rate the features analyse (and the rate a stream's
 ``push`` expects).  The output is at :attr:`Synthesizer.frame_rate`; the caller resamples.
-``gain`` / ``offset`` have one meaning for every system, :func:`headmotion.motion.control.apply_gain`
-about the training data's mean pose ``mean_pose_`` (pitch, yaw, roll in radians).
+``predict_seeded(audio, seed)`` and ``stream_seeded(seed)`` are the same with a seed the caller
+has resolved (:func:`headmotion.synthesize` and :func:`headmotion.open_stream` do).  A system's
+output is its own motion: gain, offset and the other user controls act above the systems, once
+(:func:`headmotion.synthesis.apply_controls`; gain about the training data's mean pose
+``mean_pose_``, :func:`headmotion.motion.control.apply_gain`).
 
 A fitted system may declare the pose range it can reach by overriding :meth:`reachable_range`
 (``(3, 2)`` radians; default None) — the evaluation measures saturation against it.
@@ -40,7 +44,7 @@ with the lookahead its stream's ``latency_ms`` states — the DNN systems: their
 and post-filter segments need ~0.8 s of future audio), :data:`EMBEDDING` (``embed(audio, fps=, n_frames=)`` gives a learned
 embedding), :data:`NEEDS_OTHER_SPEAKERS` (train on the other speakers' recordings).
 
-Subclasses implement ``fit``, ``_predict(audio, *, seed) -> Motion`` (raw, before gain),
+Subclasses implement ``fit``, ``_predict(audio, *, seed) -> Motion``,
 ``_stream(*, seed)`` when causal or streaming, ``_get_state`` / ``_set_state`` for persistence through
 :mod:`headmotion.models.serialization` (no pickle), and ``_legacy_mean_pose`` for model files
 written before ``mean_pose`` was stored.
@@ -58,9 +62,8 @@ import numpy as np
 
 from ..errors import ModelFileError, NotFittedError, ParameterError
 from ..models.serialization import load_model_file, save_model_file
-from ..motion.control import apply_gain, as_triple, is_identity
 from ..registry import SYSTEMS  # the table lives below the systems: shipped.py reads it too
-from ..seeds import check_seed
+from ..seeds import resolve_seed
 from ..types import Audio, Motion
 
 #: capability names
@@ -93,23 +96,6 @@ class MotionStream(Protocol):
     def push(self, samples: np.ndarray) -> Motion: ...
 
     def flush(self) -> Motion: ...
-
-
-class _GainedStream:
-    """A :class:`MotionStream` whose output goes through :func:`apply_gain`."""
-
-    def __init__(self, inner, mean_pose, gain, offset):
-        self.inner, self.mean_pose, self.gain, self.offset = inner, mean_pose, gain, offset
-        self.latency_ms = inner.latency_ms
-        self.identity = is_identity(gain, offset)   # decided once, not on every 10 ms push
-
-    def push(self, samples) -> Motion:
-        m = self.inner.push(samples)
-        return m if self.identity else apply_gain(m, self.mean_pose, self.gain, self.offset)
-
-    def flush(self) -> Motion:
-        m = self.inner.flush()
-        return m if self.identity else apply_gain(m, self.mean_pose, self.gain, self.offset)
 
 
 class Synthesizer(ABC):
@@ -188,29 +174,26 @@ class Synthesizer(ABC):
         """Learn from a corpus; returns ``self``.  ``progress`` is an optional callable
         ``progress(done: float, total: float, description: str)``."""
 
-    def predict(self, audio: Audio, *, seed: int | None = None, gain=1.0, offset=0.0) -> Motion:
-        """Head motion for ``audio`` (any sample rate) at :attr:`frame_rate`.
+    def predict(self, audio: Audio, *, seed: int | None = None) -> Motion:
+        """Head motion for ``audio`` (any sample rate) at :attr:`frame_rate`: the system's own
+        motion, which :func:`headmotion.synthesize` then controls (gain, offset, style …).
 
-        ``seed`` — synthesis randomness (default: the model's ``seed`` parameter, if any);
-        ``gain``, ``offset`` — scalar or (pitch, yaw, roll), see :mod:`headmotion.motion.control`."""
+        ``seed`` — synthesis randomness; None: the model's ``seed`` parameter, or
+        :data:`headmotion.seeds.DEFAULT_SEED` (:func:`headmotion.seeds.resolve_seed`)."""
+        return self.predict_seeded(audio, resolve_seed(self, seed))
+
+    def predict_seeded(self, audio: Audio, seed: int) -> Motion:
+        """:meth:`predict` with a seed already resolved by :func:`headmotion.seeds.resolve_seed`
+        (what :func:`headmotion.synthesize` calls: it resolves the seeds of all its samples once)."""
         self._check_fitted()
         if not isinstance(audio, Audio):
             raise ParameterError(f"{self.name}.predict expects an Audio; got {type(audio).__name__}")
-        as_triple(gain, "gain"), as_triple(offset, "offset")
-        check_seed(seed, allow_none=True)
         self._validate_params()
-        motion = self._predict(audio, seed=self._synthesis_seed(seed))
-        return apply_gain(motion, self.mean_pose_, gain, offset)
-
-    def _synthesis_seed(self, seed: int | None) -> int | None:
-        """The seed a synthesis uses: ``seed``, or when None the model's ``seed`` parameter (None
-        for a system without one).  The one place the default seed is filled: :meth:`predict` and
-        :meth:`stream` hand ``_predict`` and ``_stream`` the filled seed."""
-        return getattr(self, "seed", None) if seed is None else seed
+        return self._predict(audio, seed=seed)
 
     @abstractmethod
-    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
-        """The system's motion before gain and offset (``seed`` already filled)."""
+    def _predict(self, audio: Audio, *, seed: int) -> Motion:
+        """The system's motion (``seed`` already resolved)."""
 
     def _own_synthesis(self, recs, motions) -> tuple[list[np.ndarray], list[np.ndarray]]:
         """This system's synthesis of the speech of the training recordings ``recs`` (recording k
@@ -220,18 +203,21 @@ class Synthesizer(ABC):
         its ``idle="auto"`` varies: ``Le2012._raw_synthesis``)."""
         return pair_shortest((self._predict(r.audio, seed=k).rotvec for k, r in enumerate(recs)), motions)
 
-    def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0) -> MotionStream:
-        """Incremental synthesis (systems with the CAUSAL or STREAMING capability)."""
+    def stream(self, *, seed: int | None = None) -> MotionStream:
+        """Incremental synthesis (systems with the CAUSAL or STREAMING capability); ``seed`` as
+        in :meth:`predict`."""
+        return self.stream_seeded(resolve_seed(self, seed))
+
+    def stream_seeded(self, seed: int) -> MotionStream:
+        """:meth:`stream` with a seed already resolved (what :func:`headmotion.open_stream` calls)."""
         if not self.can_stream:
             raise ParameterError(f"system {self.name!r} cannot stream (it has neither the causal nor the "
                                  f"streaming capability)")
         self._check_fitted()
-        as_triple(gain, "gain"), as_triple(offset, "offset")
-        check_seed(seed, allow_none=True)
         self._validate_params()
-        return _GainedStream(self._stream(seed=self._synthesis_seed(seed)), self.mean_pose_, gain, offset)
+        return self._stream(seed=seed)
 
-    def _stream(self, *, seed: int | None) -> MotionStream:  # noqa: ARG002  (the causal systems' hook)
+    def _stream(self, *, seed: int) -> MotionStream:  # noqa: ARG002  (the causal systems' hook)
         raise ParameterError(f"system {self.name!r} is not causal and cannot stream")
 
     @abstractmethod

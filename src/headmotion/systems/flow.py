@@ -342,8 +342,7 @@ class MotionFlow(Synthesizer):
         self.net_ = net.cpu()
         return out[:T]
 
-    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
-        seed = int(seed)  # filled by the contract (Synthesizer._synthesis_seed)
+    def _predict(self, audio: Audio, *, seed: int) -> Motion:
         n = _n_frames(len(audio.samples), audio.sample_rate, FPS)
         if n == 0:
             return Motion(np.zeros((0, 3)), FPS)

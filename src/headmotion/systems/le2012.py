@@ -463,7 +463,7 @@ class Le2012(Synthesizer):
             ascent_reference(out, cond, mu, sd, lo, hi, joint=self.joint, n_steps=self.n_steps, step=self.step,
                              pull=pull, pose=pose, jitter=jitter if self.start_sd else None)
 
-    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
+    def _predict(self, audio: Audio, *, seed: int) -> Motion:
         """Causal frame-by-frame maximisation of eq 2.21 (or eq 5.15 with ``joint``); see the
         module docstring for the pull, the seeded start and pauses."""
         from ..align import n_frames as _n
@@ -502,13 +502,13 @@ class Le2012(Synthesizer):
         (:meth:`_post_chain`): settled in pauses at ``idle``, with ``post`` the post stages."""
         return self._post_chain(idle, pose, post=post).push(out, mask)
 
-    def stream(self, *, seed: int | None = None, gain=1.0, offset=0.0):
-        """:meth:`Synthesizer.stream`, with the reason when this model's features cannot stream."""
+    def stream_seeded(self, seed: int):
+        """:meth:`Synthesizer.stream_seeded`, with the reason when this model's features cannot stream."""
         if getattr(self, "fitted_", False) and self._config().name not in LIVE_FEATURES:
             self._stream(seed=seed)  # raises with the reason
-        return super().stream(seed=seed, gain=gain, offset=offset)
+        return super().stream_seeded(seed)
 
-    def _stream(self, *, seed: int | None):
+    def _stream(self, *, seed: int):
         cfg = self._config()
         if cfg.name not in LIVE_FEATURES:
             raise ParameterError(f"this le2012 model was trained with the whole-clip {cfg.name!r} features and "

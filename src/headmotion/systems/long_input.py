@@ -25,16 +25,16 @@ from ..types import Motion
 LONG_INPUT_SECONDS = 120.0
 
 
-def predict_file_in_blocks(model, path, *, seed=None, gain=1.0, offset=0.0, block_seconds: float = 30.0,
-                           progress=None) -> Motion:
-    """``model.predict(load_audio(path))`` for a ``model`` that streams, without loading the whole file.
+def predict_file_in_blocks(model, path, *, seed: int, block_seconds: float = 30.0, progress=None) -> Motion:
+    """``model.predict(load_audio(path), seed=seed)`` for a ``model`` that streams, without loading
+    the whole file (``seed`` resolved by the caller: :func:`headmotion.seeds.resolve_seed`).
 
     ``progress(done_seconds)`` is called after each block."""
     from ..io.audio_blocks import iter_audio_blocks
 
     if not model.can_stream:
         raise ParameterError(f"system {model.name!r} does not stream: it cannot synthesise a file block by block")
-    st = model.stream(seed=seed, gain=gain, offset=offset)
+    st = model.stream_seeded(seed)
     parts, seconds = [], 0.0
     for block in iter_audio_blocks(path, sample_rate=model.sample_rate, block_seconds=block_seconds):
         out = st.push(block)

@@ -27,6 +27,7 @@ from ...errors import ParameterError
 from ...motion.control import mean_pose_of
 from ...motion.post.range_limit import range_from_training
 from ...rotations import rotvec_to_pitch_yaw_roll
+from ...seeds import resolve_seed
 from ...types import Audio, FeatureTrack, Motion
 from ..base import STREAMING, Synthesizer
 from . import calibration, data, inference, persistence, streamed, training
@@ -283,10 +284,10 @@ class DnnSystem(Synthesizer):
                 f"this {self.name} model works at {float(self.model_fps):g} frames/s; the feature track is at {fps:g}")
         self._validate_params()
         with inference.threads(self.n_threads):
-            rv = self._predict_values(values, seed=self._synthesis_seed(seed))
+            rv = self._predict_values(values, seed=resolve_seed(self, seed))
         return Motion(rv, float(self.model_fps), meta={"system": self.name})
 
-    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
+    def _predict(self, audio: Audio, *, seed: int) -> Motion:
         """Head motion for ``audio`` at the model rate (:func:`headmotion.align.n_frames` frames);
         ``seed`` drives the posture drift."""
         mfps = float(self.model_fps)
@@ -306,7 +307,7 @@ class DnnSystem(Synthesizer):
         rv = post.push(np.asarray(y, dtype=np.float64), energy)
         return Motion(rv, mfps, meta={"system": self.name})
 
-    def _stream(self, *, seed: int | None):
+    def _stream(self, *, seed: int):
         """The stream of :mod:`.streaming` (lookahead ``latency_ms``)."""
         from .streaming import DnnStream
 

@@ -307,8 +307,7 @@ class MotionMatch(Synthesizer):
         pyr = np.radians(x) + self.mean_pose_
         return Motion(pitch_yaw_roll_to_rotvec(pyr[:, 0], pyr[:, 1], pyr[:, 2]), FPS)
 
-    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
-        seed = int(seed)  # filled by the contract (Synthesizer._synthesis_seed)
+    def _predict(self, audio: Audio, *, seed: int) -> Motion:
         n = _n_frames(len(audio.samples), audio.sample_rate, FPS)
         if n == 0:
             return Motion(np.zeros((0, 3)), FPS)
@@ -316,7 +315,7 @@ class MotionMatch(Synthesizer):
         with inference_threads(1):  # the search is matrix-vector products: fastest on one BLAS thread
             return self._degrees_to_motion(self.generate(f, seed))
 
-    def _stream(self, *, seed: int | None) -> "MotionMatchStream | WindowStream":
+    def _stream(self, *, seed: int) -> "MotionMatchStream | WindowStream":
         return MotionMatchStream(self, seed=int(seed)) if self.live else WindowStream(self, seed=int(seed))
 
     # -- persistence -----------------------------------------------------------------------------

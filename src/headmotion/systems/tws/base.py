@@ -272,7 +272,7 @@ class TwsBase(Synthesizer):
         return pair_shortest(synth, motions)
 
     # -- synthesis ----------------------------------------------------------------------------
-    def _predict(self, audio: Audio, *, seed: int | None) -> Motion:
+    def _predict(self, audio: Audio, *, seed: int) -> Motion:
         """Generation over the whole utterance; features over the whole utterance (as in
         training).  With a live feature set (``f0e-live``, the default) these are the very values
         the stream computes, so the output equals the streamed output; with a whole-utterance set
@@ -286,7 +286,7 @@ class TwsBase(Synthesizer):
         gen.run()
         return Motion(gen.render_settled(0, T), self.fps_, meta={"system": self.name, "seed": seed})
 
-    def _stream(self, *, seed: int | None) -> TwsStream:
+    def _stream(self, *, seed: int) -> TwsStream:
         return TwsStream(self, seed=seed)
 
     def _init_generation(self) -> dict:
