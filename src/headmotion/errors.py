@@ -23,7 +23,8 @@ from pathlib import Path
 
 
 class HeadMotionError(Exception):
-    """Base class of every error headmotion raises on purpose."""
+    """Base class of every error headmotion raises on purpose; its ``exit_code`` (1, bad input) is
+    every subclass's that does not set its own."""
 
     exit_code = 1
 
@@ -37,25 +38,17 @@ class ParameterError(HeadMotionError, ValueError):
 class AudioLoadingError(HeadMotionError):
     """An audio file is missing, empty, truncated, corrupt or not audio at all."""
 
-    exit_code = 1
-
 
 class SampleRateError(HeadMotionError):
     """Audio has a sample rate the operation cannot use."""
-
-    exit_code = 1
 
 
 class LengthMismatchError(HeadMotionError):
     """Two time-aligned tracks differ in length by more than the tolerance."""
 
-    exit_code = 1
-
 
 class FormatError(HeadMotionError):
     """A file does not follow its format.  Carries the file and, where known, the line."""
-
-    exit_code = 1
 
     def __init__(self, message: str, *, path: str | Path | None = None, line: int | None = None):
         self.path = None if path is None else Path(path)
@@ -76,13 +69,9 @@ class NoHeadError(FormatError):
 class NotFittedError(HeadMotionError):
     """A model was used before ``fit`` (or loaded from a file)."""
 
-    exit_code = 1
-
 
 class ModelFileError(HeadMotionError):
     """A model file is damaged, truncated, foreign, or made for another system."""
-
-    exit_code = 1
 
 
 class MissingDependencyError(HeadMotionError):
