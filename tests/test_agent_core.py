@@ -1,4 +1,4 @@
-"""The agent integrations' transport-independent core (:mod:`headmotion.integrations.agent_core`),
+"""The agent integrations' transport-independent core (:mod:`headmotion.live.core`),
 without any agent framework: known answers for pushing speech (at the model's rate and resampled),
 the messages (``headmotion serve``'s stream messages), the settling of the head at the end of an
 utterance and on an interruption, the pacing of the frames to the audio's playback, and the
@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from headmotion.errors import MissingDependencyError, ParameterError, SampleRateError
-from headmotion.integrations.agent_core import FrameBatch, HeadMotionCore, UtteranceEnd, pcm16_to_float, settle_path
-from headmotion.integrations.pacing import PacedSender, Pacer
+from headmotion.live.core import FrameBatch, HeadMotionCore, UtteranceEnd, pcm16_to_float, settle_path
+from headmotion.live.pacing import PacedSender, Pacer
 from headmotion.io.resampler import Resampler
 from headmotion.synthesis import load_model
 
@@ -355,7 +355,7 @@ def _run(code: str) -> subprocess.CompletedProcess:
 
 
 def test_headmotion_never_imports_the_frameworks():
-    out = _run("import sys, headmotion, headmotion.integrations, headmotion.integrations.agent_core\n"
+    out = _run("import sys, headmotion, headmotion.integrations, headmotion.live.core\n"
                "print(sorted(m for m in sys.modules if m.split('.')[0] in ('pipecat', 'livekit')))")
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
@@ -375,3 +375,48 @@ def test_without_the_framework_the_error_names_the_extra(module, package, extra)
     assert out.stdout.startswith("MissingDependencyError 3 ")
     assert f'pip install "headmotion[{extra}]"' in out.stdout
     assert issubclass(MissingDependencyError, Exception)
+
+
+def test_a_long_utterance_keeps_only_the_last_frames(model, speech, monkeypatch):
+    """Memory stays bounded: with KEEP_S at 1 s (25 frames) the core holds at most 50 frames of an
+    utterance, still settles from the frame shown when it is kept, and from the oldest kept
+    frame when the one named is older."""
+    import headmotion.live.core as core_module
+
+    monkeypatch.setattr(core_module, "KEEP_S", 1.0)
+    core = HeadMotionCore(model)
+    x = np.concatenate([speech] * 3)
+    _push_all(core, x)
+    made = core.frames_made
+    kept = core.frames()
+    assert made > 60 and 25 <= len(kept) <= 50 and core.kept_from == made - len(kept)
+    settle, end = core.interrupt(shown=made - 3)
+    np.testing.assert_array_equal(settle.rotvec, settle_path(kept[-4], kept[-5], np.zeros(3), core.settle_frames))
+    core = HeadMotionCore(model)
+    _push_all(core, x)
+    oldest = core.kept_from
+    settle, end = core.interrupt(shown=1)  # long gone: the oldest kept frame stands in
+    assert settle.first == oldest + 1 and end.frames == oldest + 1 + core.settle_frames
+
+
+def test_hear_along_feeds_the_utterances_stream(model, speech):
+    """Heard audio on the utterance's timeline gives what the library's stream gives with the same
+    heard audio; without heard_rate it is refused with a clear error."""
+    from headmotion.synthesis import open_stream
+
+    core = HeadMotionCore(model, settle_s=0, heard_rate=16000)
+    with pytest.raises(ParameterError, match="no utterance"):
+        core.hear_along(speech[:320])
+    core.begin(16000)
+
+    stream = open_stream(model, seed=0, sample_rate=16000, heard_rate=16000)
+    got, want = [], []
+    quiet = np.zeros(320, np.float32)
+    for i in range(0, len(speech), 320):
+        core.hear_along(speech[i:i + 320])
+        stream.hear(speech[i:i + 320])
+        got.append(core.push(quiet, 16000).rotvec)
+        want.append(stream.push(quiet).rotvec)
+    np.testing.assert_array_equal(np.vstack(got), np.vstack(want))
+    with pytest.raises(ParameterError, match="heard_rate"):
+        HeadMotionCore(model).hear_along(speech[:320])

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from headmotion.integrations.agent_core import FrameBatch, HeadMotionCore, UtteranceEnd
-from headmotion.integrations.pacing import Pacer
+from headmotion.live.core import FrameBatch, HeadMotionCore, UtteranceEnd
+from headmotion.live.pacing import Pacer
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "speech"
 

@@ -436,3 +436,27 @@ def test_a_file_at_full_speed_is_resampled_as_synth_does_paced_with_low_latency(
     np.testing.assert_array_equal(got, want)
     paced = FileSource(wav, out_rate=SR, realtime=True, clock=lambda: 0.0, sleep=lambda _s: None)
     assert paced.resampler._rs is not None and not np.array_equal(np.concatenate(list(paced)), want)
+
+
+def test_stream_live_settles_at_the_end():
+    """``settle_s`` 0.4 at 100 fps: the same frames as without it, then 40 more that end at the
+    rest pose plus the offset (2° of pitch)."""
+    from headmotion.live.session import stream_live
+    from headmotion.rotations import pitch_yaw_roll_to_rotvec
+    from headmotion.synthesis import Controls
+    from headmotion.systems.base import load_model
+
+    model = load_model(MODEL)
+    t = np.arange(16000) / 16000
+    pcm = (0.2 * np.sin(2 * np.pi * 140 * t) * 32767).astype("<i2").tobytes()
+    runs = []
+    for settle in (0.0, 0.4):
+        out = io.StringIO()
+        stream_live(model, input="-", sample_rate=16000, stdin=io.BytesIO(pcm), json_stream=out,
+                    on_message=print, max_seconds=60, settle_s=settle,
+                    controls=Controls.parse(offset_degrees="2,0,0"))
+        runs.append(np.array([json.loads(s)["rotvec"] for s in out.getvalue().splitlines()]))
+    plain, settled = runs
+    assert len(settled) == len(plain) + 40
+    np.testing.assert_array_equal(settled[:len(plain)], plain)
+    np.testing.assert_allclose(settled[-1], pitch_yaw_roll_to_rotvec(np.radians(2.0), 0.0, 0.0).reshape(3), atol=1e-6)

@@ -113,3 +113,30 @@ def test_refusals_are_errors_with_the_servers_kind(page_at, call, kind):
     }}""")
     assert got is not None and got["name"] == "HeadmotionError" and got["kind"] == kind and got["detail"], got
     assert got["status"] == 400 if kind == "bad_parameter" else got["code"] == 1008
+
+
+def test_stream_interrupt_settles_the_head(page_at):
+    """``interrupt`` (an AbortSignal) aborted once 30 frames came: the server drops the frames not
+    yet final and settles from the last one sent over ``settle`` 0.4 s (10 frames at 25 fps): the
+    last frame is the rest pose, and the stream ends without an error."""
+    pg, errors = page_at
+    x = speech_f32()
+    got = pg.evaluate("async (samples) => {" + IMPORT + """
+        const x = Float32Array.from(samples), ctl = new AbortController();
+        async function* slow() {  // 20 ms of audio every 5 ms: the cut comes before the audio ends
+            for (let i = 0; i < x.length; i += 320) { yield x.subarray(i, i + 320); await new Promise((r) => setTimeout(r, 5)); }
+        }
+        const out = [];
+        for await (const b of hm.stream(slow(), { sampleRate: 16000, encoding: "f32le", settle: 0.4, interrupt: ctl.signal })) {
+            for (const f of b.frames) out.push([f.frame, f.rotvec]);
+            if (out.length >= 30) ctl.abort();
+        }
+        return out;
+    }""", x.tolist())
+    frames = [f[0] for f in got]
+    full = len(x) / 16000 * 25
+    assert frames[-1] + 1 < full  # cut off before the speech's end
+    np.testing.assert_allclose(got[-1][1], 0.0, atol=1e-6)  # settled to rest
+    last = frames[-1]
+    assert frames[-10:] == list(range(last - 9, last + 1))  # the settling's 10 frames, in order
+    assert not errors, errors

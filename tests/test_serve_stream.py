@@ -110,6 +110,8 @@ BAD = [
     ("huge frame", [start(), b"\x00" * 3000], "too_large", 1009),
     ("text where binary is due", [start(), "more audio"], "bad_message", 1008),
     ("end with extras", [start(), json.dumps({"type": "end", "x": 1})], "bad_message", 1008),
+    ("settle out of range", [start(settle=9)], "bad_start", 1008),
+    ("interrupt shows unsent frames", [start(), json.dumps({"type": "interrupt", "shown": 5})], "bad_message", 1008),
 ]
 
 
@@ -205,3 +207,65 @@ def test_back_pressure_closes_a_client_that_falls_behind():
     assert json.loads(ws.sent[-1])["error"] == "too_slow"
     assert len(ws.incoming) > 2900  # closed soon after the queue filled, not after reading everything
     assert st.slots.total() == 0
+
+
+def _frames_and_end(msgs):
+    """The frames (number → (rotvec, settling)) and the end message of a JSON-frames stream; a
+    settling after an interruption renumbers frames from ``shown`` (later frames replace)."""
+    rows, end = {}, None
+    for m in msgs[:-1]:
+        d = json.loads(m["text"])
+        if d["type"] == "end":
+            end = d
+        elif d["type"] == "frames":
+            for f in d["frames"]:
+                rows[f["frame"]] = np.array(f["rotvec"])
+    return rows, end
+
+
+def test_end_settles_the_head_to_rest_plus_offset(c):
+    """``settle`` 0.5 s at 25 fps: after the speech's frames (those the library gives), 13 more
+    that leave the last pose and reach the offset pose exactly; the end counts them."""
+    from headmotion.rotations import pitch_yaw_roll_to_rotvec
+
+    x = speech_f32()
+    want = library_frames(x, 160)
+    with c.websocket_connect(WS) as ws:
+        ws.send_text(start(encoding="f32le", sample_rate=16000, settle=0.5, offset=[3, 0, 0]))
+        assert json.loads(ws.receive_text())["settle"] == 0.5
+        for i in range(0, len(x), 1600):
+            ws.send_bytes(x[i:i + 1600].tobytes())
+        ws.send_text('{"type": "end"}')
+        rows, end = _frames_and_end(read_until_close(ws))
+    n = len(want)
+    assert end["frames"] == n + 13 and sorted(rows) == list(range(n + 13))
+    rest = np.asarray(pitch_yaw_roll_to_rotvec(np.radians(3.0), 0.0, 0.0)).reshape(3)
+    np.testing.assert_allclose(rows[n + 12], rest, atol=1e-6)
+    # the speech's frames carry the offset; the settling starts where they stop, without a jump
+    steps = [np.linalg.norm(rows[k + 1] - rows[k]) for k in range(n - 5, n + 12)]
+    assert max(steps) < 0.02
+    assert "interrupted" not in end
+
+
+def test_interrupt_settles_from_the_last_frame_shown(c):
+    """Cut off after 40 frames were shown: the settling replaces frames 40… (numbered from 40),
+    starts from frame 39's pose and reaches rest; the end says interrupted, frames 40 + 13."""
+    x = speech_f32()
+    with c.websocket_connect(WS) as ws:
+        ws.send_text(start(encoding="f32le", sample_rate=16000, settle=0.5))
+        json.loads(ws.receive_text())
+        for i in range(0, len(x), 1600):
+            ws.send_bytes(x[i:i + 1600].tobytes())
+        early = {}
+        while len(early) < 50:  # until at least 50 frames came back
+            d = json.loads(ws.receive_text())
+            early.update({f["frame"]: np.array(f["rotvec"]) for f in d["frames"]})
+        frame39 = early[39]
+        ws.send_text(json.dumps({"type": "interrupt", "shown": 40}))
+        msgs = read_until_close(ws)
+    rows, end = _frames_and_end(msgs)
+    assert end["interrupted"] is True and end["frames"] == 40 + 13
+    settling = np.array([rows[k] for k in range(40, 53)])
+    np.testing.assert_allclose(settling[-1], np.zeros(3), atol=1e-9)
+    assert np.linalg.norm(settling[0] - frame39) < 0.02  # it leaves from frame 39's pose, no jump
+    assert msgs[-1]["code"] == 1000

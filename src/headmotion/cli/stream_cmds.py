@@ -4,9 +4,10 @@ listens to → head rotation out (JSON lines, VMC over OSC, a WebSocket), with a
 (docs/design.md "CLI").
 
 It parses its options once into :class:`headmotion.synthesis.Controls` and calls
-:func:`headmotion.live.session.stream_live`, which pushes the inputs through one
-:func:`headmotion.synthesis.open_stream` (resampling them on the stream to the model's rate; the
-heard audio through its ``hear``) and runs the outputs of :mod:`headmotion.live`.
+:func:`headmotion.live.session.stream_live`, which pushes the inputs through the live core that
+every live path shares (:class:`headmotion.live.core.HeadMotionCore`: resampling to the model's
+rate, the heard audio on the speech's timeline, the settling at the end) and runs the outputs of
+:mod:`headmotion.live`.
 """
 
 from __future__ import annotations
@@ -40,6 +41,9 @@ def stream(
                                          "(default: the system's input)."),
     sample_rate: Optional[int] = typer.Option(None, "--sample-rate", help="Rate of the raw PCM (default: the model's)."),
     chunk_ms: float = typer.Option(10.0, "--chunk-ms", help="Read the input in chunks of this many milliseconds."),
+    settle: float = typer.Option(0.0, "--settle", metavar="SECONDS", help="When the input ends, ease the head back "
+                                 "to rest (plus --offset) over this many seconds, 0 to 5 (default 0: stop where "
+                                 "the speech left it)."),
     vmc: Optional[str] = typer.Option(None, "--vmc", help="Also send the VMC protocol (OSC/UDP) to HOST:PORT "
                                       "(VSeeFace, Warudo, VMagicMirror, EVMC4U; default port 39539)."),
     websocket: Optional[str] = typer.Option(None, "--websocket", help="Also serve JSON frames over a WebSocket "
@@ -68,6 +72,10 @@ def stream(
         raise ParameterError(f"--chunk-ms must be positive; got {chunk_ms}")
     if hear_rate is not None and not 1000 <= hear_rate <= 192000:
         raise ParameterError(f"--hear-rate must be between 1000 and 192000 Hz; got {hear_rate}")
+    from ..live.core import SETTLE_RANGE_S
+
+    if not SETTLE_RANGE_S[0] <= settle <= SETTLE_RANGE_S[1]:
+        raise ParameterError(f"--settle must be from {SETTLE_RANGE_S[0]:g} to {SETTLE_RANGE_S[1]:g} seconds; got {settle:g}")
     if neck_share is not None and not 0.0 <= neck_share <= 1.0:
         raise ParameterError(f"--neck-share must be between 0 and 1; got {neck_share}")
     from ..synthesis import Controls
@@ -78,7 +86,7 @@ def stream(
     m = load_cli_model(model, default="stream")  # the shipped default reads ahead: 'stream' decides as it hears
     stats = stream_live(m, input=input, sample_rate=sample_rate, realtime=realtime, device=device, chunk_ms=chunk_ms,
                 json_stream=None if no_json else sys.stdout, vmc=vmc, websocket=websocket, neck_share=neck_share,
-                seed=seed, controls=controls, hear=hear, hear_rate=hear_rate,
+                seed=seed, controls=controls, hear=hear, hear_rate=hear_rate, settle_s=settle,
                 on_message=lambda msg: err_console.print(msg, markup=False, highlight=False))
     if stats["frames"] == 0 and input != "mic":  # a microphone stopped at once is no error
         _no_frames(input, stats["chunks"], m, sample_rate)

@@ -1,8 +1,8 @@
 """Head motion inside voice-agent frameworks, in the agent's own process (no HTTP hop).
 
-* :mod:`headmotion.integrations.agent_core` — the transport-independent part: a model and one
+* :mod:`headmotion.live.core` — the transport-independent part: a model and one
   stream per utterance and the settling of the head when an utterance ends or is cut off;
-  :mod:`headmotion.integrations.pacing` sends the frame messages in time with the audio's
+  :mod:`headmotion.live.pacing` sends the frame messages in time with the audio's
   playback.  Both need nothing beyond headmotion.
 * :mod:`headmotion.integrations.pipecat` — a Pipecat ``FrameProcessor``
   (``pip install "headmotion[pipecat]"``).

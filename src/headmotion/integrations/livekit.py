@@ -22,7 +22,7 @@ as data packets on the topic ``headmotion`` — the JSON messages of ``headmotio
   gone out, the head listens to them (:mod:`headmotion.listener`: an attentive posture, recorded
   nods at the user's back-channel cues) until the agent speaks again.
 
-The part that makes and paces the frames is :mod:`headmotion.integrations.agent_core`, so the
+The part that makes and paces the frames is :mod:`headmotion.live.core`, so the
 output runs without a LiveKit server: give ``send`` any ``async def send(message: dict)``.
 Importing this module without LiveKit Agents raises
 :class:`~headmotion.errors.MissingDependencyError`.
@@ -45,8 +45,8 @@ except ImportError as exc:  # pragma: no cover - exercised in a fresh process by
         f"the LiveKit integration needs LiveKit Agents ({exc}); install it with: pip install \"headmotion[livekit]\""
     ) from exc
 
-from .agent_core import DEFAULT_SETTLE_S, HeadMotionCore, log, pcm16_to_float
-from .pacing import PacedSender, Pacer
+from ..live.core import DEFAULT_SETTLE_S, HeadMotionCore, log, pcm16_to_float
+from ..live.pacing import PacedSender, Pacer
 
 #: the data topic the messages go on unless told otherwise
 TOPIC = "headmotion"
@@ -75,7 +75,7 @@ class HeadMotionAudioOutput(io.AudioOutput):
     send : async callable
         ``await send(message)`` for each message (:func:`room_sender` for a room's data packets).
     model, seed, resample, settle_s, controls, **controls_kwargs
-        As :class:`~headmotion.integrations.agent_core.HeadMotionCore` (default model
+        As :class:`~headmotion.live.core.HeadMotionCore` (default model
         ``"stream"``: 39 ms latency, 25 frames/s).
     pace : bool
         Send each frame when its audio plays (True) or when it is made (False).

@@ -56,8 +56,8 @@ except ImportError as exc:  # pragma: no cover - exercised in a fresh process by
         f"the Pipecat integration needs Pipecat ({exc}); install it with: pip install \"headmotion[pipecat]\""
     ) from exc
 
-from .agent_core import DEFAULT_SETTLE_S, HeadMotionCore, log, pcm16_to_float
-from .pacing import PacedSender, Pacer
+from ..live.core import DEFAULT_SETTLE_S, HeadMotionCore, log, pcm16_to_float
+from ..live.pacing import PacedSender, Pacer
 
 
 class HeadMotionProcessor(FrameProcessor):
@@ -69,7 +69,7 @@ class HeadMotionProcessor(FrameProcessor):
         A model that streams (default ``"stream"``: 39 ms latency, 25 frames/s); a loaded model is
         shared, not copied.
     seed, resample, settle_s, controls, **controls_kwargs
-        As :class:`~headmotion.integrations.agent_core.HeadMotionCore` (``gain``,
+        As :class:`~headmotion.live.core.HeadMotionCore` (``gain``,
         ``offset_degrees``, ``still`` …).
     pace : bool
         Send each frame when its audio plays (True) or after the audio frame it came from (False).

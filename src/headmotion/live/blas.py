@@ -22,14 +22,22 @@ import os
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
 
 
-def one_blas_thread(environ=os.environ) -> bool:
+_done = False  # set once in a process (a stream opened per connection need not ask again)
+
+
+def one_blas_thread(environ=None) -> bool:
     """Limit this process's BLAS libraries to one thread, unless the user set a count in
-    ``environ`` (:data:`THREAD_VARIABLES`).  Returns whether the limit was set."""
-    if any(environ.get(v) for v in THREAD_VARIABLES):
+    ``environ`` (default :data:`os.environ`; :data:`THREAD_VARIABLES`).  Returns whether the limit
+    is set.  Once set, later calls return at once."""
+    global _done
+    if _done and environ is None:
+        return True
+    if any((os.environ if environ is None else environ).get(v) for v in THREAD_VARIABLES):
         return False
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(limits=1, user_api="blas")
+    _done = environ is None
     return True
 
 

@@ -215,14 +215,16 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
                 device=None, chunk_ms: float = 10.0, json_stream=None, vmc: str | None = None,
                 websocket: str | None = None, neck_share: float | None = None, seed: int | None = None,
                 controls=None, stdin=None, max_seconds: float | None = None,
-                on_message=_stderr, sd=None, hear: str | None = None, hear_rate: int | None = None) -> dict:
+                on_message=_stderr, sd=None, hear: str | None = None, hear_rate: int | None = None,
+                settle_s: float = 0.0) -> dict:
     """Everything ``headmotion stream`` does, as one call: open the input (``"-"`` PCM on
     ``stdin`` at ``sample_rate``, ``"mic"`` with ``device``, a named pipe of PCM, or a file,
     ``realtime`` pacing it) and, with ``hear``, the other party's audio the head listens to (the
-    same kinds of input; PCM at ``hear_rate``, default ``sample_rate``);
-    :func:`headmotion.synthesis.open_stream` with ``seed`` and ``controls``
-    (:class:`~headmotion.synthesis.Controls`), resampling the inputs to the model's rate;
-    the outputs of :func:`open_outputs`; run until the input ends or Ctrl-C; close the outputs.
+    same kinds of input; PCM at ``hear_rate``, default ``sample_rate``); the live core
+    (:class:`~headmotion.live.core.HeadMotionCore`) with ``seed`` and ``controls``
+    (:class:`~headmotion.synthesis.Controls`), resampling the inputs to the model's rate and, at the
+    end, settling the head to rest over ``settle_s`` seconds; the outputs of :func:`open_outputs`;
+    run until the input ends or Ctrl-C; close the outputs.
     Returns the statistics of :meth:`LiveSession.run`."""
     from ..errors import ParameterError
     from .blas import one_blas_thread
@@ -236,7 +238,7 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
     one_blas_thread()  # a process that streams (headmotion.live.blas)
     rate = int(model.sample_rate)
     fps = float(model.frame_rate)
-    from ..synthesis import open_stream
+    from .core import CoreStream, HeadMotionCore
 
     source = open_input(input, sample_rate=sample_rate, pcm_rate=rate, realtime=realtime, device=device,
                         chunk_ms=chunk_ms, stdin=stdin, on_message=on_message, sd=sd)
@@ -246,8 +248,9 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
 
         heard = HeardInput(open_input(hear, sample_rate=hear_rate, pcm_rate=sample_rate or rate, realtime=realtime,
                                       device=device, chunk_ms=chunk_ms, stdin=stdin, on_message=on_message, sd=sd))
-    stream = open_stream(model, seed=seed, controls=controls, sample_rate=source.chunk_rate, resample=source.resample,
-                         heard_rate=None if heard is None else heard.rate)
+    core = HeadMotionCore(model, seed=seed, controls=controls, resample=source.resample, settle_s=settle_s,
+                          heard_rate=None if heard is None else heard.rate)
+    stream = CoreStream(core, source.chunk_rate)
     outputs = open_outputs(json_stream=json_stream, vmc=vmc, websocket=websocket, neck_share=neck_share)
     names = ", ".join(getattr(o, "name", type(o).__name__) for o in outputs) or "no output"
     ws = [o for o in outputs if hasattr(o, "port") and getattr(o, "name", "") == "WebSocket"]

@@ -29,6 +29,7 @@ def _number_or_triple(lo: float, hi: float, unit: str) -> dict:
 def start_schema() -> dict:
     """JSON schema of the start message (what :func:`headmotion.serve.stream.parse_start` accepts)."""
     from ..listener import LISTENING_RANGE
+    from ..live.core import SETTLE_RANGE_S
     from .stream import ENCODINGS, RESAMPLE
 
     return {
@@ -62,6 +63,9 @@ def start_schema() -> dict:
             "listening": {"type": "number", "minimum": LISTENING_RANGE[0], "maximum": LISTENING_RANGE[1], "default": 1,
                           "description": "How much the head listens while the other speaks: 0 only waits, 1 an "
                                          "attentive posture and back-channel nods at the other's cues, up to 3."},
+            "settle": {"type": "number", "minimum": SETTLE_RANGE_S[0], "maximum": SETTLE_RANGE_S[1], "default": 0,
+                       "description": "Seconds of frames easing the head to rest (plus the offset) after the end "
+                                      "or an interruption; 0: none."},
         },
     }
 
@@ -91,12 +95,21 @@ def document(version: str = "0") -> dict:
         "end": {"name": "end", "title": "End (text)", "contentType": "application/json",
                 "payload": {"type": "object", "additionalProperties": False, "required": ["type"],
                             "properties": {"type": {"const": "end"}}}},
+        "interrupt": {"name": "interrupt", "title": "Interrupt (text): the speech is cut off",
+                      "contentType": "application/json",
+                      "payload": {"type": "object", "additionalProperties": False, "required": ["type"],
+                                  "properties": {"type": {"const": "interrupt"}, "shown": {
+                                      "type": ["integer", "null"], "minimum": 0,
+                                      "description": "Frames the client showed (at most those sent; default: "
+                                                     "all sent): the head settles from frame shown - 1, the "
+                                                     "settling numbered from shown."}}}},
         "ready": {"name": "ready", "title": "Ready", "contentType": "application/json", "payload": {
             "type": "object", "required": ["type", "model", "fps", "latency_ms"], "properties": {
                 "type": {"const": "ready"}, "model": {"type": "string"}, "system": {"type": "string"},
                 "fps": {"type": "number"}, "latency_ms": {"type": "number"}, "sample_rate": {"type": "integer"},
                 "model_sample_rate": {"type": "integer"}, "encoding": {"type": "string"},
-                "frames": {"type": "string"}, "hear": {"type": "object"}, "listening": {"type": "number"}}}},
+                "frames": {"type": "string"}, "hear": {"type": "object"}, "listening": {"type": "number"},
+                "settle": {"type": "number"}}}},
         "frames": {"name": "frames", "title": "Frames (JSON)", "contentType": "application/json", "payload": {
             "type": "object", "required": ["type", "first", "fps", "audio_time", "frames"], "properties": {
                 "type": {"const": "frames"}, "first": {"type": "integer", "minimum": 0}, "fps": {"type": "number"},
@@ -110,7 +123,8 @@ def document(version: str = "0") -> dict:
                                                     "roll (degrees)."}},
         "ended": {"name": "ended", "title": "End of the stream", "contentType": "application/json", "payload": {
             "type": "object", "required": ["type", "frames", "audio_seconds"], "properties": {
-                "type": {"const": "end"}, "frames": {"type": "integer"}, "audio_seconds": {"type": "number"}}}},
+                "type": {"const": "end"}, "frames": {"type": "integer"}, "audio_seconds": {"type": "number"},
+                "interrupted": {"type": "boolean", "description": "The speech was cut off (interrupt)."}}}},
         "error": {"name": "error", "title": "Error, then a close whose reason starts with the kind",
                   "contentType": "application/json", "payload": {
                       "type": "object", "required": ["type", "error", "detail"], "properties": {
@@ -136,8 +150,9 @@ def document(version: str = "0") -> dict:
         "operations": {
             "receiveStart": op("receive", ["start"], "The client's first message (Authorization: Bearer KEY on "
                                                      "the handshake, or api_key here)."),
-            "receiveAudio": op("receive", ["audio", "hear", "end"], "Audio chunks (the speech, and what the "
-                                                                      "head hears), then end."),
+            "receiveAudio": op("receive", ["audio", "hear", "end", "interrupt"], "Audio chunks (the speech, and "
+                                                                                   "what the head hears), then end or "
+                                                                                   "interrupt."),
             "sendReady": op("send", ["ready"], "The stream is open."),
             "sendFrames": op("send", ["frames", "framesBinary", "ended"], "Frames as they become final, then end."),
             "sendError": op("send", ["error"], "One error, then the close."),

@@ -4,7 +4,8 @@ Protocol (docs/serve.md has examples):
 
 1. The client sends one text message, ``{"type": "start", "model": "stream", "sample_rate": 16000,
    "encoding": "s16le"|"f32le", "seed": 0, "frames": "json"|"binary", "gain": G|[p,y,r],
-   "offset": D|[p,y,r] (degrees), "still": false, "amount": 1, "resample": "exact"|"fast"}`` (every field but
+   "offset": D|[p,y,r] (degrees), "still": false, "amount": 1, "resample": "exact"|"fast",
+   "settle": 0}`` (every field but
    ``type`` optional; the controls' ranges are :mod:`headmotion.synthesis`'s; a browser, which
    cannot set headers on a WebSocket, may add ``"api_key"`` — until it is checked the message may
    be at most ``UNAUTHENTICATED_MESSAGE_BYTES``).
@@ -19,8 +20,15 @@ Protocol (docs/serve.md has examples):
    frame, frame count, fps, audio seconds received) then per frame six little-endian float32:
    rotation vector (radians) and pitch, yaw, roll (degrees).  Frame ``i`` is at audio time
    ``i / fps``.
-5. ``{"type": "end"}`` flushes the tail; the server sends the last frames, ``{"type": "end",
-   "frames": N, "audio_seconds": S}`` and closes (1000).
+5. ``{"type": "end"}`` flushes the tail; the server sends the last frames, then the *settling*
+   (``settle`` seconds of frames easing the head to rest plus the offset; none by default),
+   ``{"type": "end", "frames": N, "audio_seconds": S}`` and closes (1000).
+   ``{"type": "interrupt", "shown": K}`` instead cuts the speech off (the user barged in): the
+   frames not yet final are dropped, the head settles from frame ``K - 1`` (the last one the
+   client showed; without ``shown``, the last one sent), numbered from ``K``, then the end
+   message (``"interrupted": true``) and the close.
+
+The stream is the live core every live path shares (:class:`headmotion.live.core.HeadMotionCore`).
 
 Errors: one text message ``{"type": "error", "error": KIND, "detail": SENTENCE}`` (``retry_after``
 when the server knows when) then a close with a code (1008 policy: bad start / message / key /
@@ -46,6 +54,7 @@ import numpy as np
 
 from ..errors import HeadMotionError
 from ..io.resampler import QUALITY
+from ..live.core import SETTLE_RANGE_S, FrameBatch, HeadMotionCore
 from . import engine
 from .access import ApiError, check_rate, identify
 from .metrics import log_event
@@ -54,7 +63,7 @@ HEADER = struct.Struct("<4sIIfd")
 MAGIC = b"HMF1"
 ENCODINGS = {"s16le": ("<i2", 32768.0), "f32le": ("<f4", 1.0)}
 START_FIELDS = {"type", "model", "sample_rate", "encoding", "seed", "frames", "gain", "offset", "still", "amount", "resample",
-                "api_key", "hear", "listening"}
+                "api_key", "hear", "listening", "settle"}
 HEAR_FIELDS = {"sample_rate", "encoding"}
 #: ``resample`` → soxr quality (the library's one table, :data:`headmotion.io.resampler.QUALITY`):
 #: ``exact`` resamples as ``POST /v1/motion`` does (the stream's frames are the offline answer's;
@@ -83,6 +92,7 @@ class Start:
     resample: str = "exact"
     hear_rate: int | None = None  # the other party's audio (hear messages); None: the speech's
     hear_encoding: str = "s16le"
+    settle_s: float = 0.0  # seconds of settling after the end or an interruption
 
 
 def parse_start(text: str | None) -> Start:
@@ -133,7 +143,11 @@ def parse_start(text: str | None) -> Start:
     except HeadMotionError as exc:
         raise bad(str(exc)) from None
     hear_rate, hear_enc = _hear(obj.get("hear"), enc)
-    return Start(model, sr, enc, seed, frames, controls, key, resample, hear_rate, hear_enc)
+    settle = _number(obj.get("settle", 0.0), "settle")
+    lo, hi = SETTLE_RANGE_S
+    if not lo <= settle <= hi:
+        raise bad(f"settle must be a number of seconds from {lo:g} to {hi:g}; got {settle:g}")
+    return Start(model, sr, enc, seed, frames, controls, key, resample, hear_rate, hear_enc, float(settle))
 
 
 def _hear(v, speech_encoding: str) -> tuple[int | None, str]:
@@ -165,6 +179,17 @@ def _number_or_triple(v, what):
         raise ProtocolError("bad_start", f"{what} must be a number or [pitch, yaw, roll]; got {v!r:.40}")
     if v is not None and not all(math.isfinite(x) for x in (v if isinstance(v, list) else [v])):
         raise ProtocolError("bad_start", f"{what} must be finite; got {v!r:.40}")
+    return v
+
+
+def _shown(v, sent: int) -> int | None:
+    """An interrupt's ``shown``: a whole number of frames from 0 to those sent (None: all sent)."""
+    v = _whole(v)
+    if v is None:
+        return None
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= sent:
+        raise ProtocolError("bad_message", f"interrupt's shown must be a whole number of frames from 0 to the "
+                                           f"{sent} sent; got {v!r:.40}")
     return v
 
 
@@ -377,18 +402,19 @@ class Session:
         sr = start.sample_rate or model_sr
         hear_sr = start.hear_rate or sr
         try:
-            stream = engine.open_stream(model, seed=start.seed, controls=start.controls, sample_rate=sr,
-                                        resample=start.resample, heard_rate=hear_sr)
+            core = HeadMotionCore(model, seed=start.seed, controls=start.controls, resample=start.resample,
+                                  settle_s=start.settle_s, heard_rate=hear_sr)
+            core.begin(sr)
         except HeadMotionError as exc:
             raise ProtocolError("bad_start", str(exc)) from None
-        fps = float(model.frame_rate)
+        fps = core.fps
         self.sender = asyncio.create_task(self._send_loop())
         await self._put(json.dumps({"type": "ready", "model": self.name, "system": model.name, "fps": fps,
-                                    "latency_ms": float(stream.latency_ms), "sample_rate": sr,
+                                    "latency_ms": core.latency_ms, "sample_rate": sr,
                                     "model_sample_rate": model_sr, "encoding": start.encoding,
                                     "frames": start.frames, "hear": {"sample_rate": hear_sr,
                                                                      "encoding": start.hear_encoding},
-                                    "listening": start.controls.listening}), None)
+                                    "listening": start.controls.listening, "settle": start.settle_s}), None)
         max_samples = self.lim.max_stream_seconds * sr
         max_heard = self.lim.max_stream_seconds * hear_sr
         heard = 0
@@ -405,7 +431,7 @@ class Session:
                 if self.samples_in > max_samples:
                     raise ProtocolError("too_long", f"the stream passed its limit of "
                                                     f"{self.lim.max_stream_seconds:g} s of audio", 1009)
-                await self._emit(stream.push(x), fps, sr, start.frames, t_recv)
+                await self._emit(core.push(x, sr), start.frames, t_recv)
                 continue
             text = msg.get("text") or ""
             if len(text) > 2 * self.lim.max_message_bytes:
@@ -415,30 +441,40 @@ class Session:
                 obj = json.loads(text)
             except (ValueError, RecursionError):
                 obj = None
-            if isinstance(obj, dict) and obj.get("type") == "hear":
+            kind = obj.get("type") if isinstance(obj, dict) else None
+            if kind == "hear":
                 y = decode_hear(obj, start.hear_encoding)
                 heard += len(y)
                 if heard > max_heard:
                     raise ProtocolError("too_long", f"the heard audio passed the stream's limit of "
                                                     f"{self.lim.max_stream_seconds:g} s", 1009)
-                stream.hear(y)
+                core.hear_along(y)
                 continue
-            if not (isinstance(obj, dict) and obj.get("type") == "end" and set(obj) <= {"type"}):
+            if kind == "end" and set(obj) <= {"type"}:
+                items = core.end()
+            elif kind == "interrupt" and set(obj) <= {"type", "shown"}:
+                items = core.interrupt(shown=_shown(obj.get("shown"), self.frames))
+            else:
                 raise ProtocolError("bad_message", "after the start message only binary audio, "
-                                                   "{\"type\": \"hear\", \"audio\": BASE64} and "
-                                                   "{\"type\": \"end\"} are accepted")
-            await self._emit(stream.flush(), fps, sr, start.frames, t_recv)
-            await self._put(json.dumps({"type": "end", "frames": self.frames,
-                                        "audio_seconds": round(self.samples_in / sr, 4)}), None)
+                                                   "{\"type\": \"hear\", \"audio\": BASE64}, {\"type\": \"end\"} "
+                                                   "and {\"type\": \"interrupt\", \"shown\": K} are accepted")
+            for item in items:
+                if isinstance(item, FrameBatch):
+                    await self._emit(item, start.frames, t_recv)
+                else:
+                    end = item.message()
+                    if item.interrupted:
+                        end["interrupted"] = True
+                    await self._put(json.dumps(end), None)
             await self._put(None, None)  # close after the queue is sent
             await self.sender
             return
 
-    async def _emit(self, motion, fps: float, sr: int, fmt: str, t_recv: float) -> None:
-        n = len(motion)
+    async def _emit(self, batch: FrameBatch, fmt: str, t_recv: float) -> None:
+        n = len(batch)
         if n:
-            await self._put(frames_message(motion.rotvec, fps, self.frames, self.samples_in / sr, fmt), t_recv)
-            self.frames += n
+            await self._put(frames_message(batch.rotvec, batch.fps, batch.first, batch.audio_time, fmt), t_recv)
+            self.frames = batch.first + n
             self.st.metrics.frames.inc(n)
 
     async def _put(self, item, t_recv) -> None:

@@ -161,7 +161,9 @@ function toPcm(chunk, encoding) {
  *   live source), `frames` ("binary" default, "json"), `chunkMs` (a MediaStream's audio per message,
  *   default 20), `role` ("speak" default; "listen": the source is the other party's audio, sent as
  *   hear messages with as much silence as the avatar's own speech), `listening` (0 to 3, with
- *   "listen"), `signal`, `onReady(ready)`, `onAudio(pcm,
+ *   "listen"), `settle` (seconds the head takes to ease to rest after the end, 0 to 5; default 0),
+ *   `interrupt` (an AbortSignal: when it aborts, the speech is cut off — the server drops the frames
+ *   not yet final and settles the head from the last one sent, `settle` seconds), `signal`, `onReady(ready)`, `onAudio(pcm,
  *   sentAtMs)` (each PCM ArrayBuffer as sent, in the stream's encoding, and the performance.now()
  *   of its send: to keep what was sent, or to time frames against the audio)
  */
@@ -173,7 +175,7 @@ export async function* stream(source, options = {}) {
   if (!sampleRate) throw new HeadmotionError("bad_parameter", "chunks of samples need options.sampleRate");
   const encoding = options.encoding || "s16le", fmt = options.frames || "binary";
   const start = { type: "start", sample_rate: sampleRate, encoding, frames: fmt };
-  for (const k of ["model", "seed", "gain", "offset", "still"]) if (options[k] !== undefined) start[k] = options[k];
+  for (const k of ["model", "seed", "gain", "offset", "still", "settle"]) if (options[k] !== undefined) start[k] = options[k];
   start.resample = options.resample || (live ? "fast" : "exact");
   const listen = options.role === "listen";
   if (listen) {  // the source is the other party: heard, while the avatar's own channel is silence
@@ -197,6 +199,15 @@ export async function* stream(source, options = {}) {
   ws.send(JSON.stringify(start));
 
   let feeding = null, stopped = false;
+  const cut = () => {  // options.interrupt aborted: no more audio, the server settles the head and ends
+    if (stopped) return;
+    stopped = true;
+    if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify({ type: "interrupt" }));
+  };
+  if (options.interrupt) {
+    if (options.interrupt.aborted) cut();
+    else options.interrupt.addEventListener("abort", cut, { once: true });
+  }
   const feed = async () => {
     const width = encoding === "s16le" ? 2 : 4;
     for await (const c of chunks) {
@@ -214,7 +225,7 @@ export async function* stream(source, options = {}) {
       }
       if (options.onAudio) options.onAudio(pcm, performance.now());
     }
-    if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify({ type: "end" }));
+    if (!stopped && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify({ type: "end" }));
   };
 
   try {

@@ -1,28 +1,33 @@
-"""Head motion for a voice agent's speech, independent of the agent framework and its transport.
+"""The one live core: a model's stream of head motion for audio that arrives as it is spoken.
 
-An agent speaks in *utterances*: the TTS audio of one reply, which ends when the TTS stops or is
-cut off when the user interrupts.  Three layers, each usable alone:
+Every live path runs through :class:`HeadMotionCore`: ``headmotion stream`` (:mod:`.session`,
+through :class:`CoreStream`), ``headmotion serve``'s ``/v1/stream`` (which ``view --live`` and the
+avatar page speak) and the voice-agent integrations (:mod:`headmotion.integrations`).  It holds one
+model and the stream of the *utterance* being spoken (:func:`headmotion.open_stream`, the library's
+streaming path):
 
-* :class:`HeadMotionCore` — one model, one stream per utterance (:func:`headmotion.open_stream`,
-  the library's streaming path): :meth:`~HeadMotionCore.push` takes float32 mono samples at any
-  rate (resampled to the model's as ``headmotion serve``'s stream does) and returns the frames now
-  final; :meth:`~HeadMotionCore.end` flushes the frames the lookahead held and
-  :meth:`~HeadMotionCore.interrupt` drops them; both then *settle* the head: a short run of frames
-  easing from the last pose shown to the rest pose (plus the offset control), never a jump.  The
-  next push opens a fresh stream.
-* :class:`~headmotion.integrations.pacing.Pacer` — when each frame should go out: frames wait until the audio they belong to plays
-  (the output is taken to play the utterances' audio one after the other in real time, as
-  Pipecat's and LiveKit's outputs do), so a page that applies each frame as it arrives moves in
-  time with the voice.  After an interruption the head settles from the last pose that went out.
-* :class:`~headmotion.integrations.pacing.PacedSender` — an asyncio task that sends the pacer's messages at their time through an
-  ``async send(message)`` of the framework (a Pipecat frame, a LiveKit data packet).
+* :meth:`~HeadMotionCore.push` takes float32 mono samples at any rate (resampled to the model's:
+  ``exact`` or ``fast``, :data:`RESAMPLE`) and returns the frames now final, with the controls
+  (gain, offset, amount, listening) applied;
+* :meth:`~HeadMotionCore.hear_along` gives the stream the other party's audio on the utterance's
+  own timeline (a head that speaks and hears: ``synth --hear``), and :meth:`~HeadMotionCore.hear`
+  opens a *listening turn* between an agent's utterances;
+* :meth:`~HeadMotionCore.end` flushes the frames the lookahead held and
+  :meth:`~HeadMotionCore.interrupt` drops them; both then *settle* the head (``settle_s``): a short
+  run of frames easing from the last pose shown to the rest pose (plus the offset control), never a
+  jump.  The next push opens a fresh stream.
+
+When each frame goes out is :mod:`.pacing`'s: :class:`~headmotion.live.pacing.Pacer` holds the
+frames until the audio they belong to plays and :class:`~headmotion.live.pacing.PacedSender` sends
+them from an asyncio task (the agent integrations); ``headmotion stream`` paces by its input and
+``/v1/stream`` leaves it to the client, which plays the audio.
 
 The messages are those of ``headmotion serve``'s stream (docs/serve.md): ``{"type": "frames",
 "first", "fps", "audio_time", "frames": [{"frame", "time", "rotvec", "pitch_yaw_roll_deg"}]}``
 (the records of ``headmotion stream``, :func:`headmotion.live.frames.frame_records`), frames
 numbered from 0 in each utterance, and ``{"type": "end", "frames", "audio_seconds"}`` after an
-utterance's last frame (its settling included).  ``audio_time`` is the utterance's audio the agent
-had produced when the frames were made.
+utterance's last frame (its settling included).  ``audio_time`` is the utterance's audio
+received when the frames were made.
 """
 
 from __future__ import annotations
@@ -36,10 +41,11 @@ import numpy as np
 from .. import quaternions
 from ..errors import HeadMotionError, ParameterError, SampleRateError
 from ..io.resampler import QUALITY
-from ..live.blas import one_blas_thread
+from .blas import one_blas_thread
 from ..synthesis import DEFAULT_STREAM_MODEL, Controls, load_model, open_stream
+from ..types import Motion
 
-log = logging.getLogger("headmotion.integrations")
+log = logging.getLogger("headmotion.live")
 
 #: ``resample`` → soxr quality, the library's one table (:data:`headmotion.io.resampler.QUALITY`), as
 #: for ``headmotion serve``'s stream: ``exact`` gives the frames the offline answer gives for the
@@ -49,6 +55,9 @@ RESAMPLE = QUALITY
 #: seconds the head takes to settle to the rest pose after an utterance (default) and the range
 DEFAULT_SETTLE_S = 0.5
 SETTLE_RANGE_S = (0.0, 5.0)
+#: seconds of an utterance's frames kept to settle from (an interruption names the last frame
+#: shown, which trails the frames made by the audio still to play)
+KEEP_S = 60.0
 
 
 def pcm16_to_float(data, channels: int = 1) -> np.ndarray:
@@ -105,8 +114,7 @@ class UtteranceEnd:
 
 def _mono(samples, sample_rate) -> np.ndarray:
     """Checked float32 mono samples (``(n, channels)`` mixed down) and a checked rate."""
-    if isinstance(sample_rate, bool) or not isinstance(sample_rate, (int, np.integer)) or sample_rate <= 0:
-        raise ParameterError(f"sample_rate must be a positive whole number of Hz; got {sample_rate!r:.40}")
+    _rate(sample_rate)
     x = np.asarray(samples, dtype=np.float32)
     if x.ndim == 2:
         x = x.mean(axis=1, dtype=np.float32)
@@ -115,6 +123,12 @@ def _mono(samples, sample_rate) -> np.ndarray:
     if not np.all(np.isfinite(x)):
         raise ParameterError("the samples hold NaN or infinite values")
     return x
+
+
+def _rate(sample_rate) -> int:
+    if isinstance(sample_rate, bool) or not isinstance(sample_rate, (int, np.integer)) or sample_rate <= 0:
+        raise ParameterError(f"sample_rate must be a positive whole number of Hz; got {sample_rate!r:.40}")
+    return int(sample_rate)
 
 
 def _check_choice(value, choices, what: str) -> str:
@@ -149,10 +163,14 @@ class HeadMotionCore:
     controls : Controls, optional
         Gain, offset and still (or give them as keywords: ``gain=1.2, offset_degrees="-3,0,0"``);
         the head settles to the rest pose plus the offset.
+    heard_rate : int, optional
+        The rate of the audio given to :meth:`hear_along` (each utterance's stream then hears
+        the other party on its own timeline); None: no such audio.
     """
 
     def __init__(self, model=DEFAULT_STREAM_MODEL, *, seed: int = 0, resample: str = "exact",
-                 settle_s: float = DEFAULT_SETTLE_S, controls: Controls | None = None, **controls_kwargs):
+                 settle_s: float = DEFAULT_SETTLE_S, controls: Controls | None = None,
+                 heard_rate: int | None = None, **controls_kwargs):
         if controls is not None and controls_kwargs:
             raise ParameterError(f"give the controls as `controls=` or as keywords, not both; "
                                  f"got {sorted(controls_kwargs)}")
@@ -162,6 +180,7 @@ class HeadMotionCore:
         self.seed = seed
         self.resample = _check_choice(resample, RESAMPLE, "resample")
         self.settle_s = check_seconds(settle_s, SETTLE_RANGE_S, "settle_s")
+        self.heard_rate = heard_rate
         probe = self._open()  # checks the seed, the controls and that the model streams, once
         self.fps = float(probe.frame_rate)
         self.latency_ms = float(probe.latency_ms)
@@ -177,6 +196,7 @@ class HeadMotionCore:
         self._samples_in = 0
         self._history: list[np.ndarray] = []
         self._made = 0
+        self._kept_from = 0   # the utterance's first frame still in _history (KEEP_S)
         self._settled = True  # the last utterance has had its settling (or there was none)
         self._listen = None   # the listening stream (the user's audio, silence as the agent's own)
         self._listen_rate = None
@@ -214,8 +234,33 @@ class HeadMotionCore:
         return self._made
 
     def frames(self) -> np.ndarray:
-        """``(n, 3)`` the model's frames of the current (or last) utterance so far."""
+        """``(n, 3)`` the model's frames of the current (or last) utterance so far: the last
+        :data:`KEEP_S` seconds of them, from frame :attr:`kept_from` on."""
         return np.vstack(self._history) if self._history else np.zeros((0, 3))
+
+    @property
+    def kept_from(self) -> int:
+        """The number of the first frame :meth:`frames` still holds."""
+        return self._kept_from
+
+    def begin(self, sample_rate: int) -> None:
+        """Open an utterance whose audio comes at ``sample_rate`` (the first :meth:`push` does it
+        too); nothing when one is open at that rate."""
+        if self._stream is None:
+            self._open_utterance(_rate(sample_rate))
+        elif int(sample_rate) != self._rate:
+            raise SampleRateError(f"the utterance's audio changed rate from {self._rate} Hz to {int(sample_rate)} Hz; "
+                                  "end the utterance before changing the rate")
+
+    def _open_utterance(self, rate: int) -> None:
+        if self._turn:  # the agent takes the turn: its speech eases in from the listening pose
+            self._turn = False
+            self._ease = (self.frames()[-1], self.settle_frames) if self._made else None
+        self._stream = self._open(rate, heard_rate=self.heard_rate)
+        self._rate = rate
+        self._samples_in = 0
+        self._history, self._made, self._kept_from = [], 0, 0
+        self._settled = False
 
     def push(self, samples, sample_rate: int) -> FrameBatch:
         """Push speech samples (float32 mono; ``(n, channels)`` is mixed down) at ``sample_rate``;
@@ -223,21 +268,21 @@ class HeadMotionCore:
         made final (maybe none).  Raises :class:`~headmotion.errors.SampleRateError` when the rate
         changes within an utterance."""
         x = _mono(samples, sample_rate)
-        if self._stream is None:
-            if self._turn:  # the agent takes the turn: its speech eases in from the listening pose
-                self._turn = False
-                self._ease = (self.frames()[-1], self.settle_frames) if self._made else None
-            self._stream = self._open(int(sample_rate))
-            self._rate = int(sample_rate)
-            self._samples_in = 0
-            self._history = []
-            self._made = 0
-            self._settled = False
-        elif int(sample_rate) != self._rate:
-            raise SampleRateError(f"the utterance's audio changed rate from {self._rate} Hz to {int(sample_rate)} Hz; "
-                                  "end the utterance before changing the rate")
+        self.begin(sample_rate)
         self._samples_in += len(x)
         return self._speech(self._stream.push(x).rotvec)
+
+    def hear_along(self, samples) -> None:
+        """The other party's audio (float32 mono at ``heard_rate``) on the open utterance's own
+        timeline: the stream listens to it between the speech's words (:mod:`headmotion.listener`;
+        ``synth --hear``).  Raises :class:`~headmotion.errors.ParameterError` without
+        ``heard_rate`` or an open utterance."""
+        if self.heard_rate is None:
+            raise ParameterError("this core was made without heard_rate: it takes no heard audio on the "
+                                 "utterance's timeline")
+        if self._stream is None:
+            raise ParameterError("no utterance is open to hear along: push (or begin) the speech first")
+        self._stream.hear(_mono(samples, self.heard_rate))
 
     def hear(self, samples, sample_rate: int) -> FrameBatch:
         """The user's audio as it comes (float32 mono at ``sample_rate``).  While the agent does
@@ -256,7 +301,7 @@ class HeadMotionCore:
         if not self._turn:
             shown = self.frames()[-1] if self._made and not self._settled else self.rest_pose
             self._turn, self._settled = True, False
-            self._rate, self._samples_in, self._history, self._made = rate, 0, [], 0
+            self._rate, self._samples_in, self._history, self._made, self._kept_from = rate, 0, [], 0, 0
             self._ease = (np.asarray(shown, dtype=np.float64), self.settle_frames)
         self._listen.hear(x)
         self._samples_in += len(x)
@@ -280,6 +325,10 @@ class HeadMotionCore:
         if len(rv):
             self._history.append(rv)
             self._made += len(rv)
+            keep = max(2, int(KEEP_S * self.fps))
+            if self._made - self._kept_from > 2 * keep:  # bounded memory on a long utterance
+                self._history = [self.frames()[-keep:]]
+                self._kept_from = self._made - keep
         return batch
 
     def end(self) -> list:
@@ -315,6 +364,8 @@ class HeadMotionCore:
                 return []
             shown = self._made
         shown = max(0, min(int(shown), self._made))
+        if shown and shown <= self._kept_from:  # older than the frames kept: from the oldest kept
+            shown = self._kept_from + 1
         if not was_open and (self._settled and shown >= self._made):
             return []
         settle = self._settling(shown)
@@ -343,9 +394,35 @@ class HeadMotionCore:
         if shown <= 0 or n == 0:
             return FrameBatch(shown, self.fps, np.zeros((0, 3)), self.audio_seconds, True)
         frames = self.frames()
-        last = frames[shown - 1]
-        prev = frames[shown - 2] if shown >= 2 else last
+        i = shown - 1 - self._kept_from  # frame shown - 1 in the frames kept
+        last = frames[i]
+        prev = frames[i - 1] if i >= 1 else last
         return FrameBatch(shown, self.fps, settle_path(last, prev, self.rest_pose, n), self.audio_seconds, True)
+
+
+class CoreStream:
+    """One utterance of a :class:`HeadMotionCore` as a motion stream (``push(samples) -> Motion``,
+    ``flush() -> Motion``, ``hear(samples)``): what :class:`~headmotion.live.session.LiveSession`
+    runs for ``headmotion stream``.  The samples come at ``sample_rate``; :meth:`flush` gives the
+    frames the lookahead held and then the settling (none with ``settle_s=0``)."""
+
+    def __init__(self, core: HeadMotionCore, sample_rate: int):
+        self.core, self.sample_rate = core, _rate(sample_rate)
+        self.latency_ms, self.frame_rate = core.latency_ms, core.fps
+        core.begin(self.sample_rate)
+
+    def _motion(self, batches) -> Motion:
+        rows = [b.rotvec for b in batches if isinstance(b, FrameBatch) and len(b)]
+        return Motion(np.vstack(rows) if rows else np.zeros((0, 3)), self.core.fps)
+
+    def push(self, samples) -> Motion:
+        return self._motion([self.core.push(samples, self.sample_rate)])
+
+    def hear(self, samples) -> None:
+        self.core.hear_along(samples)
+
+    def flush(self) -> Motion:
+        return self._motion(self.core.end())
 
 
 def settle_path(last, prev, rest, n: int) -> np.ndarray:
@@ -373,5 +450,5 @@ def settle_path(last, prev, rest, n: int) -> np.ndarray:
     return out
 
 
-__all__ = ["HeadMotionCore", "FrameBatch", "UtteranceEnd", "settle_path",
+__all__ = ["HeadMotionCore", "CoreStream", "KEEP_S", "FrameBatch", "UtteranceEnd", "settle_path",
            "pcm16_to_float", "RESAMPLE", "DEFAULT_SETTLE_S", "SETTLE_RANGE_S"]

@@ -1,6 +1,6 @@
 """When a voice agent's head-motion frames go out: in time with the audio they belong to
 (:class:`Pacer`), sent by an asyncio task (:class:`PacedSender`) — the pacing layer of
-:mod:`headmotion.integrations.agent_core`."""
+:mod:`headmotion.live.core`."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SampleRateError
-from .agent_core import FrameBatch, HeadMotionCore, UtteranceEnd, check_seconds, log
+from .core import FrameBatch, HeadMotionCore, UtteranceEnd, check_seconds, log
 
 
 @dataclass(order=True)
