@@ -44,7 +44,9 @@ def quat_to_rotvec(quat: np.ndarray) -> np.ndarray:
 def compose(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Quaternion product ``p ⊗ q`` (rotation ``q`` first, then ``p``), ``(T, 4)`` each."""
     pv, pw, qv, qw = p[:, :3], p[:, 3:], q[:, :3], q[:, 3:]
-    return np.column_stack([pw * qv + qw * pv + np.cross(pv, qv), pw * qw - np.sum(pv * qv, axis=1, keepdims=True)])
+    (a0, a1, a2), (b0, b1, b2) = pv.T, qv.T  # the cross product as np.cross computes it, without its
+    cross = np.column_stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])  # per-call overhead
+    return np.column_stack([pw * qv + qw * pv + cross, pw * qw - np.sum(pv * qv, axis=1, keepdims=True)])
 
 
 def _check(order: str) -> tuple[str, bool]:

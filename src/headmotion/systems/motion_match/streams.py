@@ -44,6 +44,8 @@ class MotionMatchStream:
 
     def _frames(self, raw: np.ndarray) -> Motion:
         m, H = self.m, int(self.m.hop)
+        if not len(raw):  # most 10 ms pushes finish no frame (25 a second)
+            return Motion(np.zeros((0, 3)), FPS)
         out = np.zeros((len(raw), 3))
         for i, row in enumerate(raw):
             f = ((row[self.cols] - m.feat_mean_) / m.feat_std_).astype(np.float32)
