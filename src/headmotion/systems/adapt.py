@@ -203,8 +203,7 @@ class Adapt(Synthesizer):
 
     def __init__(self, *, base: str = "default", base_cost: float = BASE_COST, min_speech_s: float = MIN_SPEECH_S,
                  repeat_cost: float | None = None, amount: float = 1.0, seed: int = 0):
-        self.base, self.base_cost, self.min_speech_s, self.amount, self.seed = base, base_cost, min_speech_s, amount, seed
-        self.repeat_cost = repeat_cost
+        self._store_params(locals())
 
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]

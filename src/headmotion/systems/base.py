@@ -2,8 +2,9 @@
 
 A system is an estimator in scikit-learn's manner:
 
-* ``__init__`` only stores its keyword arguments under their own names; :meth:`get_params` and
-  :meth:`set_params` are derived from ``__init__``'s signature (one implementation, here).
+* ``__init__`` only stores its keyword arguments under their own names
+  (``self._store_params(locals())``); :meth:`get_params` and :meth:`set_params` are derived from
+  ``__init__``'s signature (one implementation, here).
 * Parameters are validated in :meth:`fit` and :meth:`predict` (a subclass's ``_validate_params``),
   never in ``__init__``, so ``set_params`` may change them.
 * ``random_state`` is the *training* randomness (EM / k-means / network initialisation, data
@@ -112,6 +113,12 @@ class Synthesizer(ABC):
         sig = inspect.signature(cls.__init__)
         return [p.name for p in sig.parameters.values()
                 if p.name != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+
+    def _store_params(self, values: dict[str, Any]) -> None:
+        """All an ``__init__`` does: store each of its parameters, unchanged, under its own name
+        (``values``: the ``__init__``'s ``locals()``)."""
+        for k in self._param_names():
+            setattr(self, k, values[k])
 
     def get_params(self) -> dict[str, Any]:
         """The ``__init__`` parameters and their current values."""

@@ -184,13 +184,7 @@ class MotionFlow(Synthesizer):
                  valid_share: float = 0.15, eval_every: int = 50, augment: bool = True, device: str = "auto",
                  target: str = "velocity", join_frames: int = 8, inpaint: str = "hold",
                  random_state: int = 0, seed: int = 0, n_threads: int | None = None):
-        self.window, self.prefix, self.hidden, self.n_blocks = window, prefix, hidden, n_blocks
-        self.cond_dropout, self.smooth_weight = cond_dropout, smooth_weight
-        self.guidance, self.sampling_steps = guidance, sampling_steps
-        self.train_steps, self.batch_size, self.learning_rate = train_steps, batch_size, learning_rate
-        self.valid_share, self.eval_every, self.augment, self.device = valid_share, eval_every, augment, device
-        self.target, self.join_frames, self.inpaint = target, join_frames, inpaint
-        self.random_state, self.seed, self.n_threads = random_state, seed, n_threads
+        self._store_params(locals())
 
     # -- parameters ------------------------------------------------------------------------------
     #: what each parameter may be (:mod:`.constraints`)
@@ -212,13 +206,8 @@ class MotionFlow(Synthesizer):
 
     # -- fitting ---------------------------------------------------------------------------------
     def fit(self, corpus, *, progress=None) -> "MotionFlow":
-        """Train the flow network on ``corpus`` (any number of speakers; see the module docstring).
-
-        Parameters
-        ----------
-        corpus : Corpus
-        progress : callable ``progress(done, total, description)`` or None
-        """
+        """Train the flow network on ``corpus`` (any number of speakers; see the module docstring;
+        ``progress`` as in :meth:`Synthesizer.fit <headmotion.systems.base.Synthesizer.fit>`)."""
         import torch
 
         from ..models.flow_net import FlowNet

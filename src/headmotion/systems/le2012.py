@@ -146,22 +146,7 @@ class Le2012(Synthesizer):
                  compiled: bool = True, pull_tau_s: float | None = 2.0, start_sd: float = 0.5,
                  idle: float | str | None = "auto", post_restore: bool = True, cross_fit: bool = True,
                  max_train_hours: float | None = DEFAULT_TRAIN_HOURS):
-        self.features = features
-        self.post_restore = post_restore
-        self.cross_fit = cross_fit
-        self.pull_tau_s = pull_tau_s
-        self.start_sd = start_sd
-        self.idle = idle
-        self.compiled = compiled
-        self.fps = fps
-        self.n_components = n_components
-        self.joint = joint
-        self.n_steps = n_steps
-        self.step = step
-        self.max_train_frames = max_train_frames
-        self.random_state = random_state
-        self.seed = seed
-        self.max_train_hours = max_train_hours
+        self._store_params(locals())
 
     #: what each parameter may be (:mod:`.constraints`; ``max_train_hours``: :func:`.budget.check_hours`)
     _parameter_constraints: ClassVar[dict] = {

@@ -82,49 +82,7 @@ class DnnSystem(Synthesizer):
                  range_limit: bool = True, cross_fit: bool | None = None, speed_max_gain: float | None = None,
                  seed: int | None = 0, device: str = "cpu", train_path: str = "auto", batch_scale: int = 1,
                  precision: str = "float32", compile_networks: bool = False):
-        self.features = features
-        self.feature_params = feature_params
-        self.alpha = alpha
-        self.embedding_dim = embedding_dim
-        self.ae_hidden = ae_hidden
-        self.ae_activation = ae_activation
-        self.regressor_hidden = regressor_hidden
-        self.context = context
-        self.dropout = dropout
-        self.postfilter = postfilter
-        self.postfilter_hidden = postfilter_hidden
-        self.postfilter_code = postfilter_code
-        self.segment = segment
-        self.postfilter_noise = postfilter_noise
-        self.model_fps = model_fps
-        self.batch_size = batch_size
-        self.cca_batch_size = cca_batch_size
-        self.cca_reg = cca_reg
-        self.learning_rate = learning_rate
-        self.max_epochs = max_epochs
-        self.ae_max_epochs = ae_max_epochs
-        self.pretrain_epochs = pretrain_epochs
-        self.patience = patience
-        self.valid_fraction = valid_fraction
-        self.holdout_test = holdout_test
-        self.random_state = random_state
-        self.n_threads = n_threads
-        self.variance_restore = variance_restore
-        self.restore_bands = restore_bands
-        self.drift_share = drift_share
-        self.drift_tau_s = drift_tau_s
-        self.slow_band_gain = slow_band_gain
-        self.speed_shaping = speed_shaping
-        self.idle = idle
-        self.range_limit = range_limit
-        self.cross_fit = cross_fit
-        self.speed_max_gain = speed_max_gain
-        self.seed = seed
-        self.device = device
-        self.train_path = train_path
-        self.batch_scale = batch_scale
-        self.precision = precision
-        self.compile_networks = compile_networks
+        self._store_params(locals())
 
     # -- parameters ---------------------------------------------------------------------------
     @property

@@ -98,16 +98,7 @@ class MotionMatch(Synthesizer):
                  base_cost: float = 0.0, repeat_cost: float = 0.0, wait_s: float = 0.0,
                  voicing_threshold: float = 0.35, pitch_jump: float = 5.0, centred: bool = False,
                  ease_in: float = 0.0, seed: int = 0):
-        self.hop, self.context, self.lookahead, self.goal_path = hop, context, lookahead, goal_path
-        self.lowpass, self.posture_s, self.prosody = lowpass, posture_s, prosody
-        self.pause_switch, self.pause_speed = pause_switch, pause_speed
-        self.target_weight, self.ridge, self.pause_weight = target_weight, ridge, pause_weight
-        self.speech_weight, self.pose_weight, self.velocity_weight = speech_weight, pose_weight, velocity_weight
-        self.switch_cost, self.top_k, self.temperature, self.blend = switch_cost, top_k, temperature, blend
-        self.mirror, self.seed, self.live = mirror, seed, live
-        self.amount, self.base_cost, self.repeat_cost, self.wait_s = amount, base_cost, repeat_cost, wait_s
-        self.voicing_threshold, self.centred, self.ease_in = voicing_threshold, centred, ease_in
-        self.pitch_jump = pitch_jump
+        self._store_params(locals())
 
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]
@@ -184,13 +175,8 @@ class MotionMatch(Synthesizer):
 
     # -- fitting ---------------------------------------------------------------------------------
     def fit(self, corpus, *, progress=None) -> "MotionMatch":
-        """Build the library from ``corpus`` (see :mod:`headmotion.systems.motion_match`).
-
-        Parameters
-        ----------
-        corpus : Corpus
-        progress : callable ``progress(done, total, description)`` or None
-        """
+        """Build the library from ``corpus`` (see :mod:`headmotion.systems.motion_match`;
+        ``progress`` as in :meth:`Synthesizer.fit <headmotion.systems.base.Synthesizer.fit>`)."""
         recs = self._training_recordings(corpus)
         t0 = time.perf_counter()
         motions, feats = [], []

@@ -219,6 +219,18 @@ class TwsBase(Synthesizer):
             progress(total, total, "done")
         return self
 
+    def _change_points(self, corpus) -> list:
+        """The change points of ``corpus``'s recordings, at the model's rate, with the model's
+        features (:func:`.vectors.collect` as in training): what the confusion tables score."""
+        self._check_fitted()
+        motions, feats = [], []
+        for r in corpus:
+            m = r.motion.resample(self.fps_)
+            motions.append(np.asarray(m.rotvec))
+            feats.append(self._features_full(r.audio, len(m)))
+        return collect(motions, feats, self.fps_, with_frames=self._with_frames,
+                       min_swing=float(np.radians(self.min_swing_deg)))
+
     def _fit_post_stages(self, recs, motions) -> None:
         """The post stages' tables, from this system's synthesis of the speech of the training
         recordings ``recs`` (recording k with seed k, so that they are not one seed's draws; made

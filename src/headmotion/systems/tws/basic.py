@@ -23,7 +23,6 @@ import numpy as np
 from ...models.gmm import GMMRegression
 from ..budget import DEFAULT_TRAIN_HOURS
 from .base import POST_PARAMETERS_DOC, TwsBase
-from .vectors import collect
 
 #: frequency splits between slow / medium / fast segments (Hz), thesis §5.5
 SPEED_SPLITS_HZ = (4.5, 6.5)
@@ -69,26 +68,7 @@ class TwsBasic(TwsBase):
                  feature_block: int = 50, feature_context: int = 20, seed: int | None = 0,
                  random_state: int = 0, n_init: int = 2, blocked: bool = False,
                  max_train_hours: float | None = DEFAULT_TRAIN_HOURS):
-        self.features = features
-        self.fps = fps
-        self.n_components = n_components
-        self.method = method
-        self.stochastic = stochastic
-        self.min_swing_deg = min_swing_deg
-        self.soft_limit = soft_limit
-        self.idle = idle
-        self.log_params = log_params
-        self.speed_shaping = speed_shaping
-        self.cross_fit = cross_fit
-        self.slow_band_restore = slow_band_restore
-        self.amplitude_match = amplitude_match
-        self.feature_block = feature_block
-        self.feature_context = feature_context
-        self.seed = seed
-        self.random_state = random_state
-        self.n_init = n_init
-        self.blocked = blocked
-        self.max_train_hours = max_train_hours
+        self._store_params(locals())
 
     @staticmethod
     def _x(prev, others, frame):
@@ -135,13 +115,7 @@ class TwsBasic(TwsBase):
 
     def speed_class_confusion(self, corpus) -> np.ndarray:
         """Table 5.2: rows true class, columns predicted (counts), given the true boundaries."""
-        self._check_fitted()
-        motions, feats = [], []
-        for r in corpus:
-            m = r.motion.resample(self.fps_)
-            motions.append(np.asarray(m.rotvec))
-            feats.append(self._features_full(r.audio, len(m)))
-        data = collect(motions, feats, self.fps_, min_swing=float(np.radians(self.min_swing_deg)))
+        data = self._change_points(corpus)
         conf = np.zeros((3, 3), dtype=np.int64)
         for j in range(3):
             a = data[j].arrays()

@@ -52,7 +52,7 @@ from ...models.hmm import ErgodicLM, HMMBank, LeftToRightHMM
 from ..budget import DEFAULT_TRAIN_HOURS
 from ..constraints import check_params, whole
 from .base import POST_PARAMETERS_DOC, TwsBase
-from .vectors import CONTEXT, MAX_HMM_FRAMES, collect, context_frames
+from .vectors import CONTEXT, MAX_HMM_FRAMES, context_frames
 
 AXIS_NAMES = ("rx", "ry", "rz")
 TEMPLATE_NAMES = ("rising", "falling")
@@ -143,29 +143,7 @@ class TwsHier(TwsBase):
                  slow_band_restore: bool = True, amplitude_match: bool = True, feature_block: int = 50,
                  feature_context: int = 20, seed: int | None = 0, n_init: int = 10, random_state: int = 0,
                  blocked: bool = False, max_train_hours: float | None = DEFAULT_TRAIN_HOURS):
-        self.features = features
-        self.fps = fps
-        self.n_clusters = n_clusters
-        self.n_states = n_states
-        self.hmm_iter = hmm_iter
-        self.lm_weight = lm_weight
-        self.method = method
-        self.stochastic = stochastic
-        self.min_swing_deg = min_swing_deg
-        self.soft_limit = soft_limit
-        self.idle = idle
-        self.log_params = log_params
-        self.speed_shaping = speed_shaping
-        self.cross_fit = cross_fit
-        self.slow_band_restore = slow_band_restore
-        self.amplitude_match = amplitude_match
-        self.feature_block = feature_block
-        self.feature_context = feature_context
-        self.seed = seed
-        self.n_init = n_init
-        self.random_state = random_state
-        self.blocked = blocked
-        self.max_train_hours = max_train_hours
+        self._store_params(locals())
 
     def _validate_params(self) -> None:
         super()._validate_params()
@@ -375,14 +353,7 @@ class TwsHier(TwsBase):
         HMMs + language model (``"hmm"``) and by the regression Gaussians' input likelihood alone
         (``"gmm"``), given the true boundaries; counts summed over axes and templates, clusters
         indexed by increasing training frequency."""
-        self._check_fitted()
-        motions, feats = [], []
-        for r in corpus:
-            mo = r.motion.resample(self.fps_)
-            motions.append(np.asarray(mo.rotvec))
-            feats.append(self._features_full(r.audio, len(mo)))
-        data = collect(motions, feats, self.fps_, with_frames=True,
-                       min_swing=float(np.radians(self.min_swing_deg)))
+        data = self._change_points(corpus)
         kmax = max(self.templates_[j][t].k for j in range(3) for t in (0, 1))
         conf = {"hmm": np.zeros((kmax, kmax), dtype=np.int64), "gmm": np.zeros((kmax, kmax), dtype=np.int64)}
         D = self.n_features_
