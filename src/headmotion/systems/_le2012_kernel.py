@@ -54,85 +54,84 @@ def _ascent_update(theta, g, gv, ga, sd, lo, hi, step):
 
 
 @njit(cache=True)
-def ascent_independent(out, LW, CM, PR, mu, sd, lo, hi, step, n_steps, pull, pose, jitter):
-    """Five univariate conditional mixtures (eq 2.21). ``out`` (T, 3) holds frames 0 and 1."""
-    T = out.shape[0]
-    M = LW.shape[2]
+def _ascend(out, LW, CM, PR, joint, mu, sd, lo, hi, step, n_steps, pull, pose, jitter):
+    """Fill ``out[2:]`` frame by frame: from the frame's start (module docstring), ``n_steps``
+    clipped steps along the gradient of the frame's conditional mixtures — five univariate ones
+    (eq 2.21; ``PR`` their precisions (5, M), ``joint`` None) or one joint one (eq 5.15; ``PR``
+    None, ``joint`` its precision matrices (M, 5, 5) and work arrays).  numba prunes the branch of
+    the argument that is None before typing, so each kernel compiles only its own gradient."""
     z = np.empty(5)
     gv = np.empty(3)
     ga = np.empty(3)
     g = np.empty(5)
     theta = np.empty(3)
-    for t in range(2, T):
+    if joint is not None:
+        P, d, pd, lp = joint
+    for t in range(2, out.shape[0]):
         for k in range(3):
             theta[k] = 2.0 * out[t - 1, k] - out[t - 2, k] - pull * (out[t - 1, k] - pose[k]) + jitter[t, k]
         for _ in range(n_steps):
             _motion_terms(theta, out[t - 1], out[t - 2], mu, sd, z, gv, ga)
-            for i in range(5):
+            if PR is not None:
+                M = LW.shape[2]
+                for i in range(5):
+                    best = -1e300
+                    for m in range(M):
+                        dz = z[i] - CM[t, i, m]
+                        lpm = LW[t, i, m] - 0.5 * dz * dz * PR[i, m]
+                        if lpm > best:
+                            best = lpm
+                    num = 0.0
+                    den = 0.0
+                    for m in range(M):
+                        dz = z[i] - CM[t, i, m]
+                        r = np.exp(LW[t, i, m] - 0.5 * dz * dz * PR[i, m] - best)
+                        num += r * dz * PR[i, m]
+                        den += r
+                    g[i] = -num / den
+            if joint is not None:
+                M = LW.shape[1]
                 best = -1e300
                 for m in range(M):
-                    d = z[i] - CM[t, i, m]
-                    lp = LW[t, i, m] - 0.5 * d * d * PR[i, m]
-                    if lp > best:
-                        best = lp
-                num = 0.0
+                    for i in range(5):
+                        d[i] = z[i] - CM[t, m, i]
+                    q = 0.0
+                    for i in range(5):
+                        s = 0.0
+                        for j in range(5):
+                            s += P[m, i, j] * d[j]
+                        pd[m, i] = s
+                        q += d[i] * s
+                    lp[m] = LW[t, m] - 0.5 * q
+                    if lp[m] > best:
+                        best = lp[m]
                 den = 0.0
+                for i in range(5):
+                    g[i] = 0.0
                 for m in range(M):
-                    d = z[i] - CM[t, i, m]
-                    r = np.exp(LW[t, i, m] - 0.5 * d * d * PR[i, m] - best)
-                    num += r * d * PR[i, m]
+                    r = np.exp(lp[m] - best)
                     den += r
-                g[i] = -num / den
+                    for i in range(5):
+                        g[i] -= r * pd[m, i]
+                for i in range(5):
+                    g[i] /= den
             _ascent_update(theta, g, gv, ga, sd, lo, hi, step)
         for k in range(3):
             out[t, k] = theta[k]
 
 
 @njit(cache=True)
+def ascent_independent(out, LW, CM, PR, mu, sd, lo, hi, step, n_steps, pull, pose, jitter):
+    """Five univariate conditional mixtures (eq 2.21). ``out`` (T, 3) holds frames 0 and 1."""
+    _ascend(out, LW, CM, PR, None, mu, sd, lo, hi, step, n_steps, pull, pose, jitter)
+
+
+@njit(cache=True)
 def ascent_joint(out, LW, CM, P, mu, sd, lo, hi, step, n_steps, pull, pose, jitter):
     """One joint conditional mixture over (angles, v, a) (eq 5.15)."""
-    T = out.shape[0]
     M = LW.shape[1]
-    z = np.empty(5)
-    gv = np.empty(3)
-    ga = np.empty(3)
-    g = np.empty(5)
-    theta = np.empty(3)
-    d = np.empty(5)
-    pd = np.empty((M, 5))
-    lp = np.empty(M)
-    for t in range(2, T):
-        for k in range(3):
-            theta[k] = 2.0 * out[t - 1, k] - out[t - 2, k] - pull * (out[t - 1, k] - pose[k]) + jitter[t, k]
-        for _ in range(n_steps):
-            _motion_terms(theta, out[t - 1], out[t - 2], mu, sd, z, gv, ga)
-            best = -1e300
-            for m in range(M):
-                for i in range(5):
-                    d[i] = z[i] - CM[t, m, i]
-                q = 0.0
-                for i in range(5):
-                    s = 0.0
-                    for j in range(5):
-                        s += P[m, i, j] * d[j]
-                    pd[m, i] = s
-                    q += d[i] * s
-                lp[m] = LW[t, m] - 0.5 * q
-                if lp[m] > best:
-                    best = lp[m]
-            den = 0.0
-            for i in range(5):
-                g[i] = 0.0
-            for m in range(M):
-                r = np.exp(lp[m] - best)
-                den += r
-                for i in range(5):
-                    g[i] -= r * pd[m, i]
-            for i in range(5):
-                g[i] /= den
-            _ascent_update(theta, g, gv, ga, sd, lo, hi, step)
-        for k in range(3):
-            out[t, k] = theta[k]
+    work = (P, np.empty(5), np.empty((M, 5)), np.empty(M))
+    _ascend(out, LW, CM, None, work, mu, sd, lo, hi, step, n_steps, pull, pose, jitter)
 
 
 @njit(cache=True)
