@@ -69,8 +69,7 @@ def run(config: ServeConfig, *, workers: int = 1, announce=print) -> None:
              f"{'API keys required' if config.api_keys else 'no keys: localhost only'}")
     try:
         uvicorn.run("headmotion.serve.app:app_from_env", factory=True, host=config.host, port=config.port,
-                    workers=workers, ws=WS_PROTOCOL, ws_per_message_deflate=False,  # PCM and float frames
-                    # do not compress; zlib on every 20 ms message cost more CPU than the model's stream
+                    workers=workers, ws=WS_PROTOCOL,
                     ws_max_size=4 * config.limits.max_message_bytes, access_log=False,
                     log_level="warning", timeout_graceful_shutdown=GRACE_S, server_header=False)
     finally:
