@@ -566,6 +566,13 @@ def bench_serve(res: Results, quick: bool):
     run_serve(res, quick)
 
 
+def bench_avatar(res: Results, quick: bool):
+    """The avatar page in Chromium on a real ``headmotion serve``: benchmarks/avatar_bench.py."""
+    from avatar_bench import bench_avatar as run_avatar
+
+    run_avatar(res, Row, quick)
+
+
 def bench_scale(res: Results, quick: bool):
     from scale_bench import bench_scale as scale  # a dataset of hours: see benchmarks/scale_bench.py
 
@@ -585,11 +592,11 @@ def bench_epoch(res: Results, quick: bool):
 
 
 GROUPS = ("startup", "features", "synth", "stream", "train", "memory", "render", "video", "evaluate", "server",
-          "serve", "scale", "epoch", "batch")
+          "serve", "avatar", "scale", "epoch", "batch")
 #: each group's label in the table (its rows' ``group``), also on the row of a group that failed
 LABELS = {"startup": "0 startup", "features": "1 features", "synth": "2 synth", "stream": "4 stream",
           "train": "5 train", "memory": "6 memory", "render": "7 render", "video": "7 video",
-          "evaluate": "8 evaluate", "server": "9 server", "serve": "10 serve", "scale": "11 scale",
+          "evaluate": "8 evaluate", "server": "9 server", "serve": "10 serve", "avatar": "10 serve", "scale": "11 scale",
           "epoch": "12 epoch", "batch": "10 batch"}
 
 
@@ -614,7 +621,7 @@ def main(argv=None) -> int:
             continue
         if args.quick and g == "video":
             continue
-        if args.quick and g in ("server", "serve") and not args.only:  # minutes: only when asked
+        if args.quick and g in ("server", "serve", "avatar") and not args.only:  # minutes: only when asked
             continue
         if g in ("scale", "epoch") and not args.only:  # hours of corpus: only when asked
             continue
