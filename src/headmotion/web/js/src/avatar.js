@@ -14,7 +14,12 @@
  *   import { mountAvatar } from "/v1/avatar/static/avatar.js";
  *   const a = await mountAvatar(element, { vrmUrl: undefined,    // default: avatar.vrm beside this module
  *                                          width, height,       // default: the element's width, 4:3
- *                                          antialias });        // default: unless WebGL is drawn by the CPU
+ *                                          antialias,           // default: unless WebGL is drawn by the CPU
+ *                                          pixelRatio });       // default: the screen's; 0.5 when WebGL is
+ *                                                               // drawn by the CPU (a quarter of the pixels:
+ *                                                               // drawing them competed with the stream for
+ *                                                               // the cores: a median of 240 against 87 ms
+ *                                                               // from the audio to the bone on 2 cores)
  *   a.setRotvec([rx, ry, rz]);     // pose the neck and head bones now (radians)
  *   a.headRotation()               // [pitch, yaw, roll] degrees: the head bone against its rest pose,
  *                                  // relative to the chest, read back from the bones (intrinsic YXZ)
@@ -97,9 +102,10 @@ export async function mountAvatar(element, options = {}) {
   camera.lookAt(0, headPos.y - 0.03, headPos.z);
   let renderer = null;
   try {
-    renderer = new WebGLRenderer({ antialias: options.antialias ?? !softwareGL() });
+    const software = softwareGL();
+    renderer = new WebGLRenderer({ antialias: options.antialias ?? !software });
     renderer.outputColorSpace = SRGBColorSpace;
-    renderer.setPixelRatio(options.pixelRatio || window.devicePixelRatio || 1);
+    renderer.setPixelRatio(options.pixelRatio || (software ? 0.5 : window.devicePixelRatio || 1));
     renderer.setSize(width, height);
     element.appendChild(renderer.domElement);
   } catch (e) {  // no WebGL: the bones still move (tests, a page that only reads headRotation)
