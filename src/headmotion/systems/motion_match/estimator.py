@@ -147,7 +147,7 @@ class MotionMatch(Synthesizer):
     def _taps(self) -> np.ndarray:
         ahead = 0 if self.live else int(self.lookahead)
         step = max(1, (int(self.context) + ahead) // 4)
-        return np.unique(np.r_[np.arange(-int(self.context), ahead + 1, step), ahead])
+        return np.unique(np.append(np.arange(-int(self.context), ahead + 1, step), ahead))
 
     @property
     def _live_back(self) -> int:

@@ -70,7 +70,7 @@ def clean_clips(motion: np.ndarray, starts: np.ndarray, hz: float, *, fps: float
 
     sos = butter(4, hz, fs=fps, output="sos")
     out = np.array(motion, dtype=np.float64)
-    bounds = np.r_[np.flatnonzero(starts), len(motion)]
+    bounds = np.append(np.flatnonzero(starts), len(motion))
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b - a >= 4:
             out[a:b] = sosfiltfilt(sos, out[a:b], axis=0, padlen=min(b - a - 1, 15))
@@ -133,7 +133,7 @@ class Library:
             m = motion[start:start + n].astype(np.float64)
             d = speech_descriptors(feats[start:start + n], taps, causal=causal)
             clip = starts[start:start + n] if starts is not None else clip_starts(m)
-            bounds = np.r_[np.flatnonzero(clip), n]
+            bounds = np.append(np.flatnonzero(clip), n)
             clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends
             good = np.arange(n) + H + 1 < clip_end
             ahead = np.clip(np.arange(n)[:, None] + goal_steps[None, :], 0, n - 1)
@@ -176,7 +176,7 @@ class Library:
         moved = path[:, -1, :]
         # the pose path the speech asks for: ridge regression of the pose on the speech around a
         # frame, each axis scaled to the library's SD (a regression predicts the average head)
-        X = np.c_[self.descriptors.astype(np.float64), np.ones(len(self.descriptors))][fit]
+        X = np.column_stack([self.descriptors.astype(np.float64), np.ones(len(self.descriptors))])[fit]
         reg = ridge * np.eye(X.shape[1])
         reg[-1, -1] = 0.0
         self.goal_weights = np.linalg.solve(X.T @ X + reg, X.T @ self.poses[fit])
@@ -199,7 +199,8 @@ class Library:
         """The pose goal ``(T, 3)`` (degrees; 0 on axes without a goal) for speech descriptors
         ``desc`` (:func:`speech_descriptors`): the ridge prediction, clipped to the 1st–99th
         percentile of the library's poses."""
-        return np.clip(np.c_[desc.astype(np.float64), np.ones(len(desc))] @ self.goal_weights, *self.goal_range)
+        return np.clip(np.column_stack([desc.astype(np.float64), np.ones(len(desc))]) @ self.goal_weights,
+                       *self.goal_range)
 
     def costs(self, w: Weights, s: np.ndarray, pose: np.ndarray | None, vel: np.ndarray | None,
               goal: np.ndarray | None = None, speaking: float = 1.0, only: int | None = None,
