@@ -278,7 +278,30 @@ def bench_stream(res: Results, quick: bool, cache: dict):
     _chunk_rows(res, f"{label}, the process's BLAS threads", wall, cpu)
     with threadpool_limits(limits=1, user_api="blas"):  # as headmotion's live processes run it
         wall, cpu = _chunk_costs(m.stream(seed=0), audio.samples, chunk)
-    _chunk_rows(res, f"{label}, one BLAS thread (headmotion serve, stream, view --live)", wall, cpu)
+        _chunk_rows(res, f"{label}, one BLAS thread (headmotion serve, stream, view --live)", wall, cpu)
+        # the same speech while the head also hears the other party (the listener, headmotion.listener)
+        from headmotion.synthesis import open_stream
+
+        other = speech_audio(20.0 if quick else 60.0, seed=3).samples[: len(audio.samples)]
+
+        class Hearing:
+            def __init__(self):
+                self.s, self.k = open_stream(m, seed=0, heard_rate=audio.sample_rate), 0
+
+            def push(self, x):
+                self.s.hear(other[self.k:self.k + len(x)])
+                self.k += len(x)
+                return self.s.push(x)
+
+            def flush(self):
+                return self.s.flush()
+
+        _, hear_cpu = _chunk_costs(Hearing(), audio.samples, chunk)
+    ratio = float(hear_cpu.mean() / max(cpu.mean(), 1e-9))
+    res.add(Row("4 stream", f"{label}, hearing the other party too: CPU per 10 ms chunk against speaking alone",
+                ratio, "x", "<= 1.5x", ratio <= 1.5,
+                f"{hear_cpu.mean():.3f} ms against {cpu.mean():.3f} ms per chunk (process CPU, one BLAS thread); "
+                f"the other party's speech heard on the same timeline"))
     secs = 5.0 if quick else 15.0
     with tempfile.TemporaryDirectory() as tmp:
         wav = Path(tmp) / "speech.wav"
