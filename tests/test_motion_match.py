@@ -416,3 +416,20 @@ def test_with_ease_in_every_take_opens_at_the_mean_pose_at_rest(corpus):
     assert opened_away >= 2  # the plain model's takes open at their clips' poses
     with pytest.raises(ParameterError, match="ease_in"):
         create("motion-match", ease_in=-1.0).fit(corpus)
+
+
+def test_cheapest_are_the_k_smallest_in_cost_then_library_order():
+    """``cheapest`` against a full sort by (cost, index), with ties, infinities, fewer finite costs
+    than a stride's sample would hold and arrays shorter than the stride."""
+    from headmotion.systems.motion_match.library import STRIDE, cheapest
+
+    rng = np.random.default_rng(3)
+    for n, k in [(21014, 8), (5000, 1), (300, 8), (STRIDE * 8 - 1, 8), (10, 4)]:
+        for _ in range(20):
+            cost = np.round(rng.random(n) * 20, 1)  # many ties
+            cost[rng.random(n) < 0.3] = np.inf
+            want = np.lexsort((np.arange(n), cost))[:k]
+            np.testing.assert_array_equal(cheapest(cost, k), want)
+    cost = np.full(1000, np.inf)
+    cost[[7, 500, 999]] = [2.0, 1.0, 2.0]  # fewer finite costs than every STRIDE-th entry shows
+    np.testing.assert_array_equal(cheapest(cost, 3), [500, 7, 999])

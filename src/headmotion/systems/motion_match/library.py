@@ -89,6 +89,22 @@ def descriptor_of_last(past: np.ndarray, taps: np.ndarray) -> np.ndarray:
 
 
 
+#: :func:`cheapest` looks for its threshold among every STRIDE-th cost
+STRIDE = 16
+
+
+def cheapest(cost: np.ndarray, k: int) -> np.ndarray:
+    """The ``k`` cheapest entries of ``cost``, cheapest first (ties in library order).
+
+    The k-th smallest of every :data:`STRIDE`-th cost bounds the k-th smallest of all, so only the
+    entries under that bound (about ``STRIDE * k``) are sorted: the same entries as a partition of
+    the whole array, an order of magnitude faster on a library of 21 000 frames (a live stream
+    makes this choice every 80 ms)."""
+    sub = cost[::STRIDE]
+    cand = np.flatnonzero(cost <= np.partition(sub, k - 1)[k - 1]) if len(sub) >= k else np.arange(len(cost))
+    return cand[np.lexsort((cand, cost[cand]))[:k]]
+
+
 @dataclass(frozen=True)
 class Weights:
     """The cost settings a decision is scored with (the estimator's parameters of the same names)."""
@@ -253,7 +269,6 @@ class Library:
             idx = np.array(keep)
             k = len(idx)
         else:
-            idx = np.argpartition(cost, k - 1)[:k]
-            idx = idx[np.argsort(cost[idx], kind="stable")]
+            idx = cheapest(cost, k)
         w = np.exp(-(cost[idx] - cost[idx[0]]) / float(temperature))
         return int(idx[rng.choice(k, p=w / w.sum())])

@@ -50,13 +50,12 @@ class MotionMatchStream:
         for i, row in enumerate(raw):
             f = ((row[self.cols] - m.feat_mean_) / m.feat_std_).astype(np.float32)
             self.past = np.concatenate([self.past, f[None]])[-self.back:]
-            if self.k % H == 0:
-                self.pending = self.walk.hop(*m.live_inputs(self.past), H)
+            if self.k % H == 0:  # a decision: its hop of frames, as rotation vectors at once
+                self.pending = m._degrees_to_motion(self.walk.hop(*m.live_inputs(self.past), H)).rotvec
             out[i] = self.pending[self.k % H]
             self.k += 1
-        if len(raw):
-            self.raw_last = raw[-1]
-        return m._degrees_to_motion(out)
+        self.raw_last = raw[-1]
+        return Motion(out, FPS)
 
     def push(self, samples: np.ndarray) -> Motion:
         x = np.asarray(samples, dtype=np.float64).reshape(-1)
