@@ -81,23 +81,26 @@ def stream_lateness(model: Path, samples: np.ndarray, sample_rate: int, *, secon
 
     writer = threading.Thread(target=write, daemon=True)
     writer.start()
-    late, first = [], None
+    arrivals, times = [], []
     for line in proc.stdout:
         now = time.perf_counter() - t0
         try:
             msg = json.loads(line)
         except ValueError:
             continue
-        fps_end = float(msg["time"]) + 0.01          # the frame's end: the shipped models run at 100 fps
-        late.append(now - fps_end)
-        if first is None:
-            first = now - fps_end
+        arrivals.append(now)
+        times.append(float(msg["time"]))
     proc.wait(timeout=seconds + 120)
     writer.join(timeout=5)
-    if not late:
+    if not arrivals:
         raise RuntimeError("headmotion stream wrote no frames")
-    # frames emitted at flush (after the input ended) are not live frames
-    live = late[: int(seconds * 100) - 100] or late
+    # a frame's audio ends one frame after its time, at the model's rate (25 fps for the shipped
+    # models; read from the frame times, not assumed)
+    frame_s = float(np.median(np.diff(times))) if len(times) > 1 else 0.04
+    late = [a - (t + frame_s) for a, t in zip(arrivals, times)]
+    first = late[0]
+    # frames emitted at flush (after the input ended: the last second) are not live frames
+    live = [v for v, t in zip(late, times) if t + frame_s <= seconds - 1.0] or late
     return {"first_s": first, "median_ms": 1000 * float(np.median(live)), "p95_ms": 1000 * float(np.percentile(live, 95)),
             "frames": len(late)}
 
