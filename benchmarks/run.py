@@ -308,7 +308,7 @@ def bench_stream(res: Results, quick: bool, cache: dict):
         sf.write(wav, audio.samples[: int(secs * audio.sample_rate)], audio.sample_rate)
         src = FileSource(wav, out_rate=int(getattr(m, "sample_rate_", 16000)), realtime=True)
         st = m.stream(seed=0)
-        lat = LiveSession(src, st, [], fps=100.0).run(max_seconds=secs + 30)["latency"]
+        lat = LiveSession(src, st, [], fps=float(m.frame_rate)).run(max_seconds=secs + 30)["latency"]
     # the floor of the live pipeline once the systems use f0e-live: the same paced session with the
     # feature extractor alone as the motion stream (a frame is emitted when its features are final)
     from headmotion.types import Motion
