@@ -1,7 +1,12 @@
 """Live head motion: audio inputs, a streaming session and real-time outputs.
 
+* :mod:`.core`      — the one live core of every live path: a model's stream per utterance, at
+  any input rate, the heard audio, the end, interruption and settling (:class:`.core.HeadMotionCore`);
+* :mod:`.pacing`    — when a voice agent's frames go out: in time with the audio they belong to;
+* :mod:`.blas`      — one BLAS thread in a process that streams;
 * :mod:`.inputs`    — PCM on stdin, audio files (optionally paced), microphone (sounddevice);
-* :mod:`.session`   — input → motion stream → outputs, bounded queues, end-to-end latency;
+* :mod:`.heard`     — the other party's audio, read beside the speech on its timeline;
+* :mod:`.session`   — input → the live core → outputs, bounded queues, end-to-end latency;
 * :mod:`.frames`    — the frame record (the JSON line of ``headmotion stream``) and JSON lines;
 * :mod:`.vmc`       — VMC protocol over OSC/UDP (VSeeFace, Warudo, VMagicMirror, EVMC4U);
 * :mod:`.websocket` — frames to any number of WebSocket clients.
@@ -21,8 +26,8 @@ the command parses its options and makes one call, ::
                 neck_share=neck_share, seed=seed,
                 controls=Controls.parse(gain=gain, offset_degrees=offset))   # headmotion.synthesis
 
-which resamples on the stream to ``model.sample_rate``, runs
-:func:`headmotion.synthesis.open_stream` (``seed``, ``controls``)
+which resamples on the stream to ``model.sample_rate``, runs the live core
+(:class:`.core.HeadMotionCore` over :func:`headmotion.synthesis.open_stream`; ``seed``, ``controls``)
 and closes every output at the end; the errors it raises are :class:`~headmotion.errors.HeadMotionError` subclasses
 (``AudioDeviceError``, ``NetworkError``, ``ParameterError``) that the CLI prints as one line.
 """
