@@ -163,7 +163,7 @@ class Controls:
                 raise ParameterError(f"fps (--fps) must be between {FPS_RANGE[0]:g} and {FPS_RANGE[1]:g} frames per "
                                      f"second; got {f!r}")
             set_(self, "fps", float(f))
-        from .listener.head import check_listening
+        from .listener import check_listening
 
         set_(self, "listening", check_listening(self.listening))
         if self.stochastic is not None and not isinstance(self.stochastic, str):

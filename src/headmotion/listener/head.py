@@ -26,9 +26,8 @@ import math
 
 import numpy as np
 
-from ..errors import ParameterError
 from ..rotations import quaternion_to_rotvec_one
-from . import DEFAULT_LISTENING, LISTENING_RANGE
+from . import DEFAULT_LISTENING, check_listening
 from .cues import CueDetector, CueRule
 from .nods import nod_bank
 
@@ -45,14 +44,6 @@ OWN_HOLD_S = 0.3         # this head counts as speaking this long after a loud f
 OWN_SPEECH_DB = -45.0    # a 10 ms frame of the own speech louder than this (dB re full scale) is speech
 HEAR_DELAY_S = 0.05      # the heard voicing a frame uses is this much older than the frame
 LATE_S = 0.3             # a back-channel this late (heard audio that came late) is still made
-
-
-def check_listening(v) -> float:
-    ok = not isinstance(v, bool) and isinstance(v, (int, float, np.integer, np.floating))
-    if not ok or not math.isfinite(v) or not LISTENING_RANGE[0] <= v <= LISTENING_RANGE[1]:
-        raise ParameterError(f"listening (--listening) must be a number from {LISTENING_RANGE[0]:g} to {LISTENING_RANGE[1]:g}; "
-                             f"got {v!r:.40}")
-    return float(v)
 
 
 class _Frames:
