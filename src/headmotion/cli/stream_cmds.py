@@ -72,10 +72,9 @@ def stream(
         raise ParameterError(f"--chunk-ms must be positive; got {chunk_ms}")
     if hear_rate is not None and not 1000 <= hear_rate <= 192000:
         raise ParameterError(f"--hear-rate must be between 1000 and 192000 Hz; got {hear_rate}")
-    from ..live.core import SETTLE_RANGE_S
+    from ..live.core import SETTLE_RANGE_S, check_seconds
 
-    if not SETTLE_RANGE_S[0] <= settle <= SETTLE_RANGE_S[1]:
-        raise ParameterError(f"--settle must be from {SETTLE_RANGE_S[0]:g} to {SETTLE_RANGE_S[1]:g} seconds; got {settle:g}")
+    check_seconds(settle, SETTLE_RANGE_S, "--settle")
     if neck_share is not None and not 0.0 <= neck_share <= 1.0:
         raise ParameterError(f"--neck-share must be between 0 and 1; got {neck_share}")
     from ..synthesis import Controls

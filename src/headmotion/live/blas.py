@@ -8,9 +8,9 @@ chunk, with one thread 0.24–0.25 ms (``python benchmarks/run.py --only stream`
 each push is the same).  A server carrying many streams, or an agent whose audio loop runs every
 10 ms, wants the cores for streams, not for spinning threads.
 
-:func:`one_blas_thread` is called where headmotion owns a live process (``headmotion serve``'s
-workers, ``headmotion stream``, ``headmotion view --live``) and by the agent integrations.  A user who
-set the thread count themselves (``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS``, ``MKL_NUM_THREADS``)
+:func:`one_blas_thread` is called by the live core (:class:`headmotion.live.core.HeadMotionCore`),
+which every live path runs: ``headmotion stream``, ``headmotion serve``'s ``/v1/stream`` (and
+``view --live``, the avatar page) and the agent integrations.  A user who set the thread count themselves (``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS``, ``MKL_NUM_THREADS``)
 keeps it.
 """
 

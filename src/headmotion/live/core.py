@@ -176,7 +176,7 @@ class HeadMotionCore:
                                  f"got {sorted(controls_kwargs)}")
         self.controls = Controls.parse(**controls_kwargs) if controls is None else controls
         self.model = load_model(model)
-        one_blas_thread()  # an audio loop every 10 ms (headmotion.live.blas)
+        one_blas_thread()  # every live path streams through here (headmotion.live.blas)
         self.seed = seed
         self.resample = _check_choice(resample, RESAMPLE, "resample")
         self.settle_s = check_seconds(settle_s, SETTLE_RANGE_S, "settle_s")

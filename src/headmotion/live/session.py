@@ -227,7 +227,6 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
     run until the input ends or Ctrl-C; close the outputs.
     Returns the statistics of :meth:`LiveSession.run`."""
     from ..errors import ParameterError
-    from .blas import one_blas_thread
     from .inputs import open_input
 
     if not getattr(model, "can_stream", getattr(model, "causal", False)):
@@ -235,7 +234,6 @@ def stream_live(model, *, input: str = "-", sample_rate: int | None = None, real
                              "streaming); use a tws-basic, tws-hier, le2012, DNN or motion-match[live=true] model")
     if hear is not None and hear in ("-", "mic") and hear == input:
         raise ParameterError(f"--hear {hear} and --input {input}: the speech and the heard audio need two inputs")
-    one_blas_thread()  # a process that streams (headmotion.live.blas)
     rate = int(model.sample_rate)
     fps = float(model.frame_rate)
     from .core import CoreStream, HeadMotionCore

@@ -31,12 +31,12 @@ from .auth import KeyStore, RateLimiter, Slots, load_keys
 from .config import ServeConfig
 from .metrics import Metrics, log_event
 from .models import Registry, UnknownModel
+from .pages import WEB_STATIC
 from .security import Guard, allowed_hosts, plain
 
 #: the router's own HTTP answers → the error kind they carry
 HTTP_KINDS = {404: "not_found", 405: "method_not_allowed"}
 STATIC = Path(__file__).resolve().parent / "static"
-VIEWER_STATIC = Path(__file__).resolve().parents[1] / "web" / "static"
 
 
 @dataclass
@@ -241,7 +241,7 @@ def _mount(app: FastAPI, config: ServeConfig) -> None:
     app.router.routes.append(WebSocketRoute("/v1/stream", stream_endpoint))
     app.router.routes.append(WebSocketRoute("/{path:path}", no_such_stream))  # after every real route
     app.mount("/v1/example/static", StaticFiles(directory=STATIC), name="example-static")
-    app.mount("/v1/example/viewer", StaticFiles(directory=VIEWER_STATIC), name="example-viewer")
+    app.mount("/v1/example/viewer", StaticFiles(directory=WEB_STATIC), name="example-viewer")
     if config.allowed_origins:  # a page on an allowed origin may call the HTTP API (CORS; preflight answered)
         app.add_middleware(CORSMiddleware, allow_origins=[o.rstrip("/").lower() for o in config.allowed_origins],
                            allow_methods=["GET", "POST"], allow_headers=["authorization", "content-type"],
@@ -270,11 +270,8 @@ def app_from_env():
     """The app of one worker process (``uvicorn --factory``): settings from ``HEADMOTION_SERVE_CONFIG``."""
     from .metrics import setup_logging
 
-    from ..live.blas import one_blas_thread
-
     config = ServeConfig.from_env()
     setup_logging(config.log_level)
-    one_blas_thread()  # a worker carries many streams (headmotion.live.blas)
     return create_app(config)
 
 

@@ -10,6 +10,7 @@ avatar page and the live view imports the service's routes.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from html import escape
 from pathlib import Path
 
@@ -27,9 +28,11 @@ _HEAD = """<!doctype html>
 """
 
 
+@lru_cache(maxsize=None)
 def page_html(name: str, title: str, *, static: str, stylesheets: tuple[str, ...] = ()) -> str:
     """The page whose body is ``web/static/NAME.body.html``, titled ``headmotion TITLE``, linking
-    ``page.css`` and ``stylesheets`` under the URL prefix ``static`` (where ``web/static`` is mounted)."""
+    ``page.css`` and ``stylesheets`` under the URL prefix ``static`` (where ``web/static`` is mounted);
+    made once per page and process (its body is a file of the package), not on every request."""
     links = "".join(f'<link rel="stylesheet" href="{escape(static)}/{escape(s)}">\n'
                     for s in ("page.css", *stylesheets))
     body = (WEB_STATIC / f"{name}.body.html").read_text(encoding="utf-8")

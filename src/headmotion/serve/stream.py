@@ -54,7 +54,7 @@ import numpy as np
 
 from ..errors import HeadMotionError
 from ..io.resampler import QUALITY
-from ..live.core import SETTLE_RANGE_S, FrameBatch, HeadMotionCore
+from ..live.core import SETTLE_RANGE_S, FrameBatch, HeadMotionCore, check_seconds
 from . import engine
 from .access import ApiError, check_rate, identify
 from .metrics import log_event
@@ -143,11 +143,11 @@ def parse_start(text: str | None) -> Start:
     except HeadMotionError as exc:
         raise bad(str(exc)) from None
     hear_rate, hear_enc = _hear(obj.get("hear"), enc)
-    settle = _number(obj.get("settle", 0.0), "settle")
-    lo, hi = SETTLE_RANGE_S
-    if not lo <= settle <= hi:
-        raise bad(f"settle must be a number of seconds from {lo:g} to {hi:g}; got {settle:g}")
-    return Start(model, sr, enc, seed, frames, controls, key, resample, hear_rate, hear_enc, float(settle))
+    try:
+        settle = check_seconds(obj.get("settle", 0.0), SETTLE_RANGE_S, "settle")
+    except HeadMotionError as exc:
+        raise bad(str(exc)) from None
+    return Start(model, sr, enc, seed, frames, controls, key, resample, hear_rate, hear_enc, settle)
 
 
 def _hear(v, speech_encoding: str) -> tuple[int | None, str]:

@@ -82,10 +82,8 @@ def running_live_server(model, *, host: str = "127.0.0.1", port: int = 0, seed: 
 def serve_live(model, *, host: str = "127.0.0.1", port: int = 8765, seed: int | None = None, model_path=None,
                open_browser: bool = True, announce=print):
     """Serve the live page until interrupted (``headmotion view --live``)."""
-    from ..live.blas import one_blas_thread
     from .server import wait_until_interrupted
 
-    one_blas_thread()  # a process that streams (headmotion.live.blas)
     with running_live_server(model, host=host, port=port, seed=seed,
                              model_path=None if model_path is None else str(Path(model_path))) as url:
         wait_until_interrupted(url, open_browser=open_browser, announce=announce)
