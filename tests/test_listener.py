@@ -182,6 +182,46 @@ def test_the_stream_hears_as_the_offline_head_does():
     np.testing.assert_array_equal(np.vstack(parts), off.rotvec)
 
 
+def test_the_layer_analyses_in_batches_and_gives_the_frames_of_analysis_on_arrival():
+    """The heard audio is analysed when frames reach it, in batches; the frames are those of a
+    layer that analyses each chunk as it arrives — heard on time, and heard 0.2 s and 0.5 s late."""
+    from headmotion.listener.head import ListeningLayer
+    from headmotion.synthesis import load_model
+
+    model = load_model("stream")
+    own, heard, _ = _conversation()
+
+    class OnArrival(ListeningLayer):
+        def hear(self, samples):
+            super().hear(samples)
+            self._analyse_heard()
+
+    def run(cls, lag):
+        layer = cls(model, fps=model.frame_rate, speech_rate=16000, heard_rate=16000, seed=1)
+        calls = []
+        push = layer._pitch.push
+        layer._pitch.push = lambda x: calls.append(len(x)) or push(x)
+        s = model.stream(seed=1)
+        x, y, made, out = own.samples, heard.samples, 0, []
+        for i in range(0, len(x), 160):
+            if i >= lag:
+                layer.hear(y[i - lag:i - lag + 160])
+            layer.speech(x[i:i + 160])
+            rv = np.asarray(s.push(x[i:i + 160]).rotvec).reshape(-1, 3)
+            out.append(np.asarray(layer.apply(rv, made)).reshape(-1, 3))
+            made += len(rv)
+        return np.vstack(out), calls
+
+    for lag in (0, 3200, 8000):
+        batched, calls = run(ListeningLayer, lag)
+        arrival, each = run(OnArrival, lag)
+        np.testing.assert_array_equal(batched, arrival)
+        assert len(calls) <= len(each)
+        if lag == 0:  # heard on time: while the other speaks, up to ~0.5 s is analysed at once
+            assert max(calls) > 5 * max(each) and len(calls) < 0.6 * len(each)
+    assert np.abs(run(ListeningLayer, 0)[0] - run(ListeningLayer, 8000)[0]).max() > 0  # lateness shows
+
+
 def test_a_stream_builds_its_listening_layer_when_it_first_hears():
     from headmotion.synthesis import open_stream, synthesize
 

@@ -313,8 +313,13 @@ class StreamingF0e:
             self._intensity.extend(np.sum(sq * self.hamming, axis=1) / self.hamming_sum)
         p = np.sum(sq * self.hamming2, axis=1) / self.hamming2_sum
         energy = np.maximum(10.0 * np.log10(np.maximum(p, 1e-30)), -100.0)
-        period, ap = yin_frames(self._windows(t0, t1, self.f0_len), self.win, self.tau_min, self.tau_max,
-                                self.threshold)
+        # YIN only where a frame is loud enough to be voiced (a quieter one is unvoiced whatever its
+        # period; YIN's rows are independent, so a subset gives the same values)
+        loud = energy > self.silence_db
+        period, ap = np.zeros(t1 - t0), np.ones(t1 - t0)
+        if loud.any():
+            period[loud], ap[loud] = yin_frames(self._windows(t0, t1, self.f0_len)[loud], self.win, self.tau_min,
+                                                self.tau_max, self.threshold)
         logf0 = np.full(t1 - t0, self.default_logf0)
         voiced = (period > 0) & (ap < self.voicing_threshold) & (energy > self.silence_db)
         raw = np.log(self.sample_rate / np.where(voiced, period, 1.0))
@@ -356,9 +361,11 @@ class StreamingF0e:
             self._intensity.append(np.sum(sq * self.hamming) / self.hamming_sum)
         p = np.sum(sq * self.hamming2) / self.hamming2_sum
         energy = max(10.0 * np.log10(p if p > 1e-30 else 1e-30), -100.0)
-        period, ap = yin_row(self._frame_window(t, self.f0_len), self.win, self.tau_min, self.tau_max,
-                             self.threshold, self._k_tau)
-        voiced = period > 0 and ap < self.voicing_threshold and energy > self.silence_db
+        voiced = energy > self.silence_db
+        if voiced:
+            period, ap = yin_row(self._frame_window(t, self.f0_len), self.win, self.tau_min, self.tau_max,
+                                 self.threshold, self._k_tau)
+            voiced = period > 0 and ap < self.voicing_threshold
         voiced = self._hold(t, voiced, float(np.log(self.sample_rate / period)) if voiced else 0.0)
         self._static.append(self._last_logf0, energy)
         self._voiced.append(1.0 if voiced else 0.0)

@@ -18,6 +18,13 @@ voicing heard up to ``t / fps − hear_delay_s`` and this head's own speech up t
 starts the nods whose back-channel is due by ``t / fps`` (up to ``late_s`` late: heard audio that
 arrived late).  A stream that gets each chunk's heard audio no later than its speech therefore
 gives the frames of the offline :func:`listen`.
+
+The analysis of both inputs waits until frames are asked for (:meth:`ListeningLayer.apply`), and
+the heard audio's until those frames could reach it (:meth:`ListeningLayer._heard_needed`: while
+the other speaks, a frame depends on the heard pitch only through the cues due by then, found
+0.59 s before), then runs on all the audio given since, in one batch: a live stream hands the
+layer 10 ms at a time, and the pitch tracker's per-call work cost more than the pitch itself.  The
+frames are those of analysing each chunk as it comes, however the audio was chunked.
 """
 
 from __future__ import annotations
@@ -44,6 +51,7 @@ OWN_HOLD_S = 0.3         # this head counts as speaking this long after a loud f
 OWN_SPEECH_DB = -45.0    # a 10 ms frame of the own speech louder than this (dB re full scale) is speech
 HEAR_DELAY_S = 0.05      # the heard voicing a frame uses is this much older than the frame
 LATE_S = 0.3             # a back-channel this late (heard audio that came late) is still made
+PENDING_S = 1.0          # audio held for analysis is analysed once this much has gathered
 
 
 class _Frames:
@@ -98,6 +106,9 @@ class ListeningLayer:
         self._own = _Frames()
         self._own_hop = max(1, int(round(self.speech_rate / ANALYSIS_FPS)))
         self._own_rest = np.zeros(0, np.float32)
+        self._heard_pending: list[np.ndarray] = []  # heard samples not yet analysed (heard_rate)
+        self._own_pending: list[np.ndarray] = []  # own speech not yet analysed (speech_rate)
+        self._heard_pending_n = self._own_pending_n = 0
         self._due: list[tuple[float, float]] = []  # cues not yet made into nods
         self._playing: list[tuple[int, np.ndarray]] = []  # (first frame, curve at fps)
         self._rng = np.random.default_rng(int(seed))
@@ -113,11 +124,37 @@ class ListeningLayer:
     # -- the two inputs --------------------------------------------------------------------------
     def hear(self, samples) -> None:
         """The other party's samples (float32 mono at ``heard_rate``), in order."""
-        self._analyse(self._rs(samples))
+        x = np.array(samples, dtype=np.float32).reshape(-1)
+        if len(x):
+            self._heard_pending.append(x)
+            self._heard_pending_n += len(x)
+            if self._heard_pending_n >= PENDING_S * self.heard_rate:  # bounded memory without frames
+                self._analyse_heard()
 
     def end_hearing(self) -> None:
         """No more heard audio: the analysis gives its last frames."""
+        self._analyse_heard()
         self._analyse(self._rs(np.zeros(0, np.float32), last=True), flush=True)
+
+    def _analyse_heard(self) -> None:
+        if self._heard_pending:
+            x = np.concatenate(self._heard_pending) if len(self._heard_pending) > 1 else self._heard_pending[0]
+            self._heard_pending.clear()
+            self._heard_pending_n = 0
+            self._analyse(self._rs(x))
+
+    def _heard_needed(self, tau: float) -> bool:
+        """Whether a frame at ``tau`` s (and every earlier one) could differ were the heard audio
+        held analysed now: it may hold a cue due by ``tau`` (a cue is found ``min_region`` frames
+        after its region starts, and is due ``delay_s`` after that start: at the defaults 0.59 s
+        after it is found), or, when no voiced frame analysed so far lies within ``HOLD_S`` of the
+        heard time the frame uses, a voiced frame that would make the other count as speaking."""
+        n = len(self._heard.flags)
+        cue_found_by = math.floor((tau - self.cues.rule.delay_s) * ANALYSIS_FPS) + self.cues._min_region + 1
+        if n <= cue_found_by:
+            return True
+        h = int(math.floor((tau - HEAR_DELAY_S) * ANALYSIS_FPS))
+        return self._heard.last_true < h - int(HOLD_S * ANALYSIS_FPS)
 
     def _analyse(self, x: np.ndarray, flush: bool = False) -> None:
         rows = self._pitch.push(x) if len(x) else np.zeros((0, 7))
@@ -132,13 +169,26 @@ class ListeningLayer:
         """Start the own speech ``samples`` in (rounded up to a whole 10 ms frame, which is
         returned): a layer built on a stream under way, given the speech from there on.  The frames
         skipped count as silent; a frame made later looks back at most ``OWN_HOLD_S`` at them."""
+        self._analyse_own()
         n = -(-int(samples) // self._own_hop)
         self._own.flags.extend(bytes(n))
         return n * self._own_hop
 
     def speech(self, samples) -> None:
         """This head's own speech (float32 mono at ``speech_rate``), in order."""
-        x = np.concatenate([self._own_rest, np.asarray(samples, dtype=np.float32).reshape(-1)])
+        x = np.array(samples, dtype=np.float32).reshape(-1)
+        if len(x):
+            self._own_pending.append(x)
+            self._own_pending_n += len(x)
+            if self._own_pending_n >= PENDING_S * self.speech_rate:
+                self._analyse_own()
+
+    def _analyse_own(self) -> None:
+        if not self._own_pending:
+            return
+        x = np.concatenate([self._own_rest, *self._own_pending])
+        self._own_pending.clear()
+        self._own_pending_n = 0
         n = len(x) // self._own_hop
         self._own_rest = x[n * self._own_hop:]
         if n:
@@ -151,6 +201,9 @@ class ListeningLayer:
         """Frames ``first …`` of the model's motion (``(n, 3)`` rotation vectors) as the listening
         head moves them (the array itself when nothing is added)."""
         rv = np.asarray(rotvec, dtype=np.float64).reshape(-1, 3)
+        if self._heard_pending and self._heard_needed((first + len(rv) - 1) / self.fps):
+            self._analyse_heard()  # (else these frames do not reach what is held: later, in a batch)
+        self._analyse_own()
         if self.amount == 0.0 or not len(rv) or (self._heard.last_true < 0 and self._ramp == 0.0):
             return rotvec  # nothing heard yet: the model's frames as they are
         delta = np.zeros((len(rv), 3))
