@@ -8,14 +8,11 @@ Heavy libraries are imported inside commands so that ``headmotion --help`` stays
 from __future__ import annotations
 
 import contextlib
-import os
 import sys
 
 import typer
-from rich.console import Console
-from rich.markup import RE_TAGS, escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-from rich.style import Style
+
+from .terminal import is_terminal
 
 HELP = """Natural head motion from speech: synthesis, training, evaluation, rendering.
 
@@ -38,63 +35,35 @@ app.add_typer(templates_app, name="templates")
 app.add_typer(listen_app, name="listen")
 
 
-def _is_style_tag(tag: str) -> bool:
-    """Whether a markup tag body (``bold red``, ``/``, ``/bold``, ``link=...``) is a rich style."""
-    body = tag[1:] if tag.startswith("/") else tag
-    if not body or body.startswith(("link=", "@")):
-        return True
-    try:
-        Style.parse(body)
-    except Exception:
-        return False
-    return True
+class _OnFirstUse:
+    """A console (:func:`.consoles.make_console`) made when it is first used: a command that prints
+    nothing before its work (``headmotion stream``'s first frame) does not wait for rich."""
+
+    def __init__(self, *, stderr: bool):
+        self._stderr, self._console = stderr, None
+
+    def get(self):
+        """The console itself (for rich's own classes, e.g. a Progress)."""
+        if self._console is None:
+            from .consoles import make_console
+
+            self._console = make_console(stderr=self._stderr)
+        return self._console
+
+    def __getattr__(self, name):
+        return getattr(self.get(), name)
 
 
-def _escape_non_styles(text: str) -> str:
-    """Escape every ``[...]`` that is not a rich style, so that ``pip install headmotion[video]``,
-    ``[0, 1]`` or ``take[3].bvh`` print with their brackets while ``[bold]...[/]`` still works."""
-    def fix(m):
-        backslashes, tag = m.group(2), m.group(3)
-        if backslashes or _is_style_tag(tag):
-            return m.group(0)
-        return "\\" + m.group(0)
-
-    return RE_TAGS.sub(fix, text)
+console = _OnFirstUse(stderr=False)
+err_console = _OnFirstUse(stderr=True)
 
 
-class SafeConsole(Console):
-    """A rich console whose markup never swallows text: square brackets that do not name a style
-    are printed as they are.  Messages that interpolate user text should
-    still pass it through :func:`escape` (a file named ``take[red].bvh``)."""
+def escape(text: str) -> str:
+    """``text`` with rich markup escaped, printed literally (:func:`rich.markup.escape`, imported
+    on first use)."""
+    from rich.markup import escape as rich_escape
 
-    def render_str(self, text: str, *args, **kwargs):
-        markup = kwargs.get("markup")
-        if (self._markup if markup is None else markup) and "[" in text:
-            text = _escape_non_styles(text)
-        return super().render_str(text, *args, **kwargs)
-
-
-def _is_terminal(stream) -> bool:
-    try:
-        return bool(stream.isatty())
-    except (AttributeError, ValueError):  # replaced or closed
-        return False
-
-
-def _console(*, stderr: bool = False) -> SafeConsole:
-    """A console that wraps at the terminal's width, and not at all when its stream is piped or
-    redirected (rich would wrap at 80 columns there; ``COLUMNS`` still sets a width)."""
-    piped = not _is_terminal(sys.stderr if stderr else sys.stdout)
-    if piped and not os.environ.get("COLUMNS"):
-        return SafeConsole(stderr=stderr, soft_wrap=True, width=UNWRAPPED_WIDTH)
-    return SafeConsole(stderr=stderr)
-
-
-#: the width a piped console lays tables out in (lines are not wrapped at all)
-UNWRAPPED_WIDTH = 10_000
-
-console = _console()
-err_console = _console(stderr=True)
+    return rich_escape(text)
 
 
 def print_error(message: str) -> None:
@@ -113,11 +82,13 @@ def progress_bar(description: str, total: float | None = None, *, min_total: flo
 
     Rendered on stderr only when it is a terminal, so piped output stays clean; with ``min_total``,
     only for work of at least that ``total`` (short work finishes before a bar would say anything)."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn  # (10 ms)
+
     short = min_total is not None and not (total is not None and total >= min_total)
     progress = Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
-        TimeElapsedColumn(), TimeRemainingColumn(), console=err_console, transient=False,
-        disable=short or not _is_terminal(sys.stderr),
+        TimeElapsedColumn(), TimeRemainingColumn(), console=err_console.get(), transient=False,
+        disable=short or not is_terminal(sys.stderr),
     )
     with progress:
         task = progress.add_task(description, total=total)

@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import List, Optional
 
 import typer
-from rich.table import Table
 
 from ..errors import ParameterError
 from .app import console, corpus_app, err_console, progress_bar
@@ -27,6 +26,8 @@ def check(corpus_dir: Path = typer.Argument(..., help="corpus directory (with co
             rows += r
             problems += p
             update(i + 1)
+    from rich.table import Table
+
     table = Table(title=f"{corpus_dir}: {len(rows)} recordings")
     for col in ("recording", "speaker", "task", "minutes", "fps", "speaking", "trimmed"):
         table.add_column(col, justify="left" if col in ("recording", "speaker", "task") else "right")

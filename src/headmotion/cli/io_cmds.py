@@ -16,10 +16,9 @@ from pathlib import Path
 from typing import List, Optional
 
 import typer
-from rich.markup import escape
 
 from ..errors import FormatError, ParameterError
-from .app import app, console, print_warning
+from .app import app, console, escape, print_warning
 from .key_values import key_values
 
 AUDIO_EXT = {".wav", ".flac", ".ogg", ".mp3", ".mp4", ".mkv", ".mpg", ".m4a", ".aac", ".opus", ".webm", ".aiff", ".aif"}

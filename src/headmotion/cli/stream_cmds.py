@@ -18,7 +18,7 @@ from typing import Optional
 import typer
 
 from ..errors import ParameterError
-from .app import app, err_console
+from .app import app
 from .synth_cmds import load_cli_model
 
 
@@ -86,9 +86,15 @@ def stream(
     stats = stream_live(m, input=input, sample_rate=sample_rate, realtime=realtime, device=device, chunk_ms=chunk_ms,
                 json_stream=None if no_json else sys.stdout, vmc=vmc, websocket=websocket, neck_share=neck_share,
                 seed=seed, controls=controls, hear=hear, hear_rate=hear_rate, settle_s=settle,
-                on_message=lambda msg: err_console.print(msg, markup=False, highlight=False))
+                on_message=_say)
     if stats["frames"] == 0 and input != "mic":  # a microphone stopped at once is no error
         _no_frames(input, stats["chunks"], m, sample_rate)
+
+
+def _say(message: str) -> None:
+    """A line of the stream's own on stderr, as it is (no markup: plain print, so that the first
+    frame does not wait for rich)."""
+    print(message, file=sys.stderr, flush=True)
 
 
 def _no_frames(input: str, chunks: int, model, sample_rate: int | None) -> None:

@@ -42,7 +42,7 @@ def run_batch(speech: list[Path], output: Path, *, model, fmt, jobs, scheduler, 
         raise ParameterError("--video previews one input; give one speech file and an output file to make a video")
     fmt = fmt or "bvh"
     bar = Progress(TextColumn("[bold]synth"), BarColumn(), MofNCompleteColumn(), _FilesPerSecond(),
-                   TimeRemainingColumn(), console=err_console, transient=False, disable=not sys.stderr.isatty())
+                   TimeRemainingColumn(), console=err_console.get(), transient=False, disable=not sys.stderr.isatty())
     task = None
 
     def progress(done: int, total: int) -> None:

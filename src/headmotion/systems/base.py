@@ -53,6 +53,7 @@ written before ``mean_pose`` was stored.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import inspect
 from abc import ABC, abstractmethod
@@ -99,6 +100,14 @@ class MotionStream(Protocol):
     def flush(self) -> Motion: ...
 
 
+
+@functools.lru_cache(maxsize=None)
+def _init_params(cls) -> tuple[str, ...]:
+    """The names of ``cls.__init__``'s parameters (read once per class: a model's load asks ~30 times)."""
+    sig = inspect.signature(cls.__init__)
+    return tuple(p.name for p in sig.parameters.values()
+                 if p.name != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD))
+
 class Synthesizer(ABC):
     """Base class of every system: speech in, head motion out (see the module docstring)."""
 
@@ -110,9 +119,7 @@ class Synthesizer(ABC):
     # -- parameters (scikit-learn style) ----------------------------------------------------
     @classmethod
     def _param_names(cls) -> list[str]:
-        sig = inspect.signature(cls.__init__)
-        return [p.name for p in sig.parameters.values()
-                if p.name != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+        return list(_init_params(cls))
 
     def _store_params(self, values: dict[str, Any]) -> None:
         """All an ``__init__`` does: store each of its parameters, unchanged, under its own name
