@@ -187,6 +187,7 @@ def test_the_layer_analyses_in_batches_and_gives_the_frames_of_analysis_on_arriv
     layer that analyses each chunk as it arrives — heard on time, and heard 0.2 s and 0.5 s late."""
     from headmotion.listener.head import ListeningLayer
     from headmotion.synthesis import load_model
+    from headmotion.types import Audio
 
     model = load_model("stream")
     own, heard, _ = _conversation()
@@ -196,30 +197,38 @@ def test_the_layer_analyses_in_batches_and_gives_the_frames_of_analysis_on_arriv
             super().hear(samples)
             self._analyse_heard()
 
-    def run(cls, lag):
+    def run(cls, lag, own=own, heard=heard):
         layer = cls(model, fps=model.frame_rate, speech_rate=16000, heard_rate=16000, seed=1)
         calls = []
         push = layer._pitch.push
         layer._pitch.push = lambda x: calls.append(len(x)) or push(x)
         s = model.stream(seed=1)
-        x, y, made, out = own.samples, heard.samples, 0, []
+        x, y, made, out, raw = own.samples, heard.samples, 0, [], []
         for i in range(0, len(x), 160):
             if i >= lag:
                 layer.hear(y[i - lag:i - lag + 160])
             layer.speech(x[i:i + 160])
             rv = np.asarray(s.push(x[i:i + 160]).rotvec).reshape(-1, 3)
             out.append(np.asarray(layer.apply(rv, made)).reshape(-1, 3))
+            raw.append(rv)
             made += len(rv)
-        return np.vstack(out), calls
+        return np.vstack(out), calls, np.vstack(raw)
 
     for lag in (0, 3200, 8000):
-        batched, calls = run(ListeningLayer, lag)
-        arrival, each = run(OnArrival, lag)
+        batched, calls, _ = run(ListeningLayer, lag)
+        arrival, each, _ = run(OnArrival, lag)
         np.testing.assert_array_equal(batched, arrival)
         assert len(calls) <= len(each)
         if lag == 0:  # heard on time: while the other speaks, up to ~0.5 s is analysed at once
             assert max(calls) > 5 * max(each) and len(calls) < 0.6 * len(each)
     assert np.abs(run(ListeningLayer, 0)[0] - run(ListeningLayer, 8000)[0]).max() > 0  # lateness shows
+    # the other speaking from its first sample, this head silent: the first second listens as well
+    voice = Audio(heard.samples[int(5.5 * 16000):], 16000)
+    quiet = Audio(np.zeros(len(voice.samples), np.float32), 16000)
+    batched, _, raw = run(ListeningLayer, 0, own=quiet, heard=voice)
+    arrival, _, _ = run(OnArrival, 0, own=quiet, heard=voice)
+    np.testing.assert_array_equal(batched, arrival)
+    assert np.abs(batched[:25] - raw[:25]).max() > 0
 
 
 def test_a_stream_builds_its_listening_layer_when_it_first_hears():

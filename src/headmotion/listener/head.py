@@ -154,7 +154,7 @@ class ListeningLayer:
         if n <= cue_found_by:
             return True
         h = int(math.floor((tau - HEAR_DELAY_S) * ANALYSIS_FPS))
-        return self._heard.last_true < h - int(HOLD_S * ANALYSIS_FPS)
+        return self._heard.last_true < max(h - int(HOLD_S * ANALYSIS_FPS), 0)  # (-1: none voiced yet)
 
     def _analyse(self, x: np.ndarray, flush: bool = False) -> None:
         rows = self._pitch.push(x) if len(x) else np.zeros((0, 7))
