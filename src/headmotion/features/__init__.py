@@ -248,8 +248,18 @@ class FeatureConfig:
         return hash((self.name, self.fps, json.dumps(dict(self.params), sort_keys=True)))
 
     def extract(self, audio: Audio, n_frames: int | None = None) -> FeatureTrack:
-        """:func:`extract` with this configuration."""
-        return extract(self.name, audio, fps=self.fps, n_frames=n_frames, **self.params)
+        """:func:`extract` with this configuration.  A built-in set's result for the same samples
+        is read from the process's recent extractions (:mod:`.memo`): training and evaluation ask
+        for one recording's features many times."""
+        if self.name not in _BUILTIN or self.name in _REGISTRY or not isinstance(audio, Audio):
+            return extract(self.name, audio, fps=self.fps, n_frames=n_frames, **self.params)
+        from . import memo
+
+        k = memo.key(self, audio, n_frames)
+        track = memo.get(k)
+        if track is None:
+            track = memo.put(k, extract(self.name, audio, fps=self.fps, n_frames=n_frames, **self.params))
+        return track
 
     def to_dict(self) -> dict:
         return {"name": self.name, "fps": self.fps, "params": dict(self.params)}
