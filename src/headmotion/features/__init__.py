@@ -251,7 +251,7 @@ class FeatureConfig:
         """:func:`extract` with this configuration.  A built-in set's result for the same samples
         is read from the process's recent extractions (:mod:`.memo`): training and evaluation ask
         for one recording's features many times."""
-        if self.name not in _BUILTIN or self.name in _REGISTRY or not isinstance(audio, Audio):
+        if self.name not in _BUILTIN or not isinstance(audio, Audio):  # (a registered set is never memoised)
             return extract(self.name, audio, fps=self.fps, n_frames=n_frames, **self.params)
         from . import memo
 

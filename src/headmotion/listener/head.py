@@ -54,6 +54,26 @@ LATE_S = 0.3             # a back-channel this late (heard audio that came late)
 PENDING_S = 1.0          # audio held for analysis is analysed once this much has gathered
 
 
+class _Held:
+    """Samples given and not yet analysed, in order; ``add`` says when ``PENDING_S`` of them at
+    ``rate`` have gathered (the layer then analyses them without waiting for frames)."""
+
+    def __init__(self, rate: int):
+        self.parts: list[np.ndarray] = []
+        self.n, self.limit = 0, PENDING_S * rate
+
+    def add(self, samples) -> bool:
+        x = np.array(samples, dtype=np.float32).reshape(-1)
+        if len(x):
+            self.parts.append(x)
+            self.n += len(x)
+        return self.n >= self.limit
+
+    def take(self) -> list[np.ndarray]:
+        parts, self.parts, self.n = self.parts, [], 0
+        return parts
+
+
 class _Frames:
     """Per-10-ms flags of a channel, growing as its audio comes."""
 
@@ -106,9 +126,7 @@ class ListeningLayer:
         self._own = _Frames()
         self._own_hop = max(1, int(round(self.speech_rate / ANALYSIS_FPS)))
         self._own_rest = np.zeros(0, np.float32)
-        self._heard_pending: list[np.ndarray] = []  # heard samples not yet analysed (heard_rate)
-        self._own_pending: list[np.ndarray] = []  # own speech not yet analysed (speech_rate)
-        self._heard_pending_n = self._own_pending_n = 0
+        self._heard_held, self._own_held = _Held(self.heard_rate), _Held(self.speech_rate)  # not yet analysed
         self._due: list[tuple[float, float]] = []  # cues not yet made into nods
         self._playing: list[tuple[int, np.ndarray]] = []  # (first frame, curve at fps)
         self._rng = np.random.default_rng(int(seed))
@@ -124,12 +142,8 @@ class ListeningLayer:
     # -- the two inputs --------------------------------------------------------------------------
     def hear(self, samples) -> None:
         """The other party's samples (float32 mono at ``heard_rate``), in order."""
-        x = np.array(samples, dtype=np.float32).reshape(-1)
-        if len(x):
-            self._heard_pending.append(x)
-            self._heard_pending_n += len(x)
-            if self._heard_pending_n >= PENDING_S * self.heard_rate:  # bounded memory without frames
-                self._analyse_heard()
+        if self._heard_held.add(samples):  # bounded memory without frames
+            self._analyse_heard()
 
     def end_hearing(self) -> None:
         """No more heard audio: the analysis gives its last frames."""
@@ -137,11 +151,9 @@ class ListeningLayer:
         self._analyse(self._rs(np.zeros(0, np.float32), last=True), flush=True)
 
     def _analyse_heard(self) -> None:
-        if self._heard_pending:
-            x = np.concatenate(self._heard_pending) if len(self._heard_pending) > 1 else self._heard_pending[0]
-            self._heard_pending.clear()
-            self._heard_pending_n = 0
-            self._analyse(self._rs(x))
+        parts = self._heard_held.take()
+        if parts:
+            self._analyse(self._rs(np.concatenate(parts) if len(parts) > 1 else parts[0]))
 
     def _heard_needed(self, tau: float) -> bool:
         """Whether a frame at ``tau`` s (and every earlier one) could differ were the heard audio
@@ -176,19 +188,14 @@ class ListeningLayer:
 
     def speech(self, samples) -> None:
         """This head's own speech (float32 mono at ``speech_rate``), in order."""
-        x = np.array(samples, dtype=np.float32).reshape(-1)
-        if len(x):
-            self._own_pending.append(x)
-            self._own_pending_n += len(x)
-            if self._own_pending_n >= PENDING_S * self.speech_rate:
-                self._analyse_own()
+        if self._own_held.add(samples):
+            self._analyse_own()
 
     def _analyse_own(self) -> None:
-        if not self._own_pending:
+        parts = self._own_held.take()
+        if not parts:
             return
-        x = np.concatenate([self._own_rest, *self._own_pending])
-        self._own_pending.clear()
-        self._own_pending_n = 0
+        x = np.concatenate([self._own_rest, *parts])
         n = len(x) // self._own_hop
         self._own_rest = x[n * self._own_hop:]
         if n:
@@ -201,7 +208,7 @@ class ListeningLayer:
         """Frames ``first …`` of the model's motion (``(n, 3)`` rotation vectors) as the listening
         head moves them (the array itself when nothing is added)."""
         rv = np.asarray(rotvec, dtype=np.float64).reshape(-1, 3)
-        if self._heard_pending and self._heard_needed((first + len(rv) - 1) / self.fps):
+        if self._heard_held.parts and self._heard_needed((first + len(rv) - 1) / self.fps):
             self._analyse_heard()  # (else these frames do not reach what is held: later, in a batch)
         self._analyse_own()
         if self.amount == 0.0 or not len(rv) or (self._heard.last_true < 0 and self._ramp == 0.0):
