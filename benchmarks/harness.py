@@ -61,12 +61,16 @@ PEAK_RSS_CODE = (
 
 def on_local_cluster(fn: Callable[[str], object], *, workers: int = 2):
     """``(fn(scheduler_address), seconds)`` on a fresh Dask ``LocalCluster`` of ``workers``
-    single-thread processes; None when dask.distributed is not installed."""
+    single-thread processes, started as the README recommends for headmotion's work (without
+    Dask's 64 kB ``MALLOC_TRIM_THRESHOLD_``: docs/decisions/cluster-workers.md); None when
+    dask.distributed is not installed."""
     try:
+        import dask
         from dask.distributed import Client, LocalCluster
     except ImportError:
         return None
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}), \
+            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
             Client(cluster) as client:
         t0 = time.perf_counter()
         out = fn(client.scheduler.address)
