@@ -20,6 +20,7 @@ Libraries considered: joblib (local processes) and dask.distributed (clusters) d
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
 import pickle
 from typing import Any, Callable, Sequence
@@ -109,23 +110,29 @@ def run_map(fn: Callable, items: Sequence, *, n_jobs: int = 1, scheduler=None,
     return out
 
 
-def _array_pickler(file, arrays: dict):
-    """A pickler of an item with its large arrays left out: each becomes ``("array", key)`` and goes
-    into ``arrays``.  cloudpickle's (Dask's own) when present, for items holding lambdas."""
+@functools.lru_cache(maxsize=1)
+def _array_pickler_class() -> type:
+    """The pickler of an item with its large arrays left out: each becomes ``("array", key)`` and
+    goes into the pickler's ``arrays``.  cloudpickle's (Dask's own) when present, for items holding
+    lambdas; made once, on the first cluster run."""
     try:
         from cloudpickle import CloudPickler as base
     except ImportError:  # pragma: no cover - dask.distributed depends on cloudpickle
         base = pickle.Pickler
 
     class ArrayPickler(base):
+        def __init__(self, file, arrays: dict):
+            super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
+            self.arrays = arrays
+
         def persistent_id(self, obj):
             if type(obj) is np.ndarray and obj.nbytes >= SHARED_BYTES:
                 key = f"array-{id(obj):x}"  # kept in ``arrays``, so alive: its id names no other
-                arrays.setdefault(key, obj)
+                self.arrays.setdefault(key, obj)
                 return ("array", key)
             return None
 
-    return ArrayPickler(file, protocol=pickle.HIGHEST_PROTOCOL)
+    return ArrayPickler
 
 
 class _ArrayUnpickler(pickle.Unpickler):
@@ -143,12 +150,13 @@ class _ArrayUnpickler(pickle.Unpickler):
 def _by_reference(items: Sequence) -> tuple[list[bytes], list[list[str]], dict[str, np.ndarray]]:
     """Each item pickled without its large arrays, the keys of the arrays each one holds, and
     those arrays (each once) by key."""
+    pickler = _array_pickler_class()
     arrays: dict[str, np.ndarray] = {}
     blobs, keys = [], []
     for it in items:
         buf = io.BytesIO()
         mine: dict[str, np.ndarray] = {}
-        _array_pickler(buf, mine).dump(it)
+        pickler(buf, mine).dump(it)
         blobs.append(buf.getvalue())
         keys.append(list(mine))
         arrays.update(mine)

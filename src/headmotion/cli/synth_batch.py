@@ -17,6 +17,7 @@ from rich.text import Text
 
 from ..errors import ParameterError
 from .app import console, err_console, print_error
+from .terminal import is_terminal
 
 
 def is_batch(speech: list[Path], output: Path, fmt, jobs, scheduler, force: bool) -> bool:
@@ -42,7 +43,7 @@ def run_batch(speech: list[Path], output: Path, *, model, fmt, jobs, scheduler, 
         raise ParameterError("--video previews one input; give one speech file and an output file to make a video")
     fmt = fmt or "bvh"
     bar = Progress(TextColumn("[bold]synth"), BarColumn(), MofNCompleteColumn(), _FilesPerSecond(),
-                   TimeRemainingColumn(), console=err_console.get(), transient=False, disable=not sys.stderr.isatty())
+                   TimeRemainingColumn(), console=err_console.get(), transient=False, disable=not is_terminal(sys.stderr))
     task = None
 
     def progress(done: int, total: int) -> None:

@@ -100,13 +100,13 @@ class MotionStream(Protocol):
     def flush(self) -> Motion: ...
 
 
-
 @functools.lru_cache(maxsize=None)
 def _init_params(cls) -> tuple[str, ...]:
     """The names of ``cls.__init__``'s parameters (read once per class: a model's load asks ~30 times)."""
     sig = inspect.signature(cls.__init__)
     return tuple(p.name for p in sig.parameters.values()
                  if p.name != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD))
+
 
 class Synthesizer(ABC):
     """Base class of every system: speech in, head motion out (see the module docstring)."""
