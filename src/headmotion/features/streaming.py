@@ -433,6 +433,10 @@ class StreamingF0e:
         self._forget()
         return out
 
+    def _first_needed(self) -> int:
+        """The first sample a frame not yet analysed can read."""
+        return min(self._start(self._n_static, self.f0_len), self._start(self._n_static, self.win), self._n_in)
+
     def _forget(self) -> None:
         """Drop frames and samples no later frame can need (memory stays bounded on long streams)."""
         keep_from = self._n_out - (self.S + 2 * self.Wd + 2)
@@ -440,7 +444,7 @@ class StreamingF0e:
             if store is None:
                 continue
             store.forget(keep_from)
-        first = min(self._start(self._n_static, self.f0_len), self._start(self._n_static, self.win), self._n_in)
+        first = self._first_needed()
         drop = first - self._buf0        # (at low frame rates the next window may start past the input)
         if drop > 4 * self.f0_len:
             m = max(self._alen - drop, 0)
@@ -486,12 +490,28 @@ class StreamingF0e:
         return out
 
 
+#: how the f0e-live set reads pitch: per-frame YIN (:class:`StreamingF0e`) or Praat in blocks
+#: (:class:`headmotion.features.praat_stream.StreamingPraatF0e`)
+READERS = ("yin", "praat")
+
+
+def f0e_stream(*, reader: str = "yin", **params) -> StreamingF0e:
+    """The incremental f0e-live extractor that reads pitch with ``reader`` (:data:`READERS`)."""
+    if reader == "yin":
+        return StreamingF0e(**params)
+    if reader == "praat":
+        from .praat_stream import StreamingPraatF0e
+
+        return StreamingPraatF0e(**params)
+    raise ParameterError(f"the f0e-live reader must be one of {', '.join(READERS)}; got {reader!r}")
+
+
 def f0e_live(audio: Audio, *, fps: float, n_frames: int, **params):
-    """The ``f0e-live`` feature set: :class:`StreamingF0e` run over the whole file at once (the
-    same code path as streaming, so identical values).  Returns ``(values (T, 6|7), names)``."""
+    """The ``f0e-live`` feature set: :func:`f0e_stream`'s extractor run over the whole file at once
+    (the same code path as streaming, so identical values).  Returns ``(values (T, 6|7), names)``."""
     from .frames import fit_length
 
-    ex = StreamingF0e(sample_rate=audio.sample_rate, fps=fps, **params)
+    ex = f0e_stream(sample_rate=audio.sample_rate, fps=fps, **params)
     values = np.vstack([ex.push(audio.samples), ex.flush()])
     return fit_length(values, n_frames), list(ex.names)
 
@@ -544,5 +564,5 @@ def prosody_live(audio: Audio, *, fps: float, n_frames: int, **params):
     return fit_length(values, n_frames), list(ex.names)
 
 
-__all__ = ["StreamingF0e", "StreamingProsody", "f0e_live", "prosody_live", "yin_frame", "yin_frames",
+__all__ = ["StreamingF0e", "StreamingProsody", "f0e_stream", "READERS", "f0e_live", "prosody_live", "yin_frame", "yin_frames",
            "regression_weights", "NAMES"]
