@@ -28,10 +28,13 @@ def speech_pcm(rate: int = 16000) -> np.ndarray:
     return np.clip(np.round(x * 32767), -32768, 32767).astype(np.int16)
 
 
-def reference(pcm: np.ndarray, rate: int, chunk_s: float = 0.05, flush: bool = True) -> np.ndarray:
+def reference(pcm: np.ndarray, rate: int, chunk_s: float = 0.05, flush: bool = True,
+              lookahead_ms: float = 0.0) -> np.ndarray:
     """What ``load_model("stream").stream()`` gives for the same samples pushed directly (resampled
-    to the model's rate as the integrations' default ``exact`` does)."""
-    model = load_model("stream")
+    to the model's rate as the integrations' default ``exact`` does), reading ``lookahead_ms`` ahead."""
+    import copy
+
+    model = copy.copy(load_model("stream")).set_params(lookahead_ms=lookahead_ms)
     stream = model.stream(seed=0)
     resample = Resampler(rate, int(model.sample_rate), quality="HQ")
     x = pcm.astype(np.float32) / np.float32(32768.0)

@@ -51,10 +51,10 @@ def test_avatar_page_and_its_files_are_served():
     assert c.get("/v1/avatar/static/avatar.vrm").content[:4] == b"glTF"
 
 
-def _run_page(playwright, query: str, tmp_path, frames: int = 150, app=None) -> dict:
+def _run_page(playwright, query: str, tmp_path, frames: int = 150, app=None, begin=None) -> dict:
     """Open ``/v1/avatar?QUERY`` on a real server (``app``, by default ``headmotion serve``'s) with
     the fake microphone playing SPEECH; the page's state once ``frames`` frames have come, with the
-    audio it sent."""
+    audio it sent.  ``begin``: (a function, its argument) evaluated once the page is ready."""
     from headmotion.serve.app import create_app
     from headmotion.serve.config import ServeConfig
     from headmotion.web.server import running_app
@@ -70,11 +70,14 @@ def _run_page(playwright, query: str, tmp_path, frames: int = 150, app=None) -> 
             pg.goto(url + "v1/avatar?" + query)
             _wait(pg, "document.body.dataset.ready")
             assert pg.evaluate("document.body.dataset.ready") == "1", pg.inner_text("#error")
+            if begin is not None:
+                pg.evaluate(*begin)
             _wait(pg, f"window.headmotionAvatar.frames >= {frames} || window.headmotionAvatar.error")
             pg.locator("#avatar canvas").screenshot(path=str(tmp_path / "avatar.png"))
             st = pg.evaluate("({shown: headmotionAvatar.shown, ready: headmotionAvatar.ready, "
                              "error: headmotionAvatar.error, status: headmotionAvatar.status, "
                              "now: headmotionAvatar.headRotation(), audio: headmotionAvatar.sentAudio(), "
+                             "delay: headmotionAvatar.audioDelayS(), "
                              "stats: document.getElementById('stats').textContent})")
         finally:
             b.close()
@@ -122,6 +125,29 @@ def test_head_bone_follows_the_stream_from_a_fake_microphone(playwright, tmp_pat
     assert "latency median" in st["stats"] and "p95" in st["stats"]
     print(f"{len(idx)} frames on the bones, largest difference from synth {err.max():.4f} deg; latency from the "
           f"audio to the bone: median {np.median(lat):.0f} ms, p95 {np.percentile(lat, 95):.0f} ms")
+
+
+@pytest.mark.browser
+@pytest.mark.timeout(240)
+def test_with_a_lookahead_a_file_is_heard_that_much_later_and_the_bones_read_ahead(playwright, tmp_path):
+    """``?lookahead_ms=220`` and a file: the page plays the file aloud through a delay of the whole
+    frames read ahead (200 ms at 25 fps), the stream's latency has grown by as much, and the bones
+    take ``headmotion synth -m stream --lookahead-ms 220``'s frames of the audio sent."""
+    import headmotion
+    from headmotion.types import Audio
+
+    wav = base64.b64encode(SPEECH.read_bytes()).decode()
+    started = ("(b64) => { const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0)); "
+               "headmotionAvatar.start(new File([bytes], 'speech.wav', {type: 'audio/wav'})); return true; }")
+    st = _run_page(playwright, "record=1&lookahead_ms=220", tmp_path, frames=100, begin=(started, wav))
+    assert not st["errors"], st["errors"]
+    assert st["error"] is None and st["status"].startswith("streaming (file): stream")
+    assert st["delay"] == pytest.approx(0.2, abs=1e-6)
+    base = registry().models["stream"].stream(seed=0).latency_ms
+    assert st["ready"]["lookahead_ms"] == 220 and st["ready"]["latency_ms"] == pytest.approx(base + 200)
+    rate = int(st["audio"]["sampleRate"])
+    (ref,) = headmotion.synthesize(Audio(st["sent"], rate), model="stream", lookahead_ms=220)
+    _check_bones(st, ref)
 
 
 @pytest.mark.browser

@@ -205,6 +205,68 @@ def test_paced_frames_go_out_as_the_audio_plays_and_settle_on_interruption():
     assert settle_times[-1] - settle_times[0] == pytest.approx((n_settle - 1) / FPS, abs=0.25)  # eased, not dumped
 
 
+def test_with_a_lookahead_the_audio_is_held_by_it_and_the_frames_read_ahead():
+    """``lookahead_ms=200``: an audio frame goes on to the next output once 200 ms more audio has
+    come (4 frames of 50 ms), the rest at the reply's end, before the next output's flush; the
+    frames are the stream's with that lookahead; the next reply waits for the held audio."""
+    pcm = _speech(24000)
+    frames = _audio_frames(pcm, 24000)
+
+    async def main():
+        sink, pub = PlayingOutput(), Publisher()
+        out = HeadMotionAudioOutput(sink, send=pub, pace=False, lookahead_ms=200)
+        await _speak(out, frames[:10], flush=False)
+        held = len(sink.frames)
+        out.flush()
+        await _speak(out, frames)  # the next reply comes right after the flush
+        assert await out.wait_sent(5.0)
+        await asyncio.wait_for(out.wait_for_playout(), 2.0)
+        await out.aclose()
+        return sink, pub, out, held
+
+    sink, pub, out, held = asyncio.run(main())
+    assert held == 6 and sink.events == ["flush", "flush"]
+    _assert_passed_on(frames[:10] + frames, sink.frames)
+    first, second = utterances(pub.messages)
+    ref = reference(pcm, 24000, lookahead_ms=200)
+    np.testing.assert_allclose(second["rotvec"][:len(ref)], ref, atol=TOL, rtol=0)
+    short = reference(pcm[:10 * 1200], 24000, lookahead_ms=200)  # the first reply: its 0.5 s alone
+    np.testing.assert_allclose(first["rotvec"][:len(short)], short, atol=TOL, rtol=0)
+    from headmotion.live.core import HeadMotionCore
+
+    assert out.core.latency_ms == pytest.approx(HeadMotionCore("stream").latency_ms + 200)
+
+
+def test_with_a_lookahead_an_interruption_drops_the_audio_held_and_the_reply_ends():
+    """Cut off with audio held (the agent flushes, then clears at once): the held audio never
+    reaches the next output, which still ends its segment; a reply cut off before any of its audio
+    went on ends all the same (no wait for a playback that never comes)."""
+    pcm = _speech(16000)
+    frames = _audio_frames(pcm, 16000)
+
+    async def main():
+        sink, pub = PlayingOutput(), Publisher()
+        out = HeadMotionAudioOutput(sink, send=pub, pace=False, lookahead_ms=200)
+        await _speak(out, frames[:30], flush=False)
+        out.flush()
+        out.clear_buffer()
+        await asyncio.wait_for(out.wait_for_playout(), 2.0)
+        passed = len(sink.frames)
+        await _speak(out, frames[:2], flush=False)  # 100 ms: all of it held
+        out.clear_buffer()
+        out.flush()
+        await asyncio.wait_for(out.wait_for_playout(), 2.0)
+        assert await out.wait_sent(5.0)
+        await out.aclose()
+        return sink, pub, passed
+
+    sink, pub, passed = asyncio.run(main())
+    assert passed == 26 and len(sink.frames) == 26
+    _assert_passed_on(frames[:26], sink.frames)
+    first, second = utterances(pub.messages)
+    assert first["end"]["audio_seconds"] == pytest.approx(1.5) and second["end"]["audio_seconds"] == pytest.approx(0.1)
+
+
 def test_pause_holds_the_frames_with_the_audio():
     pcm = _speech(16000)
     frames = _audio_frames(pcm, 16000)[:20]  # 1 s

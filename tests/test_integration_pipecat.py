@@ -190,6 +190,60 @@ def test_paced_interruption_settles_from_the_last_pose_sent():
     assert utt["end"]["frames"] == shown + n_settle
 
 
+def _audio_before(down: list, i: int) -> float:
+    """Seconds of TTS audio that went downstream before ``down[i]``."""
+    return sum(len(f.audio) / 2 / f.sample_rate for f in down[:i] if isinstance(f, TTSAudioRawFrame))
+
+
+def test_with_a_lookahead_the_audio_is_held_by_it_and_the_frames_read_ahead():
+    """``lookahead_ms=200``: the frames are the stream's with that lookahead; every audio frame
+    and everything behind it goes on unchanged and in order, but only once 200 ms more audio has
+    come — so a frame's message follows its own audio closely (not 200 ms of audio later, as it
+    would with the audio passed on at once); the end lets the audio held go first."""
+    from pipecat.frames.frames import TextFrame
+
+    pcm = _speech()
+    audio = _tts_frames(pcm, 16000)  # 50 ms each
+    text = TextFrame("half way")
+    sent = [TTSStartedFrame(), *audio[:20], text, *audio[20:], TTSStoppedFrame()]
+    proc = HeadMotionProcessor(pace=False, lookahead_ms=200)
+    assert proc.latency_ms == pytest.approx(HeadMotionProcessor(pace=False).latency_ms + 200)
+    down, _ = asyncio.run(run_test(proc, frames_to_send=sent))
+    _assert_audio_unchanged(audio, _audio_out(down))
+    seq = [f for f in down if not isinstance(f, OutputTransportMessageFrame)]  # the frames it was given
+    assert seq.index(text) == seq.index(audio[19]) + 1 == seq.index(audio[20]) - 1  # in order
+    assert isinstance(down[-1], TTSStoppedFrame) and down.index(audio[-1]) < len(down) - 1
+    msgs = _messages(down, OutputTransportMessageFrame)
+    (utt,) = utterances(msgs, angles=True)
+    ref = reference(pcm, 16000, lookahead_ms=200)
+    np.testing.assert_allclose(utt["rotvec"][:len(ref)], ref, atol=TOL, rtol=0)
+    check_settling(ref, utt["rotvec"][len(ref):], proc.core.settle_frames)
+    first_audio = next(i for i, f in enumerate(down) if isinstance(f, TTSAudioRawFrame))
+    assert down[first_audio - 1].message == {"type": "audio-start", "utterance": 1}
+    for i, f in enumerate(down):
+        if isinstance(f, OutputTransportMessageFrame) and f.message["type"] == "frames" \
+                and not f.message.get("settling") and f.message["first"] < len(ref) - 10:
+            ahead = _audio_before(down, i) - f.message["frames"][-1]["time"]
+            assert 0.0 < ahead <= 0.04 + 0.1, (f.message["first"], ahead)  # its audio, a chunk or two on
+
+
+def test_with_a_lookahead_an_interruption_drops_the_audio_held():
+    """Cut off after 1.5 s with 200 ms (4 frames of 50 ms) held: those never go downstream (the
+    interruption goes first), the head settles from the last frame made, the next reply is fresh."""
+    pcm = _speech()
+    audio = _tts_frames(pcm, 16000)
+    k = 30
+    proc = HeadMotionProcessor(pace=False, lookahead_ms=200)
+    frames = [TTSStartedFrame(), *audio[:k], SleepFrame(0.3), InterruptionFrame(), SleepFrame(0.2),
+              TTSStartedFrame(), *audio, TTSStoppedFrame()]
+    down, _ = asyncio.run(run_test(proc, frames_to_send=frames))
+    _assert_audio_unchanged(audio[:k - 4] + audio, _audio_out(down))
+    first, second = utterances(_messages(down, OutputTransportMessageFrame), angles=True)
+    assert first["end"]["audio_seconds"] == pytest.approx(k * 0.05)
+    ref = reference(pcm, 16000, lookahead_ms=200)
+    np.testing.assert_allclose(second["rotvec"][:len(ref)], ref, atol=TOL, rtol=0)
+
+
 def test_rtvi_messages_and_other_frames_pass_through():
     from pipecat.frames.frames import OutputAudioRawFrame, TextFrame
     from pipecat.processors.frameworks.rtvi import RTVIServerMessageFrame

@@ -1,7 +1,8 @@
 """Commands import only what they use: ``headmotion --help``, ``info``, ``convert`` and ``synth`` with
 the shipped models leave PyTorch, matplotlib, numba/librosa, fastapi, mediapipe and scipy.signal
 unimported, and writing motion (``synth``, ``stream``) does not import scipy.spatial (an import
-check in a fresh process, not a timing)."""
+check in a fresh process, not a timing).  The shipped models read pitch with Praat (parselmouth);
+the commands that make no motion do not import it."""
 
 from __future__ import annotations
 
@@ -14,7 +15,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("torch", "matplotlib", "numba", "librosa", "fastapi", "mediapipe", "scipy.signal", "scipy.stats",
-         "parselmouth", "sklearn")
+         "sklearn")
+#: the pitch tracker the shipped models read the speech with: only commands that make motion load it
+PITCH = ("parselmouth",)
 RUN = """
 import json, sys
 from headmotion.cli import main
@@ -39,7 +42,7 @@ def _loaded(mods: set[str], names) -> list[str]:
 
 def test_help_imports_no_numerical_library():
     mods = _modules("--help")
-    assert _loaded(mods, HEAVY + ("numpy", "scipy", "soundfile")) == []
+    assert _loaded(mods, HEAVY + PITCH + ("numpy", "scipy", "soundfile")) == []
 
 
 @pytest.mark.parametrize("model", [None, "default_stream_model.hmz"])
@@ -75,7 +78,7 @@ def test_info_and_convert_import_no_heavy_library(tmp_path, examples_dir):
     _modules("synth", str(examples_dir / "speech" / "short.wav"), "-o", str(bvh))
     for args in (["info", str(examples_dir / "speech" / "short.wav")], ["info", str(bvh)],
                  ["convert", str(bvh), str(tmp_path / "m.csv")]):
-        assert _loaded(_modules(*args), HEAVY) == [], args
+        assert _loaded(_modules(*args), HEAVY + PITCH) == [], args
     assert "scipy.spatial" not in _modules("info", str(examples_dir / "speech" / "short.wav"))
     assert (tmp_path / "m.csv").exists()
 

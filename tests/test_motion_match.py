@@ -230,6 +230,94 @@ def test_live_streams_and_the_stream_equals_predict(live, corpus):
     assert not create("motion-match").can_stream
 
 
+def _streamed(model, audio, chunk: int, seed: int):
+    st = model.stream(seed=seed)
+    x = audio.samples
+    parts = [st.push(x[i:i + chunk]) for i in range(0, len(x), chunk)] + [st.flush()]
+    return np.concatenate([p.rotvec.reshape(-1, 3) for p in parts]), st
+
+
+@pytest.mark.parametrize("lookahead_ms, ahead", [(40.0, 1), (139.0, 3), (400.0, 10)])
+@pytest.mark.parametrize("chunk", [160, 4001])
+def test_with_a_lookahead_the_stream_equals_predict_and_comes_that_much_later(live, corpus, lookahead_ms, ahead,
+                                                                               chunk):
+    """``lookahead_ms`` L reads A = floor(L · 25 / 1000) frames ahead: the stream's frames equal
+    ``predict``'s with the same L (10 ms and 250 ms chunks, the file's end read as its last row
+    repeated in both), its latency grows by A · 40 ms, and the caller's model is not changed."""
+    import copy
+
+    audio = corpus[1].audio.slice_seconds(0, 9.0)
+    m = copy.copy(live).set_params(lookahead_ms=lookahead_ms)
+    assert m._shift == ahead and m.can_stream
+    out = m.predict(audio, seed=5)
+    got, st = _streamed(m, audio, chunk, seed=5)
+    np.testing.assert_allclose(got, out.rotvec, rtol=0, atol=1e-6)
+    assert st.latency_ms == pytest.approx(live_latency(live) + 40.0 * ahead)
+    assert live.lookahead_ms == 0 and live.library_.shift == 0 and m.library_.shift == ahead
+    assert not np.allclose(out.rotvec, live.predict(audio, seed=5).rotvec)
+
+
+def test_a_file_shorter_than_the_lookahead_streams_as_predict_reads_it(live, corpus):
+    """A file shorter than the lookahead (0.3 s against 1.08 s): every decision reads past the
+    end, the last row repeated, in the stream as in ``predict``."""
+    import copy
+
+    m = copy.copy(live).set_params(lookahead_ms=1080.0)
+    for seconds in (0.3, 1.5):
+        audio = corpus[0].audio.slice_seconds(2.0, 2.0 + seconds)
+        out = m.predict(audio, seed=1)
+        got, _ = _streamed(m, audio, 160, seed=1)
+        assert len(out) == round(seconds * FPS)
+        np.testing.assert_allclose(got, out.rotvec, rtol=0, atol=1e-6)
+
+
+def test_with_a_lookahead_a_decision_reads_the_speech_that_far_ahead_and_no_further(live, corpus):
+    """With A frames of lookahead, changing the audio after 5 s leaves every frame up to A frames
+    before the first one whose features read it unchanged, and changes later ones."""
+    import copy
+
+    m = copy.copy(live).set_params(lookahead_ms=200.0)  # A = 5
+    audio = corpus[1].audio.slice_seconds(0, 10.0)
+    other = audio.samples.copy()
+    cut = int(5.0 * audio.sample_rate)
+    other[cut:] = corpus[0].audio.samples[cut:len(other)]
+    a = angles(m.predict(audio, seed=1))
+    b = angles(m.predict(type(audio)(other, audio.sample_rate), seed=1))
+    first = int((5.0 - 0.040) * FPS) - 5  # frames whose decisions read only features ending before the cut
+    first -= first % m.hop  # a decision's frames come together
+    np.testing.assert_array_equal(a[:first], b[:first])
+    assert not np.allclose(a[first:], b[first:])
+
+
+def test_the_librarys_descriptors_read_as_far_ahead_as_the_query(live):
+    """Re-indexed for a lookahead of A frames, each library frame's descriptor is the causal one of
+    the frame A later (within its recording; past the end its last row repeated), and the goal's
+    regression is fitted on them."""
+    import copy
+
+    from headmotion.systems.motion_match import read_ahead
+
+    m = copy.copy(live).set_params(lookahead_ms=120.0)  # A = 3
+    m._indexed()
+    n = int(live.lib_lengths_[0])
+    f = live.lib_feats_[:n]
+    want = speech_descriptors(read_ahead(f, 3), live._taps, causal=True)[3:]
+    np.testing.assert_allclose(m.library_.descriptors[:n], want, atol=1e-6)
+    np.testing.assert_allclose(m.library_.descriptors[:n - 3], live.library_.descriptors[3:n], atol=1e-6)
+    assert not np.allclose(m.library_.goal_weights, live.library_.goal_weights)
+    assert copy.copy(live).set_params(lookahead_ms=130.0)._library_for(3) is m.library_  # built once, shared
+
+
+def test_a_lookahead_is_refused_on_a_model_that_is_not_live(corpus):
+    """A model that is not ``live`` reads ahead already (its ``lookahead``): a non-zero
+    ``lookahead_ms`` is refused, naming what it reads; a negative one is refused on any model."""
+    m = create("motion-match", prosody="f0e-live", hop=4).fit(corpus)
+    with pytest.raises(ParameterError, match="not live and already reads"):
+        m.set_params(lookahead_ms=200.0).predict(corpus[0].audio.slice_seconds(0, 1.0))
+    with pytest.raises(ParameterError, match="lookahead_ms"):
+        create("motion-match", live=True, lookahead_ms=-40.0).fit(corpus)
+
+
 def test_live_decisions_read_no_speech_after_their_frame(live, corpus):
     """Changing the audio after 5 s leaves every frame up to the one whose features read it
     unchanged (the features' 39 ms), and changes frames after it."""

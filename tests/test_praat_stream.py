@@ -11,7 +11,7 @@ from headmotion.errors import ParameterError
 from headmotion.features import extract
 from headmotion.features.praat_stream import StreamingPraatF0e
 from headmotion.features.prosody import praat_pitch
-from headmotion.features.streaming import f0e_live, f0e_stream
+from headmotion.features.readers import f0e_live, f0e_stream
 from headmotion.types import Audio
 
 SR = 16000

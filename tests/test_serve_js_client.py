@@ -99,11 +99,38 @@ def test_stream_of_chunks_is_the_librarys(page_at):
     assert not errors, errors
 
 
+def test_stream_with_a_lookahead_is_synthesizes_with_it(page_at):
+    """``lookaheadMs`` goes into the start message: the frames are ``synthesize(model="stream",
+    lookahead_ms=...)``'s and the ready message says the lookahead and the longer latency."""
+    from headmotion.types import Audio
+
+    pg, errors = page_at
+    x = speech_f32()
+    got = pg.evaluate("async (samples) => {" + IMPORT + """
+        const x = Float32Array.from(samples), chunks = [];
+        for (let i = 0; i < x.length; i += 320) chunks.push(x.subarray(i, i + 320));
+        let ready = null;
+        const out = [];
+        for await (const b of hm.stream(chunks, { sampleRate: 16000, encoding: "f32le", lookaheadMs: 280,
+                                                  onReady: (r) => { ready = r; } })) {
+            for (const f of b.frames) out.push(f.rotvec);
+        }
+        return { ready, out };
+    }""", x.tolist())
+    want = synthesize(Audio(x, 16000), registry().models["stream"], lookahead_ms=280)[0].rotvec
+    np.testing.assert_allclose(np.array(got["out"]), want, atol=1e-6)
+    base = registry().models["stream"].stream(seed=0).latency_ms
+    assert got["ready"]["lookahead_ms"] == 280 and got["ready"]["latency_ms"] == pytest.approx(base + 280)
+    assert not errors, errors
+
+
 @pytest.mark.parametrize("call,kind", [
     ('hm.motion(new Blob([new Uint8Array(8)], { type: "audio/wav" }), { model: "stream", gain: -1 })', "bad_parameter"),
     ('(async () => { for await (const b of hm.stream([new Float32Array(160)], { sampleRate: 16000, model: "nope" })) {} })()',
      "unknown_model"),
     ('(async () => { for await (const b of hm.stream([new Float32Array(160)], { sampleRate: 16000, gain: 11 })) {} })()',
+     "bad_start"),
+    ('(async () => { for await (const b of hm.stream([new Float32Array(160)], { sampleRate: 16000, lookaheadMs: 2000 })) {} })()',
      "bad_start")])
 def test_refusals_are_errors_with_the_servers_kind(page_at, call, kind):
     pg, _ = page_at

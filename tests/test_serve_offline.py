@@ -37,6 +37,25 @@ def test_offline_equals_library_predict(c):
     np.testing.assert_allclose(rv, want.rotvec, atol=1e-12)
 
 
+def test_offline_with_a_lookahead_is_synthesizes_with_it():
+    """``lookahead_ms`` reads ahead as ``synthesize(lookahead_ms=...)`` does; out of its range, or
+    for a model that is not live, 400 ``bad_parameter``."""
+    from headmotion.types import Audio
+
+    x = speech_f32()
+    want = synthesize(Audio(x, 16000), registry().models["stream"], lookahead_ms=200)[0]
+    with client(names=("stream", "default")) as cl:
+        q = "/v1/motion?model=stream&encoding=f32le&sample_rate=16000&format=npz"
+        r = cl.post(q + "&lookahead_ms=200", content=x.tobytes())
+        assert r.status_code == 200, r.text
+        rv = next(v for v in _npz(r.content).values() if v.ndim == 2 and v.shape[1] == 3)
+        np.testing.assert_allclose(rv, want.rotvec, atol=1e-12)
+        for bad in (q + "&lookahead_ms=2000", q.replace("model=stream", "model=default") + "&lookahead_ms=200"):
+            r = cl.post(bad, content=x.tobytes())
+            assert r.status_code == 400 and r.json()["error"] == "bad_parameter", r.text
+            assert "lookahead_ms" in r.json()["detail"]
+
+
 def test_json_default_and_samples(c):
     model = registry().models["stream"]
     audio = load_audio(SPEECH)

@@ -111,8 +111,49 @@ BAD = [
     ("text where binary is due", [start(), "more audio"], "bad_message", 1008),
     ("end with extras", [start(), json.dumps({"type": "end", "x": 1})], "bad_message", 1008),
     ("settle out of range", [start(settle=9)], "bad_start", 1008),
+    ("lookahead out of range", [start(lookahead_ms=1081)], "bad_start", 1008),
+    ("lookahead negative", [start(lookahead_ms=-40)], "bad_start", 1008),
+    ("lookahead not a number", [start(lookahead_ms="200")], "bad_start", 1008),
     ("interrupt shows unsent frames", [start(), json.dumps({"type": "interrupt", "shown": 5})], "bad_message", 1008),
 ]
+
+
+@pytest.mark.parametrize("lookahead_ms, chunk", [(200, 160), (400, 1000), (1080, 7)])
+def test_a_stream_with_a_lookahead_equals_synthesize_with_it(c, lookahead_ms, chunk):
+    """``lookahead_ms`` in the start message: the frames the server sends are those of
+    ``synthesize(model="stream", lookahead_ms=L)`` on the same audio, and the ready message's
+    latency has grown by the whole frames read ahead (40 ms each)."""
+    from headmotion import synthesize
+    from headmotion.types import Audio
+
+    x = speech_f32()
+    with c.websocket_connect(WS) as ws:
+        ws.send_text(start(encoding="f32le", sample_rate=16000, frames="json", lookahead_ms=lookahead_ms))
+        ready = json.loads(ws.receive_text())
+        for i in range(0, len(x), chunk):
+            ws.send_bytes(x[i:i + chunk].tobytes())
+        ws.send_text('{"type": "end"}')
+        msgs = read_until_close(ws)
+    texts = [json.loads(m["text"]) for m in msgs if m.get("text")]
+    got = np.array([f["rotvec"] for d in texts if d["type"] == "frames" for f in d["frames"]])
+    want = synthesize(Audio(x, 16000), model="stream", lookahead_ms=lookahead_ms)[0].rotvec
+    assert got.shape == want.shape and texts[-1]["frames"] == len(want)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-6)
+    base = registry().models["stream"].stream(seed=0).latency_ms
+    assert ready["lookahead_ms"] == lookahead_ms
+    assert ready["latency_ms"] == pytest.approx(base + 40.0 * (lookahead_ms * 25 // 1000))
+
+
+def test_a_lookahead_on_a_model_that_is_not_live_is_refused():
+    """The shipped default reads ahead already (it is not live): a lookahead for it is refused with
+    ``bad_start`` naming why, and the connection closes."""
+    with client(names=("stream", "default")) as cl:
+        with cl.websocket_connect(WS) as ws:
+            ws.send_text(start(model="default", lookahead_ms=200))
+            out = read_until_close(ws)
+    err = json.loads(out[0]["text"])
+    assert err["error"] == "bad_start" and "lookahead_ms" in err["detail"] and "not live" in err["detail"]
+    assert out[-1]["code"] == 1008
 
 
 @pytest.mark.parametrize("name,msgs,kind,code", BAD, ids=[b[0] for b in BAD])

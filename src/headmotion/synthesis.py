@@ -8,7 +8,8 @@ order (docs/design.md "CLI"; the seeds are silent on user controls):
 1. the model's motion for the speech (sample ``k`` of ``samples`` with seed ``seed + k``; a
    deterministic model samples its parameters, ``stochastic="params"``, when ``samples > 1``),
    with ``amount``: how much the head moves, by which recorded movements a motion-matching model
-   chooses (0 holds still, 1 the model's own, up to 3) — no angle is scaled;
+   chooses (0 holds still, 1 the model's own, up to 3) — no angle is scaled — and ``lookahead_ms``:
+   how far ahead a live model reads the speech (a stream then comes that much later);
 2. ``style_from``: made to move like a reference (:mod:`headmotion.motion.style`);
 3. ``gain`` about the mean pose — the styled one (the reference's) when a style is applied, else
    the model's training mean pose — then ``offset`` (:mod:`headmotion.motion.control`);
@@ -23,6 +24,7 @@ name (:mod:`headmotion.shipped`).  Importing this module imports neither torch n
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 from collections import deque
@@ -48,6 +50,7 @@ DEFAULT_STREAM_MODEL = "stream"
 #: would mirror the motion and is refused), offset per axis in degrees; seeds: :mod:`headmotion.seeds`
 GAIN_RANGE = (0.0, 10.0)
 OFFSET_RANGE_DEG = (-90.0, 90.0)
+LOOKAHEAD_RANGE_MS = (0.0, 1080.0)  # ms: up to the reach of the shipped default (not live; 27 frames)
 
 
 def _triple(value, what: str, *, degrees: bool = False) -> tuple[float, float, float]:
@@ -123,6 +126,9 @@ class Controls:
     listening : number in :data:`headmotion.listener.LISTENING_RANGE`
         How much the head listens while it hears another person speak (``hear``): 1 an attentive
         posture and back-channel nods at the other's cues, 0 nothing added, up to 3.
+    lookahead_ms : number in :data:`LOOKAHEAD_RANGE_MS`
+        How far ahead a live model reads the speech (a voice agent's is made before it plays;
+        the stream comes that much later); 0 = causal.
     """
 
     gain: tuple = (1.0, 1.0, 1.0)
@@ -135,6 +141,7 @@ class Controls:
     fps: float | None = None
     stochastic: str | None = None
     listening: float = 1.0
+    lookahead_ms: float = 0.0
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -166,6 +173,11 @@ class Controls:
         from .listener import check_listening
 
         set_(self, "listening", check_listening(self.listening))
+        la, (lo, hi) = self.lookahead_ms, LOOKAHEAD_RANGE_MS
+        if isinstance(la, bool) or not isinstance(la, (int, float, np.floating, np.integer)) or not lo <= la <= hi:
+            raise ParameterError(f"lookahead_ms (--lookahead-ms) must be a number of milliseconds from {lo:g} to "
+                                 f"{hi:g}; got {la!r:.40}")
+        set_(self, "lookahead_ms", float(la))
         if self.stochastic is not None and not isinstance(self.stochastic, str):
             raise ParameterError(f"stochastic (--stochastic) must be one of none, choice, params, both; "
                                  f"got {self.stochastic!r}")
@@ -253,9 +265,19 @@ def _with_stochastic(model, mode: str | None, samples: int):
         mode = "params"
     if mode is None:
         return model
-    import copy
-
     return copy.copy(model).set_params(stochastic=mode)
+
+
+def _with_lookahead(model, lookahead_ms: float):
+    """``model``, or a shallow copy reading ``lookahead_ms`` ahead (the caller's model is left as it
+    was); ParameterError for a model without this setting."""
+    if lookahead_ms == 0.0:
+        return model
+    params = model.get_params()
+    if "lookahead_ms" not in params or not params.get("live"):
+        raise ParameterError(f"lookahead_ms (--lookahead-ms) is how far a live model reads ahead; a {model.name} "
+                             "model that is not live reads ahead already or not at all: use the shipped 'stream'")
+    return copy.copy(model).set_params(lookahead_ms=float(lookahead_ms))
 
 
 def _with_amount(model, amount: float):
@@ -267,11 +289,7 @@ def _with_amount(model, amount: float):
         raise ParameterError(f"amount (--amount) chooses larger or calmer recorded movements, which a "
                              f"{model.name} model does not do; use a motion-matching model (the shipped "
                              f"'default' and 'stream'), or --gain to scale this model's motion")
-    import copy
-
     return copy.copy(model).set_params(amount=amount)
-
-
 
 
 def reads_in_blocks(model, audio) -> bool:
@@ -404,7 +422,7 @@ def synthesize(audio, model=DEFAULT_MODEL, *, seed: int | None = None, samples: 
         speech, heard = _conversation(speech, hear)
         duration, in_blocks = speech.duration, False
     reference = _style_reference(c)
-    m = _with_amount(_with_stochastic(m, c.stochastic, samples), c.amount)
+    m = _with_lookahead(_with_amount(_with_stochastic(m, c.stochastic, samples), c.amount), c.lookahead_ms)
     total = duration * samples
     out = []
     for k in range(samples):
@@ -441,8 +459,8 @@ class SpeechStream:
     Made by :func:`open_stream`; ``sample_rate`` is the rate of the samples pushed (resampled on
     the stream to the model's, ``resample`` of :data:`headmotion.io.resampler.QUALITY`),
     ``frame_rate`` the rate of the frames returned, ``latency_ms`` the model's algorithmic
-    latency, ``frames`` how many frames it has returned.  :meth:`hear` takes what the head hears
-    (the other party's audio, on the same timeline), ``heard_rate`` its rate."""
+    latency (``lookahead_ms`` included), ``frames`` how many frames it has returned.  :meth:`hear`
+    takes what the head hears (the other party's audio, on the same timeline), ``heard_rate`` its rate."""
 
     def __init__(self, model, inner, controls: Controls, sample_rate: int, *, resample: str = "fast",
                  heard_rate: int | None = None, seed: int = 0):
@@ -538,8 +556,8 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int | None = None, sample_r
         Rate of the samples to be pushed (default: the model's); other rates are resampled on
         the stream.
     controls : Controls, optional
-        Gain, offset, still, stochastic and listening apply; a style reference and another output
-        rate need the whole recording (:func:`synthesize`) and are refused.
+        Gain, offset, still, amount, stochastic, listening and lookahead_ms apply; a style
+        reference and another output rate need the whole recording (:func:`synthesize`) and are refused.
     resample : ``"fast"`` or ``"exact"``
         How samples at another rate than the model's are resampled
         (:data:`headmotion.io.resampler.QUALITY`; ``"exact"``: the frames of :func:`synthesize`).
@@ -566,12 +584,12 @@ def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int | None = None, sample_r
     if heard_rate is not None and (isinstance(heard_rate, bool) or not isinstance(heard_rate, (int, np.integer))
                                    or heard_rate < 1000):
         raise ParameterError(f"heard_rate must be a whole number of Hz >= 1000; got {heard_rate!r}")
-    m = _with_amount(_with_stochastic(m, c.stochastic, 1), c.amount)
+    m = _with_lookahead(_with_amount(_with_stochastic(m, c.stochastic, 1), c.amount), c.lookahead_ms)
     inner = m.stream_seeded(seed)
     return SpeechStream(m, inner, c, int(m.sample_rate) if sample_rate is None else int(sample_rate),
                         resample=resample, heard_rate=heard_rate, seed=seed)
 
 
-__all__ = ["AMOUNT_RANGE", "DEFAULT_MODEL", "DEFAULT_SEED", "DEFAULT_STREAM_MODEL", "FPS_RANGE", "GAIN_RANGE", "OFFSET_RANGE_DEG", "SEED_MAX", "check_seed",
+__all__ = ["AMOUNT_RANGE", "DEFAULT_MODEL", "DEFAULT_SEED", "DEFAULT_STREAM_MODEL", "FPS_RANGE", "GAIN_RANGE", "OFFSET_RANGE_DEG", "LOOKAHEAD_RANGE_MS", "SEED_MAX", "check_seed",
            "Controls", "ShippedModel", "SpeechStream", "apply_controls",
            "list_models", "load_model", "open_stream", "reads_in_blocks", "synthesize"]

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 from ..errors import HeadMotionError, ParameterError
-from ..synthesis import Controls, _controls, _with_amount, _with_stochastic, load_model, synthesize
+from ..synthesis import Controls, _controls, _with_amount, _with_lookahead, _with_stochastic, load_model, synthesize
 from .inputs import Job, plan_jobs
 from .manifest import Manifest, file_digest, options_key
 
@@ -191,6 +191,8 @@ def _model_identity(model, loaded) -> str:
 
 def _controls_identity(c: Controls) -> dict:
     d = dataclasses.asdict(c)
+    if not d["lookahead_ms"]:  # the key of outputs made before there was a lookahead stays theirs
+        del d["lookahead_ms"]
     ref = c.style_from
     if ref is not None:
         if isinstance(ref, (str, os.PathLike)):
@@ -219,7 +221,8 @@ def _prepare(model, seed, samples, controls, neck_share, fmt):
     m = load_model(model)
     seed = model_seed(m, seed)
     check_seed(seed, samples)
-    _with_amount(_with_stochastic(m, controls.stochastic, samples), controls.amount)  # refused now, not per file
+    _with_lookahead(_with_amount(_with_stochastic(m, controls.stochastic, samples), controls.amount),
+                    controls.lookahead_ms)  # refused now, not per file
     save = {} if neck_share is None else {"neck_share": float(neck_share)}
     settings = Settings(seed, samples, controls, save)
     key = options_key({"headmotion": __version__, "model": _model_identity(model, m), "seed": seed,

@@ -25,8 +25,8 @@ from .synth_cmds import load_cli_model
 @app.command()
 def stream(
     model: Optional[str] = typer.Option(None, "-m", "--model", metavar="NAME|FILE", help="A model that streams: a shipped name "
-                                        "('stream', the default, 39 ms behind the audio; 'default', about 1.1 s "
-                                        "behind) or a model file."),
+                                        "('stream', the default, 50 ms behind the audio; 'default', about 31 s "
+                                        "behind: its pitch is read in 30 s blocks) or a model file."),
     input: str = typer.Option("-", "--input", "-i", help="'-' raw 16-bit mono PCM on stdin, 'mic' the microphone, "
                               "a named pipe of raw PCM, or an audio file."),
     hear: Optional[str] = typer.Option(None, "--hear", metavar="SOURCE", help="The other party's audio, which the "
@@ -53,6 +53,10 @@ def stream(
                                                "bone (default 0.93, as the BVH/glTF writers)."),
     seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Synthesis seed (default: the model's own)."),
     amount: float = typer.Option(1.0, "--amount", help="How much the head moves, 0 to 3 (see synth --amount)."),
+    lookahead_ms: float = typer.Option(0.0, "--lookahead-ms", metavar="MS", help="Let a live model read the speech "
+                                       "this many milliseconds ahead, 0 to 1080 (the frames then come that much "
+                                       "later: for speech made before it plays, e.g. a voice agent's TTS). "
+                                       "Default 0: causal."),
     gain: Optional[str] = typer.Option(None, "--gain", help="G or P,Y,R (see synth --gain)."),
     offset: Optional[str] = typer.Option(None, "--offset", help="Degrees, D or P,Y,R (see synth --offset)."),
     gain_pitch: Optional[float] = typer.Option(None, "--gain-pitch", help="Pitch amplitude scale (overrides --gain)."),
@@ -81,7 +85,7 @@ def stream(
 
     controls = Controls.parse(gain=gain, offset_degrees=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
                               offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll), amount=amount,
-                              listening=listening)
+                              listening=listening, lookahead_ms=lookahead_ms)
     m = load_cli_model(model, default="stream")  # the shipped default reads ahead: 'stream' decides as it hears
     stats = stream_live(m, input=input, sample_rate=sample_rate, realtime=realtime, device=device, chunk_ms=chunk_ms,
                 json_stream=None if no_json else sys.stdout, vmc=vmc, websocket=websocket, neck_share=neck_share,

@@ -39,7 +39,7 @@ def default_model_path() -> Path:
 
 
 def default_stream_model_path() -> Path:
-    """The file of the shipped model ``stream``, which decides from the speech so far (39 ms behind)."""
+    """The file of the shipped model ``stream``, which decides from the speech so far (50 ms behind)."""
     from ..shipped import shipped_path
 
     return shipped_path("stream")
@@ -117,6 +117,9 @@ def synth(
     amount: float = typer.Option(1.0, "--amount", help="How much the head moves, 0 to 3: 1 = natural, 2 = "
                                  "animated (larger, faster recorded movements, more of them), 0.5 = calm, 0 = "
                                  "still. Each movement stays a recorded one (motion-matching models)."),
+    lookahead_ms: float = typer.Option(0.0, "--lookahead-ms", metavar="MS", help="A live model (-m stream): read "
+                                       "the speech this many milliseconds ahead of each frame, 0 to 1080, as "
+                                       "`headmotion stream --lookahead-ms` does (default 0: causal)."),
     gain: Optional[str] = typer.Option(None, "--gain", help="Amplitude scale about the model's mean pose: G or "
                                        "P,Y,R (1 = as trained, 0 = held at the mean pose); every angle "
                                        "multiplied (a deeper nod, not a bigger one: see --amount)."),
@@ -175,7 +178,8 @@ def synth(
     controls = Controls.parse(gain=gain, offset_degrees=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
                               offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll), still=still,
                               amount=amount, style_from=style_from, style_strength=style_strength,
-                              style_keep_pose=style_keep_pose, fps=fps, stochastic=stochastic, listening=listening)
+                              style_keep_pose=style_keep_pose, fps=fps, stochastic=stochastic, listening=listening,
+                              lookahead_ms=lookahead_ms)
     from .synth_batch import is_batch, run_batch
 
     if hear is not None and len(speech) != 1:

@@ -65,7 +65,7 @@ _BUILTIN: dict[str, tuple[str, int | None]] = {
     "lsp": ("lpc:lsp", ANALYSIS_RATE),
     "lar": ("lpc:lar", ANALYSIS_RATE),
     "prosody": ("prosody:prosody", ANALYSIS_RATE),
-    "f0e-live": ("streaming:f0e_live", ANALYSIS_RATE),
+    "f0e-live": ("readers:f0e_live", ANALYSIS_RATE),
     "prosody-live": ("streaming:prosody_live", ANALYSIS_RATE),
 }
 _REGISTRY: dict[str, Callable[..., Any]] = {}

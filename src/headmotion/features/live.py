@@ -15,7 +15,8 @@ LIVE_SETS = ("f0e-live", "prosody-live")
 def live_extractor(config):
     """The incremental extractor of a live feature set (16 kHz input, the set's parameters)."""
     from . import ANALYSIS_RATE
-    from .streaming import StreamingProsody, f0e_stream
+    from .readers import f0e_stream
+    from .streaming import StreamingProsody
 
     cls = f0e_stream if config.name == "f0e-live" else StreamingProsody
     return cls(sample_rate=ANALYSIS_RATE, fps=float(config.fps), **dict(config.params))

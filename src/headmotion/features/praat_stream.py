@@ -10,8 +10,8 @@ analysis window and one Praat frame its last frame needs).  A frame's value depe
 block's audio, so a stream and a whole file give the same bits whatever the chunking, and the audio
 held is one read's worth:
 
-* **offline** (the ``default`` model): blocks of 10 s read with 1 s on each side, unvoiced frames'
-  log F0 interpolated between the voiced frames around them where the read holds both (the rule of
+* **offline** (the ``default`` model): blocks of 30 s read with 1 s on each side at one 40 ms
+  analysis step a frame, unvoiced frames' log F0 interpolated between the voiced frames around them where the read holds both (the rule of
   the ``f0e`` set, thesis §2.2.4), held otherwise;
 * **live** (the ``stream`` model and the listening head): a block of one frame read on the last
   ``praat_back_s`` of audio and nothing after it, unvoiced frames holding the last voiced value; a
@@ -19,8 +19,12 @@ held is one read's worth:
   floor, and half its 20 ms analysis step) is in: 50 ms after the frame's start at 25 fps.
 
 Energy, smoothing, deltas and the voicing column are those of :class:`.streaming.StreamingF0e`;
-frames quieter than ``silence_db`` are unvoiced whatever Praat says (a short read has no loud part
-for Praat's own silence threshold to be relative to).  The octave-jump guard is off by default:
+frames quieter than ``silence_db`` are unvoiced whatever Praat says.  Praat's silence threshold is
+relative to the loudest sample of what it reads — over a whole file, the speech's peak; over 0.3 s
+of a pause, the pause's own noise, which it would then read for voice.  So each read's threshold is
+set relative to the **running peak** instead: the loudest sample read so far, decaying by half every
+``peak_half_life_s`` (a causal stand-in for the file's peak; a long read's own peak where that is
+higher).  The octave-jump guard is off by default:
 Praat's path search is what keeps octaves apart.  Why this reader and these settings:
 docs/decisions/read-any-voice.md.
 """
@@ -37,6 +41,8 @@ from .streaming import StreamingF0e
 #: Praat's voicing threshold (its own default for speech) and silence threshold
 PRAAT_VOICING = 0.45
 PRAAT_SILENCE = 0.03
+#: seconds over which the running peak (the silence threshold's reference) halves
+PEAK_HALF_LIFE_S = 10.0
 
 
 class StreamingPraatF0e(StreamingF0e):
@@ -50,6 +56,8 @@ class StreamingPraatF0e(StreamingF0e):
     interpolate : bool, unvoiced frames' log F0 interpolated between the voiced frames of the read
         around them (else held from the last voiced frame)
     voicing_threshold : float, Praat's voicing threshold (0.45, Praat's default)
+    peak_half_life_s : float, seconds over which the running peak the silence threshold is relative
+        to halves (0: each read's own peak, as Praat on that read alone)
     **kw : the other parameters of :class:`.streaming.StreamingF0e` (energy, smoothing, deltas)
     """
 
@@ -57,7 +65,8 @@ class StreamingPraatF0e(StreamingF0e):
 
     def __init__(self, *, praat_block: int = 1, praat_back_s: float = 0.5, praat_ahead_s: float = 0.0,
                  praat_step: float | None = None, interpolate: bool = False,
-                 voicing_threshold: float = PRAAT_VOICING, max_jump_semitones: float = 0.0, **kw):
+                 voicing_threshold: float = PRAAT_VOICING, max_jump_semitones: float = 0.0,
+                 peak_half_life_s: float = PEAK_HALF_LIFE_S, **kw):
         super().__init__(voicing_threshold=voicing_threshold, max_jump_semitones=max_jump_semitones, **kw)
         if not (isinstance(praat_block, (int, np.integer)) and praat_block >= 1):
             raise ParameterError(f"praat_block must be a whole number of frames >= 1; got {praat_block!r}")
@@ -77,6 +86,11 @@ class StreamingPraatF0e(StreamingF0e):
         # and half a step past a frame's centre, its last frame lies within half a step of that centre
         self.edge = int(math.ceil((1.5 / self.floor + 0.5 * step) * self.sample_rate))
         self._prev_voiced: int | None = None   # the last voiced frame (interpolation starts there)
+        if not peak_half_life_s >= 0:
+            raise ParameterError(f"peak_half_life_s must be >= 0 seconds; got {peak_half_life_s!r}")
+        # the running peak decays per block by this factor (0: none kept)
+        self._decay = 0.5 ** (self.B / self.fps / peak_half_life_s) if peak_half_life_s > 0 else 0.0
+        self._peak = 0.0
         self._need_next = self._needed(0)
 
     # -- geometry ------------------------------------------------------------------------------
@@ -122,10 +136,13 @@ class StreamingPraatF0e(StreamingF0e):
         seg = self._buf[s0 - self._buf0:s1 - self._buf0]
         if n == 0 or len(seg) == 0:
             return logf0, voiced, t0
+        own = float(np.max(np.abs(seg)))
+        self._peak = max(self._peak * self._decay, own)
+        silence = min(PRAAT_SILENCE * self._peak / own, 1.0) if own > 0 else PRAAT_SILENCE
         snd = parselmouth.Sound(seg, sampling_frequency=float(self.sample_rate), start_time=s0 / self.sample_rate)
         try:
             pitch = snd.to_pitch_ac(time_step=self.step, pitch_floor=self.floor, pitch_ceiling=self.ceiling,
-                                    max_number_of_candidates=15, silence_threshold=PRAAT_SILENCE,
+                                    max_number_of_candidates=15, silence_threshold=silence,
                                     voicing_threshold=self.voicing_threshold)
         except parselmouth.PraatError:  # shorter than Praat's window: nothing voiced
             return logf0, voiced, t0
@@ -190,4 +207,4 @@ class StreamingPraatF0e(StreamingF0e):
         self._static_frames(t, t + 1)
 
 
-__all__ = ["StreamingPraatF0e", "PRAAT_VOICING", "PRAAT_SILENCE"]
+__all__ = ["StreamingPraatF0e", "PRAAT_VOICING", "PRAAT_SILENCE", "PEAK_HALF_LIFE_S"]

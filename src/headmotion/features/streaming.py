@@ -490,28 +490,13 @@ class StreamingF0e:
         return out
 
 
-#: how the f0e-live set reads pitch: per-frame YIN (:class:`StreamingF0e`) or Praat in blocks
-#: (:class:`headmotion.features.praat_stream.StreamingPraatF0e`)
-READERS = ("yin", "praat")
-
-
-def f0e_stream(*, reader: str = "yin", **params) -> StreamingF0e:
-    """The incremental f0e-live extractor that reads pitch with ``reader`` (:data:`READERS`)."""
-    if reader == "yin":
-        return StreamingF0e(**params)
-    if reader == "praat":
-        from .praat_stream import StreamingPraatF0e
-
-        return StreamingPraatF0e(**params)
-    raise ParameterError(f"the f0e-live reader must be one of {', '.join(READERS)}; got {reader!r}")
-
-
 def f0e_live(audio: Audio, *, fps: float, n_frames: int, **params):
-    """The ``f0e-live`` feature set: :func:`f0e_stream`'s extractor run over the whole file at once
-    (the same code path as streaming, so identical values).  Returns ``(values (T, 6|7), names)``."""
+    """:class:`StreamingF0e` (YIN) run over the whole file at once (the same code path as streaming,
+    so identical values); the ``f0e-live`` set with either reader is
+    :func:`headmotion.features.readers.f0e_live`.  Returns ``(values (T, 6|7), names)``."""
     from .frames import fit_length
 
-    ex = f0e_stream(sample_rate=audio.sample_rate, fps=fps, **params)
+    ex = StreamingF0e(sample_rate=audio.sample_rate, fps=fps, **params)
     values = np.vstack([ex.push(audio.samples), ex.flush()])
     return fit_length(values, n_frames), list(ex.names)
 
@@ -564,5 +549,5 @@ def prosody_live(audio: Audio, *, fps: float, n_frames: int, **params):
     return fit_length(values, n_frames), list(ex.names)
 
 
-__all__ = ["StreamingF0e", "StreamingProsody", "f0e_stream", "READERS", "f0e_live", "prosody_live", "yin_frame", "yin_frames",
+__all__ = ["StreamingF0e", "StreamingProsody", "f0e_live", "prosody_live", "yin_frame", "yin_frames",
            "regression_weights", "NAMES"]

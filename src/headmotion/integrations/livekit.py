@@ -21,6 +21,10 @@ as data packets on the topic ``headmotion`` — the JSON messages of ``headmotio
   rtc.AudioStream(user_track): out.hear(ev.frame)``): once the agent's audio and its settling have
   gone out, the head listens to them (:mod:`headmotion.listener`: an attentive posture, recorded
   nods at the user's back-channel cues) until the agent speaks again.
+* ``lookahead_ms`` (default :data:`headmotion.live.AGENT_LOOKAHEAD_MS` for the shipped
+  ``stream``): the model reads the agent's audio that far ahead of each frame, and the output holds
+  each audio frame until that much more audio has come or the reply ends (``flush``), so the voice
+  plays in step with the head (:mod:`headmotion.live.hold`).
 
 The part that makes and paces the frames is :mod:`headmotion.live.core`, so the
 output runs without a LiveKit server: give ``send`` any ``async def send(message: dict)``.
@@ -45,7 +49,8 @@ except ImportError as exc:  # pragma: no cover - exercised in a fresh process by
         f"the LiveKit integration needs LiveKit Agents ({exc}); install it with: pip install \"headmotion[livekit]\""
     ) from exc
 
-from ..live.core import DEFAULT_SETTLE_S, HeadMotionCore, log, pcm16_to_float
+from ..live.core import DEFAULT_SETTLE_S, log, pcm16_to_float
+from ..live.hold import AudioHold, agent_core
 from ..live.pacing import PacedSender, Pacer
 
 #: the data topic the messages go on unless told otherwise
@@ -76,23 +81,29 @@ class HeadMotionAudioOutput(io.AudioOutput):
         ``await send(message)`` for each message (:func:`room_sender` for a room's data packets).
     model, seed, resample, settle_s, controls, **controls_kwargs
         As :class:`~headmotion.live.core.HeadMotionCore` (default model
-        ``"stream"``: 39 ms latency, 25 frames/s).
+        ``"stream"``: 50 ms latency, 25 frames/s).
     pace : bool
         Send each frame when its audio plays (True) or when it is made (False).
     delay_s : float
         Hold the paced frames this much longer (the audio's jitter buffer on the listener's side).
+    lookahead_ms : float or None
+        How far ahead the model reads the agent's audio; the audio is held by as much
+        (:func:`headmotion.live.hold.agent_core`; None: :data:`headmotion.live.AGENT_LOOKAHEAD_MS`).
     """
 
     def __init__(self, next_in_chain: io.AudioOutput, *, send: Callable[[dict], Awaitable[None]],
                  model="stream", seed: int = 0, resample: str = "exact", settle_s: float = DEFAULT_SETTLE_S,
                  pace: bool = True, delay_s: float = 0.0, controls=None, label: str = "HeadMotion",
-                 **controls_kwargs):
+                 lookahead_ms: float | None = None, **controls_kwargs):
         super().__init__(label=label, next_in_chain=next_in_chain,
                          capabilities=io.AudioOutputCapabilities(pause=True))
-        self.core = HeadMotionCore(model, seed=seed, resample=resample, settle_s=settle_s, controls=controls,
-                                   **controls_kwargs)
+        self.core = agent_core(model, lookahead_ms=lookahead_ms, seed=seed, resample=resample, settle_s=settle_s,
+                               controls=controls, **controls_kwargs)
         self.pacer = Pacer(self.core, pace=pace, delay_s=delay_s, clock=time.monotonic)
         self.sender = PacedSender(self.pacer, send)
+        self.hold = AudioHold(self.pacer, self.core.controls.lookahead_ms / 1000.0)
+        self._flushing: asyncio.Future | None = None  # the held audio going on at a reply's end
+        self._passed = False  # audio of this reply went on to the next output
 
     @property
     def sample_rate(self) -> int | None:
@@ -110,12 +121,24 @@ class HeadMotionAudioOutput(io.AudioOutput):
 
     async def capture_frame(self, frame: rtc.AudioFrame) -> None:
         self.sender.start()
+        if self._flushing is not None:  # the last reply's held audio goes first
+            await asyncio.wait([self._flushing])
         await super().capture_frame(frame)
+        if frame.samples_per_channel:  # its frames are made now; it goes on once the hold lets it
+            entries = self.hold.audio(frame, pcm16_to_float(frame.data, frame.num_channels), int(frame.sample_rate))
+        else:
+            entries = self.hold.other(frame)
+        self.sender.wake()
+        await self._pass_on(entries)
+
+    async def _pass_on(self, entries: list) -> None:
+        """The audio the hold lets go, to the next output (it plays from then on)."""
         if self.next_in_chain is not None:
-            await self.next_in_chain.capture_frame(frame)  # the audio first: it plays from now on
-        if frame.samples_per_channel:
-            self._motion(lambda: self.pacer.audio(pcm16_to_float(frame.data, frame.num_channels),
-                                                  int(frame.sample_rate)))
+            await self.hold.pass_on(entries, self.next_in_chain.capture_frame)
+        else:  # nothing to play it: it counts as played now
+            await self.hold.pass_on(entries, _nowhere)
+        self._passed = self._passed or any(n for _item, n, _rate in entries)
+        self.sender.wake()
 
     def hear(self, frame: rtc.AudioFrame) -> None:
         """The user's audio as it arrives: listened to while the agent is silent."""
@@ -126,13 +149,41 @@ class HeadMotionAudioOutput(io.AudioOutput):
 
     def flush(self) -> None:
         super().flush()
+        held = self.hold.release()
+        if held or self._flushing is not None:  # the held audio goes on first (an await), then the reply ends
+            self._flushing = asyncio.ensure_future(self._flush_after(held, self._flushing))
+            return
+        self._end_reply()
+
+    def _end_reply(self) -> None:
         if self.next_in_chain is not None:
             self.next_in_chain.flush()
+        self._passed = False
         self._motion(self.pacer.end)
 
+    async def _flush_after(self, held: list, before: asyncio.Future | None) -> None:
+        try:
+            if before is not None:
+                await asyncio.wait([before])
+            await self._pass_on(held)
+            self._end_reply()
+        finally:
+            if self._flushing is asyncio.current_task():
+                self._flushing = None
+
     def clear_buffer(self) -> None:
+        pending, self._flushing = self._flushing, None
+        if pending is not None:  # the reply ended with audio held: it ends there, that audio dropped
+            pending.cancel()
+            if self.next_in_chain is not None:
+                self.next_in_chain.flush()
+        dropped = pending is not None or self.hold.held > 0
+        self.hold.drop()  # the audio held never plays
         if self.next_in_chain is not None:
             self.next_in_chain.clear_buffer()
+        if dropped and not self._passed:  # the next output never had this reply: its playback ends here
+            self.on_playback_finished(playback_position=0.0, interrupted=True)
+        self._passed = False
         self._motion(self.pacer.interrupt)
 
     def pause(self) -> None:
@@ -151,7 +202,13 @@ class HeadMotionAudioOutput(io.AudioOutput):
 
     async def aclose(self, *, drain: bool = False) -> None:
         """Stop sending (``drain``: first send what still waits, due or not)."""
+        if self._flushing is not None:
+            self._flushing.cancel()
         await self.sender.aclose(drain=drain)
+
+
+async def _nowhere(_item) -> None:
+    """An output chain's end that plays nothing."""
 
 
 def attach_head_motion(session, room: rtc.Room | None = None, *, send: Callable[[dict], Awaitable[None]] | None = None,

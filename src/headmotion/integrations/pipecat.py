@@ -28,6 +28,10 @@ docs/integrations.md)::
   every message carries its ``utterance``: where audio and messages share one ordered channel (the
   WebSocket transports) a page finds each frame's place in the audio it plays by it, however the
   audio is delayed on its way (docs/integrations.md, Timing).
+* ``lookahead_ms`` (default :data:`headmotion.live.AGENT_LOOKAHEAD_MS` for the shipped
+  ``stream``): the model reads the TTS audio that far ahead of each frame, and the processor holds
+  the audio frames (and the frames behind them) until that much more audio has come or the TTS
+  stops, so the voice plays in step with the head (:mod:`headmotion.live.hold`).
 
 Importing this module without Pipecat raises :class:`~headmotion.errors.MissingDependencyError`.
 """
@@ -47,6 +51,7 @@ try:
         OutputTransportMessageFrame,
         OutputTransportMessageUrgentFrame,
         StartFrame,
+        SystemFrame,
         TTSAudioRawFrame,
         TTSStoppedFrame,
     )
@@ -56,7 +61,8 @@ except ImportError as exc:  # pragma: no cover - exercised in a fresh process by
         f"the Pipecat integration needs Pipecat ({exc}); install it with: pip install \"headmotion[pipecat]\""
     ) from exc
 
-from ..live.core import DEFAULT_SETTLE_S, HeadMotionCore, log, pcm16_to_float
+from ..live.core import DEFAULT_SETTLE_S, log, pcm16_to_float
+from ..live.hold import AudioHold, agent_core
 from ..live.pacing import PacedSender, Pacer
 
 
@@ -66,11 +72,14 @@ class HeadMotionProcessor(FrameProcessor):
     Parameters
     ----------
     model : str, Path or Synthesizer
-        A model that streams (default ``"stream"``: 39 ms latency, 25 frames/s); a loaded model is
+        A model that streams (default ``"stream"``: 50 ms latency, 25 frames/s); a loaded model is
         shared, not copied.
     seed, resample, settle_s, controls, **controls_kwargs
         As :class:`~headmotion.live.core.HeadMotionCore` (``gain``,
         ``offset_degrees``, ``still`` …).
+    lookahead_ms : float or None
+        How far ahead the model reads the TTS audio; the audio is held by as much
+        (:func:`headmotion.live.hold.agent_core`; None: :data:`headmotion.live.AGENT_LOOKAHEAD_MS`).
     pace : bool
         Send each frame when its audio plays (True) or after the audio frame it came from (False).
     delay_s : float
@@ -86,11 +95,14 @@ class HeadMotionProcessor(FrameProcessor):
     def __init__(self, model="stream", *, seed: int = 0, resample: str = "exact",
                  settle_s: float = DEFAULT_SETTLE_S, pace: bool = True, delay_s: float = 0.0,
                  audio_frames: tuple = (TTSAudioRawFrame,), rtvi: bool = False, controls=None,
-                 name: str | None = None, hear_frames: tuple = (InputAudioRawFrame,), **controls_kwargs):
+                 name: str | None = None, hear_frames: tuple = (InputAudioRawFrame,),
+                 lookahead_ms: float | None = None, **controls_kwargs):
         super().__init__(name=name)
-        self.core = HeadMotionCore(model, seed=seed, resample=resample, settle_s=settle_s, controls=controls,
-                                   **controls_kwargs)
+        self.core = agent_core(model, lookahead_ms=lookahead_ms, seed=seed, resample=resample, settle_s=settle_s,
+                               controls=controls, **controls_kwargs)
         self.pacer = Pacer(self.core, pace=pace, delay_s=delay_s, clock=time.monotonic)
+        self.hold = AudioHold(self.pacer, self.core.controls.lookahead_ms / 1000.0,
+                              on_start=lambda n: self._in_band({"type": "audio-start", "utterance": n}))
         self.audio_frames = tuple(audio_frames)
         self.hear_frames = tuple(hear_frames)
         self.rtvi = bool(rtvi)
@@ -122,6 +134,14 @@ class HeadMotionProcessor(FrameProcessor):
     async def _send_now(self, message: dict) -> None:
         await self.push_frame(self._frame(message, urgent=True))
 
+    async def _pass_on(self, entries: list) -> None:
+        """The frames the audio hold lets go, downstream in order."""
+        if self._sender is not None:
+            self._sender.wake()
+        await self.hold.pass_on(entries, lambda f: self.push_frame(f, FrameDirection.DOWNSTREAM))
+        if self._sender is not None:
+            self._sender.wake()
+
     async def _send_in_order(self) -> None:
         """Unpaced: the messages made so far, as data frames in order with the audio."""
         if self._sender is None:
@@ -145,17 +165,16 @@ class HeadMotionProcessor(FrameProcessor):
                 self._sender.start()
         elif isinstance(frame, InterruptionFrame):
             await self.push_frame(frame, direction)
+            held = self.hold.drop()  # the audio held never plays
             self._motion(self.pacer.interrupt)
+            await self._pass_on(held)
             await self._send_in_order()
         elif direction == FrameDirection.DOWNSTREAM and isinstance(frame, self.audio_frames):
-            if frame.audio:
-                self.pacer.audio_started = None
-                self._motion(lambda: self.pacer.audio(pcm16_to_float(frame.audio, frame.num_channels),
-                                                      int(frame.sample_rate)))
-                if self.pacer.audio_started is not None:  # in order: right before the utterance's audio
-                    await self.push_frame(self._in_band({"type": "audio-start",
-                                                         "utterance": self.pacer.audio_started}))
-            await self.push_frame(frame, direction)
+            if frame.audio:  # its frames are made now; it goes on (after its audio-start) once the hold lets it
+                await self._pass_on(self.hold.audio(frame, pcm16_to_float(frame.audio, frame.num_channels),
+                                                    int(frame.sample_rate)))
+            else:
+                await self._pass_on(self.hold.other(frame))
             await self._send_in_order()
         elif direction == FrameDirection.DOWNSTREAM and self.hear_frames and isinstance(frame, self.hear_frames):
             if frame.audio:
@@ -164,10 +183,12 @@ class HeadMotionProcessor(FrameProcessor):
             await self.push_frame(frame, direction)
             await self._send_in_order()
         elif direction == FrameDirection.DOWNSTREAM and isinstance(frame, TTSStoppedFrame):
+            await self._pass_on(self.hold.release())
             self._motion(self.pacer.end)
             await self._send_in_order()
             await self.push_frame(frame, direction)
         elif isinstance(frame, EndFrame):
+            await self._pass_on(self.hold.release())
             self._motion(self.pacer.end)
             if self._sender is not None:  # the last frames go out as their audio plays, then the pipeline ends
                 wait = max(0.0, self.pacer.busy_until() - self.pacer.clock()) + 1.0
@@ -179,6 +200,8 @@ class HeadMotionProcessor(FrameProcessor):
             if self._sender is not None:
                 await self._sender.aclose()
             await self.push_frame(frame, direction)
+        elif direction == FrameDirection.DOWNSTREAM and not isinstance(frame, SystemFrame):
+            await self._pass_on(self.hold.other(frame))  # behind the audio held before it
         else:
             await self.push_frame(frame, direction)
 

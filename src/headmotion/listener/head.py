@@ -38,10 +38,14 @@ from . import DEFAULT_LISTENING, check_listening
 from .cues import CueDetector, CueRule
 from .nods import nod_bank
 
-#: the rate the other party's audio is analysed at (pitch: YIN of :mod:`headmotion.features.streaming`)
+#: the rate the other party's audio is analysed at (pitch: :data:`HEARD_READER`)
 HEAR_RATE = 8000
 #: analysis frames per second (10 ms frames, Ward & Tsukahara's pitch step)
 ANALYSIS_FPS = 100.0
+#: how the other party's pitch is read: Praat, as the shipped models read their own speech, on the
+#: last 0.3 s of audio for every two frames (a frame's voicing is final at most 40 ms after its
+#: time, within ``HEAR_DELAY_S``; docs/decisions/read-any-voice.md)
+HEARD_READER = {"reader": "praat", "praat_block": 2, "praat_back_s": 0.3, "praat_step": 0.01}
 #: the attentive posture at listening 1: chin 2° down, the head 3° towards the right shoulder —
 #: a design choice (no recorded listener is reachable here), eased in while listening
 POSTURE_DEG = (2.0, 0.0, 3.0)
@@ -112,15 +116,15 @@ class ListeningLayer:
 
     def __init__(self, model, *, fps: float, speech_rate: int, heard_rate: int = HEAR_RATE,
                  listening: float = DEFAULT_LISTENING, seed: int = 0, rule: CueRule | None = None):
-        from ..features.streaming import StreamingF0e
+        from ..features.readers import f0e_stream
         from ..io.resampler import Resampler
 
         self.amount = check_listening(listening)
         self.fps = float(fps)
         self.speech_rate, self.heard_rate = int(speech_rate), int(heard_rate)
         self._rs = Resampler(self.heard_rate, HEAR_RATE, quality="LQ")
-        self._pitch = StreamingF0e(sample_rate=HEAR_RATE, fps=ANALYSIS_FPS, smooth_frames=1, smooth_lookahead=0,
-                                   delta_lookahead=0, voicing=True)
+        self._pitch = f0e_stream(sample_rate=HEAR_RATE, fps=ANALYSIS_FPS, smooth_frames=1, smooth_lookahead=0,
+                                 delta_lookahead=0, voicing=True, **HEARD_READER)
         self.cues = CueDetector(rule, fps=ANALYSIS_FPS)
         self._heard = _Frames()
         self._own = _Frames()

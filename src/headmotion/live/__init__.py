@@ -3,6 +3,7 @@
 * :mod:`.core`      — the one live core of every live path: a model's stream per utterance, at
   any input rate, the heard audio, the end, interruption and settling (:class:`.core.HeadMotionCore`);
 * :mod:`.pacing`    — when a voice agent's frames go out: in time with the audio they belong to;
+* :mod:`.hold`      — a voice agent's audio held back by the model's lookahead (``lookahead_ms``);
 * :mod:`.blas`      — one BLAS thread in a process that streams;
 * :mod:`.inputs`    — PCM on stdin, audio files (optionally paced), microphone (sounddevice);
 * :mod:`.heard`     — the other party's audio, read beside the speech on its timeline;
@@ -31,3 +32,8 @@ which resamples on the stream to ``model.sample_rate``, runs the live core
 and closes every output at the end; the errors it raises are :class:`~headmotion.errors.HeadMotionError` subclasses
 (``AudioDeviceError``, ``NetworkError``, ``ParameterError``) that the CLI prints as one line.
 """
+
+#: milliseconds a voice agent's live model reads its speech ahead unless told otherwise (the
+#: integrations' ``lookahead_ms``, the avatar page's): the agent's TTS makes its audio before it
+#: plays, and the integration holds the audio by as much (:mod:`.hold`), so head and voice stay in step
+AGENT_LOOKAHEAD_MS = 0.0

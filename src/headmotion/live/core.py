@@ -32,6 +32,7 @@ received when the frames were made.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -151,7 +152,7 @@ class HeadMotionCore:
     Parameters
     ----------
     model : str, Path or Synthesizer
-        A model that streams: ``"stream"`` (the default: causal, 39 ms latency, 25 frames/s), a
+        A model that streams: ``"stream"`` (the default: causal, 50 ms latency, 25 frames/s), a
         model file, or a model already loaded (shared, not copied: one loaded model may serve many
         agents).
     seed : int
@@ -161,8 +162,10 @@ class HeadMotionCore:
     settle_s : float
         Seconds the head takes to ease back to the rest pose after an utterance (0: no settling).
     controls : Controls, optional
-        Gain, offset and still (or give them as keywords: ``gain=1.2, offset_degrees="-3,0,0"``);
-        the head settles to the rest pose plus the offset.
+        Gain, offset, still, amount, lookahead_ms … (or give them as keywords: ``gain=1.2,
+        offset_degrees="-3,0,0"``); the head settles to the rest pose plus the offset.  With
+        ``lookahead_ms`` the utterance's frames come that much later (:attr:`latency_ms`); a
+        listening turn (:meth:`hear`) reads no further ahead than the user's audio that came.
     heard_rate : int, optional
         The rate of the audio given to :meth:`hear_along` (each utterance's stream then hears
         the other party on its own timeline); None: no such audio.
@@ -203,9 +206,12 @@ class HeadMotionCore:
         self._turn = False    # a listening turn is open (frames of the listening stream go out)
         self._ease: tuple[np.ndarray, int] | None = None  # (pose eased from, frames left)
 
-    def _open(self, sample_rate: int | None = None, heard_rate: int | None = None):
+    def _open(self, sample_rate: int | None = None, heard_rate: int | None = None, *, lookahead: bool = True):
+        controls = self.controls
+        if not lookahead and controls.lookahead_ms:  # the user's audio comes live: nothing to read ahead of
+            controls = dataclasses.replace(controls, lookahead_ms=0.0)
         try:
-            return open_stream(self.model, seed=self.seed, controls=self.controls, sample_rate=sample_rate,
+            return open_stream(self.model, seed=self.seed, controls=controls, sample_rate=sample_rate,
                                resample=self.resample, heard_rate=heard_rate)
         except HeadMotionError:
             raise
@@ -297,7 +303,7 @@ class HeadMotionCore:
             return FrameBatch(self._made, self.fps, np.zeros((0, 3)), self.audio_seconds)
         rate = int(sample_rate)
         if self._listen is None or rate != self._listen_rate:
-            self._listen, self._listen_rate = self._open(rate, heard_rate=rate), rate
+            self._listen, self._listen_rate = self._open(rate, heard_rate=rate, lookahead=False), rate
         if not self._turn:
             shown = self.frames()[-1] if self._made and not self._settled else self.rest_pose
             self._turn, self._settled = True, False

@@ -61,6 +61,9 @@ class Pacer:
         self._interrupted: set[int] = set()
         #: the utterance whose audio the last :meth:`audio` call began (None: it went on one)
         self.audio_started: int | None = None
+        self._given, self._rate = 0, 0  # samples of the utterance's audio handed to the output, their rate
+        self._waiting: list[tuple[int, np.ndarray, float]] = []  # frames made before their audio was handed
+        self._cut_at_hand = False  # the utterance's first audio is held: the last settling gives way when it goes
 
     def _now(self, now):
         return self.clock() if now is None else float(now)
@@ -75,10 +78,14 @@ class Pacer:
         """The number of the current (or last) utterance, from 1."""
         return self._utt
 
-    def audio(self, samples, sample_rate: int, now=None) -> FrameBatch:
+    def audio(self, samples, sample_rate: int, now=None, *, handed: bool = True) -> FrameBatch:
         """The agent's audio of the current utterance, as it goes to the output (the first after
         an end or an interruption starts a new utterance; audio at another rate than the
-        utterance's so far ends it and starts another).  Returns the frames made."""
+        utterance's so far ends it and starts another).  Returns the frames made.
+
+        ``handed=False``: the audio is held back before the output (the model reads ahead of it,
+        ``lookahead_ms``; :class:`~headmotion.live.hold.AudioHold`): its frames are made now and go
+        out when it plays, once :meth:`handed` has said that it went to the output."""
         now = self._now(now)
         self.audio_started = None
         start = max(now, self._playhead)
@@ -90,20 +97,52 @@ class Pacer:
             self._sent[self._utt] = 0
             self._sent = {u: n for u, n in self._sent.items() if u >= self._utt - 1}
             self._segments = []
+            self._given, self._waiting = 0, []
             self.audio_started = self._utt
-            if self.pace:  # the last utterance's settling gives way to this one's speech
+            self._cut_at_hand = self.pace and not handed
+            if self.pace and handed:  # the last utterance's settling gives way to this one's speech
                 self._cut(start + self.delay_s)
         try:
             batch = self.core.push(samples, sample_rate)  # raises before the timeline moves
         except SampleRateError:  # the audio changed rate: that utterance ends and another begins
             self.end(now)
-            return self.audio(samples, sample_rate, now)
+            return self.audio(samples, sample_rate, now, handed=handed)
         n = int(np.shape(samples)[0]) if np.ndim(samples) else 0
-        if self.pace:
+        self._rate = int(sample_rate)
+        if self.pace and handed:
             self._segments.append((self.core.audio_seconds - n / int(sample_rate), start))
             self._playhead = start + n / int(sample_rate)
+            self._given += n
         self._schedule(batch)
         return batch
+
+    def handed(self, n: int, sample_rate: int, now=None) -> None:
+        """The next ``n`` samples (at ``sample_rate``) of the utterance's audio given to
+        :meth:`audio` with ``handed=False`` went to the output now: they play from now (or after
+        the audio before them), and the frames of that audio go out as it plays."""
+        now = self._now(now)
+        if not self.pace or n <= 0:
+            return
+        start = max(now, self._playhead)
+        if self._cut_at_hand:
+            self._cut_at_hand = False
+            self._cut(start + self.delay_s)
+        rate = int(sample_rate)
+        self._segments.append((self._given / rate, start))
+        self._given += int(n)
+        self._playhead = start + int(n) / rate
+        self._release_waiting(rate)
+
+    def _release_waiting(self, rate: int | None) -> None:
+        """Schedule the frames waiting for their audio that is now on the timeline (all of them
+        when ``rate`` is None: the utterance ends, they follow the audio handed so far)."""
+        if not self._waiting:
+            return
+        ready = [w for w in self._waiting if rate is None or w[0] / self.core.fps < self._given / rate]
+        self._waiting = self._waiting[len(ready):]
+        for number, row, audio_time in ready:
+            due = self._wall(number / self.core.fps) + self.delay_s
+            self._add(_Entry(due, next(self._seq), self._utt, number, row, audio_time))
 
     def hear(self, samples, sample_rate: int, now=None) -> FrameBatch:
         """The user's audio as it arrives (live).  Once the agent's audio and its settling have
@@ -143,6 +182,7 @@ class Pacer:
         nothing spoken, nothing happens."""
         now = self._now(now)
         utt = self._utt
+        self._cut_at_hand = False
         if not self.pace:
             if self.core.speaking:
                 for item in self.core.interrupt():
@@ -151,10 +191,12 @@ class Pacer:
                     else:
                         self._schedule_end(item, -math.inf)
             return
-        speech_waiting = any(e.utt == utt and e.number >= 0 and not e.settling for e in self._entries)
+        speech_waiting = bool(self._waiting) or any(e.utt == utt and e.number >= 0 and not e.settling
+                                                    for e in self._entries)
         if not (self.core.speaking or speech_waiting):
             return
         self._entries = [e for e in self._entries if e.utt != utt]
+        self._waiting = []
         self._interrupted = {u for u in self._interrupted if u >= utt - 1} | {utt}
         items = self.core.interrupt(shown=self._sent.get(utt, 0))
         t0 = now + self.delay_s
@@ -265,12 +307,19 @@ class Pacer:
         bisect.insort(self._entries, e)
 
     def _schedule(self, batch: FrameBatch) -> None:
+        if batch.settling:  # after the speech: every frame of it is on the timeline first
+            self._release_waiting(None)
+        handed_s = self._given / self._rate if self._rate else math.inf  # the utterance's audio handed on
         for k, row in enumerate(batch.rotvec):
             number = batch.first + k
+            if self.pace and not batch.settling and (self._waiting or number / batch.fps >= handed_s):
+                self._waiting.append((number, row, batch.audio_time))  # its audio is still held
+                continue
             due = self._wall(number / batch.fps) + self.delay_s if self.pace else -math.inf
             self._add(_Entry(due, next(self._seq), self._utt, number, row, batch.audio_time, batch.settling))
 
     def _schedule_end(self, end: UtteranceEnd, due: float | None) -> None:
+        self._release_waiting(None)
         if due is None:
             if not self.pace:
                 due = -math.inf

@@ -8,7 +8,7 @@ docs/serve.md tells the same in prose.
 
 from __future__ import annotations
 
-from ..synthesis import AMOUNT_RANGE, GAIN_RANGE, OFFSET_RANGE_DEG, SEED_MAX
+from ..synthesis import AMOUNT_RANGE, GAIN_RANGE, LOOKAHEAD_RANGE_MS, OFFSET_RANGE_DEG, SEED_MAX
 
 #: close codes and the error kinds that come with them (docs/serve.md "Errors")
 ERROR_KINDS = {
@@ -66,6 +66,12 @@ def start_schema() -> dict:
             "settle": {"type": "number", "minimum": SETTLE_RANGE_S[0], "maximum": SETTLE_RANGE_S[1], "default": 0,
                        "description": "Seconds of frames easing the head to rest (plus the offset) after the end "
                                       "or an interruption; 0: none."},
+            "lookahead_ms": {"type": "number", "minimum": LOOKAHEAD_RANGE_MS[0], "maximum": LOOKAHEAD_RANGE_MS[1],
+                             "default": 0,
+                             "description": "Milliseconds a live model (the shipped stream) reads the speech ahead "
+                                            "of each frame, for speech made before it plays (a voice agent's TTS): "
+                                            "latency_ms grows by floor(lookahead_ms * fps / 1000) frames. 0: causal; "
+                                            "another value on a model that is not live: bad_start."},
         },
     }
 
@@ -109,7 +115,7 @@ def document(version: str = "0") -> dict:
                 "fps": {"type": "number"}, "latency_ms": {"type": "number"}, "sample_rate": {"type": "integer"},
                 "model_sample_rate": {"type": "integer"}, "encoding": {"type": "string"},
                 "frames": {"type": "string"}, "hear": {"type": "object"}, "listening": {"type": "number"},
-                "settle": {"type": "number"}}}},
+                "settle": {"type": "number"}, "lookahead_ms": {"type": "number"}}}},
         "frames": {"name": "frames", "title": "Frames (JSON)", "contentType": "application/json", "payload": {
             "type": "object", "required": ["type", "first", "fps", "audio_time", "frames"], "properties": {
                 "type": {"const": "frames"}, "first": {"type": "integer", "minimum": 0}, "fps": {"type": "number"},

@@ -162,7 +162,9 @@ class Client:
             numbered on in the whole stream; those of the last ~lookahead of audio before the
             restart are missing (the new stream starts without that context).
         **controls
-            Fields of the start message: ``gain``, ``offset``, ``still``, ``resample``.
+            Fields of the start message: ``gain``, ``offset``, ``still``, ``amount``, ``resample``,
+            ``settle``, ``lookahead_ms`` (a live model reads the speech that far ahead; its frames
+            come that much later) … (docs/serve.md).
 
         Raises :class:`ServerError` on an error (its ``retry_after`` set when the server gave one)."""
         import asyncio

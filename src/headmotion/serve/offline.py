@@ -26,7 +26,7 @@ from fastapi import APIRouter, Query, Request
 from fastapi.responses import Response
 
 from ..errors import AudioLoadingError, ParameterError
-from ..synthesis import AMOUNT_RANGE, GAIN_RANGE, OFFSET_RANGE_DEG, SEED_MAX
+from ..synthesis import AMOUNT_RANGE, GAIN_RANGE, LOOKAHEAD_RANGE_MS, OFFSET_RANGE_DEG, SEED_MAX
 from ..types import Audio
 from . import engine
 from .access import ApiError, authorize
@@ -159,6 +159,9 @@ async def motion(
     offset_yaw: Optional[float] = Query(None, description=f"Degrees added to yaw, {_O}."),
     offset_roll: Optional[float] = Query(None, description=f"Degrees added to roll, {_O}."),
     still: bool = Query(False, description="A head that does not move (rest pose plus offset)."),
+    lookahead_ms: Optional[float] = Query(None, description=f"A live model (stream): read the speech this many ms "
+                                          f"ahead, {LOOKAHEAD_RANGE_MS[0]:g} to {LOOKAHEAD_RANGE_MS[1]:g} "
+                                          "(the frames of WS /v1/stream with the same lookahead_ms); default 0."),
     fps: Optional[float] = Query(None, description=f"Output frame rate, {engine.FPS_RANGE[0]:g} to "
                                                    f"{engine.FPS_RANGE[1]:g} (default: the model's)."),
     format: Literal["json", "bvh", "npz", "csv", "gltf", "glb"] = Query("json"),
@@ -172,7 +175,7 @@ async def motion(
     try:
         controls = engine.Controls.parse(gain=gain, offset_degrees=offset, gain_pyr=(gain_pitch, gain_yaw, gain_roll),
                                          offset_pyr_degrees=(offset_pitch, offset_yaw, offset_roll), still=still, fps=fps,
-                                         amount=amount)
+                                         amount=amount, lookahead_ms=0.0 if lookahead_ms is None else lookahead_ms)
         engine.check_seed(seed, samples, allow_none=True)
     except ParameterError as exc:
         raise ApiError(400, "bad_parameter", str(exc)) from None

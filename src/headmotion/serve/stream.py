@@ -5,7 +5,7 @@ Protocol (docs/serve.md has examples):
 1. The client sends one text message, ``{"type": "start", "model": "stream", "sample_rate": 16000,
    "encoding": "s16le"|"f32le", "seed": 0, "frames": "json"|"binary", "gain": G|[p,y,r],
    "offset": D|[p,y,r] (degrees), "still": false, "amount": 1, "resample": "exact"|"fast",
-   "settle": 0}`` (every field but
+   "settle": 0, "lookahead_ms": 0}`` (every field but
    ``type`` optional; the controls' ranges are :mod:`headmotion.synthesis`'s; a browser, which
    cannot set headers on a WebSocket, may add ``"api_key"`` — until it is checked the message may
    be at most ``UNAUTHENTICATED_MESSAGE_BYTES``).
@@ -63,7 +63,7 @@ HEADER = struct.Struct("<4sIIfd")
 MAGIC = b"HMF1"
 ENCODINGS = {"s16le": ("<i2", 32768.0), "f32le": ("<f4", 1.0)}
 START_FIELDS = {"type", "model", "sample_rate", "encoding", "seed", "frames", "gain", "offset", "still", "amount", "resample",
-                "api_key", "hear", "listening", "settle"}
+                "api_key", "hear", "listening", "settle", "lookahead_ms"}
 HEAR_FIELDS = {"sample_rate", "encoding"}
 #: ``resample`` → soxr quality (the library's one table, :data:`headmotion.io.resampler.QUALITY`):
 #: ``exact`` resamples as ``POST /v1/motion`` does (the stream's frames are the offline answer's;
@@ -139,7 +139,8 @@ def parse_start(text: str | None) -> Start:
                                          offset_degrees=_number_or_triple(obj.get("offset"), "offset"),
                                          still=_flag(obj.get("still", False)),
                                          amount=_number(obj.get("amount", 1.0), "amount"),
-                                         listening=_number(obj.get("listening", 1.0), "listening"))
+                                         listening=_number(obj.get("listening", 1.0), "listening"),
+                                         lookahead_ms=_number(obj.get("lookahead_ms", 0.0), "lookahead_ms"))
     except HeadMotionError as exc:
         raise bad(str(exc)) from None
     hear_rate, hear_enc = _hear(obj.get("hear"), enc)
@@ -414,7 +415,8 @@ class Session:
                                     "model_sample_rate": model_sr, "encoding": start.encoding,
                                     "frames": start.frames, "hear": {"sample_rate": hear_sr,
                                                                      "encoding": start.hear_encoding},
-                                    "listening": start.controls.listening, "settle": start.settle_s}), None)
+                                    "listening": start.controls.listening, "settle": start.settle_s,
+                                    "lookahead_ms": start.controls.lookahead_ms}), None)
         max_samples = self.lim.max_stream_seconds * sr
         max_heard = self.lim.max_stream_seconds * hear_sr
         heard = 0

@@ -32,15 +32,20 @@ different movements.  Memory is the library (25 frames a second of training moti
 output; any length.  A decision reads the speech up to ``hop + lookahead`` frames ahead (1.0 s by
 default: the goal over the hop).
 
-**Live** (``live=True``, :class:`MotionMatchStream`): the prosody is the f0e-live set (YIN pitch,
-energy, their deltas and voicing, computed incrementally with no lookahead: a frame is final
-39 ms after its start), smoothed and described from the past only, in the library as at
+**Live** (``live=True``, :class:`MotionMatchStream`): the prosody is the f0e-live set (pitch,
+energy, their deltas and voicing, computed incrementally with no lookahead: with ``reader="yin"`` a
+frame is final 39 ms after its start, with ``reader="praat"`` — the shipped ``stream`` — 50 ms),
+smoothed and described from the past only, in the library as at
 synthesis; a decision reads the speech up to its own frame, its goal is the pose that speech
 asks for, held over the hop, and a hop is a pause when the last ``hop`` frames were mostly
-unvoiced.  The system then streams 39 ms behind the audio, and the stream equals ``predict``.
+unvoiced.  The system then streams that far behind the audio, and the stream equals ``predict``.
+With ``lookahead_ms`` (a voice agent's speech is made before it is played) every decision reads
+the speech A = floor(lookahead_ms · 25 / 1000) frames past its own frame — the query's and the
+library's descriptors alike, the library re-indexed, not retrained — and the stream comes
+A · 40 ms later.
 
 **Frame-by-frame prosody** (``prosody="f0e-live"``, not ``live``; the shipped default): the same
-features, and every decision computed from a window of them around its frame (its reach back and
+features (the default reads its pitch with Praat in 30 s blocks, ``reader="praat"``), and every decision computed from a window of them around its frame (its reach back and
 ahead, :attr:`MotionMatch._reach`) as :class:`WindowStream` computes it when the audio streams in:
 the system streams with that lookahead (≈ 1.1 s), a long file is synthesised block by block, and
 the stream equals ``predict``.  ``lowpass`` and ``posture_s`` (docs/decisions/default_models.md)
@@ -54,11 +59,11 @@ with the costs and the draw), :mod:`.walk` (a take's decisions and joins), :mod:
 from .estimator import MotionMatch
 from .library import (AMOUNT_LEAN, CENTRED_FEATURES, FPS, LIVE_FEATURES, LIVE_NAMES, MAX_STEP_DEG, PROSODY, SMOOTH,
                       SPEAKING_SHARE, VOICING, Library, Weights, clean_clips, clip_starts, descriptor_of_last,
-                      speech_descriptors)
+                      read_ahead, speech_descriptors)
 from .streams import MotionMatchStream, WindowStream, _tail_rows
 from .walk import REPEAT_S, WAIT_PAUSE_WEIGHT, WAIT_REPEAT_COST, _Walk
 
 __all__ = ["MotionMatch", "MotionMatchStream", "WindowStream", "PROSODY", "LIVE_NAMES", "speech_descriptors",
            "Library", "Weights", "AMOUNT_LEAN", "CENTRED_FEATURES", "FPS", "LIVE_FEATURES", "MAX_STEP_DEG", "SMOOTH",
-           "SPEAKING_SHARE", "VOICING", "clean_clips", "clip_starts", "descriptor_of_last", "REPEAT_S",
+           "SPEAKING_SHARE", "VOICING", "clean_clips", "clip_starts", "descriptor_of_last", "read_ahead", "REPEAT_S",
            "WAIT_PAUSE_WEIGHT", "WAIT_REPEAT_COST", "_Walk", "_tail_rows"]

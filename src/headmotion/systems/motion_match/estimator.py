@@ -10,6 +10,7 @@ import numpy as np
 from ...align import n_frames as _n_frames
 from ...errors import ParameterError
 from ...features import ANALYSIS_RATE
+from ...features.readers import READERS
 from ...models.numpy_nets import inference_threads
 from ...motion.angles import centred_degrees
 from ...motion.control import AMOUNT_RANGE, mean_pose_of
@@ -17,10 +18,13 @@ from ...rotations import pitch_yaw_roll_to_rotvec
 from ...types import Audio, Motion
 from ..base import CAUSAL, STREAMING, Synthesizer
 from ..constraints import BOOLEAN, Options, check_params, real, whole
-from .library import (CENTRED_FEATURES, FPS, LIVE_FEATURES, LIVE_NAMES, PROSODY, SMOOTH, SPEAKING_SHARE, VOICING,
-                      Library, clean_clips, clip_starts, descriptor_of_last, speech_descriptors)
+from .library import (CENTRED_FEATURES, FPS, LIVE_FEATURES, LIVE_NAMES, PRAAT_LIVE, PRAAT_OFFLINE, PROSODY, SMOOTH, SPEAKING_SHARE, VOICING,
+                      Library, clean_clips, clip_starts, descriptor_of_last, read_ahead, speech_descriptors)
 from .streams import MotionMatchStream, WindowStream
 from .walk import _Walk
+
+#: search tables kept per model (and its copies) for as many ``lookahead_ms`` settings
+KEPT_LIBRARIES = 4
 
 
 class MotionMatch(Synthesizer):
@@ -82,6 +86,18 @@ class MotionMatch(Synthesizer):
         the system then streams — with ``live``, 39 ms behind the audio; otherwise with the lookahead
         its decisions read — and a long file is synthesised block by block); None: ``"f0e-live"``
         when ``live``, else ``"f0e"``
+    lookahead_ms : float >= 0, ``live`` models: how far ahead of its frames a decision may read the
+        speech (a voice agent's text-to-speech makes its audio before it is played).  The decision
+        for frames t… reads the prosody up to frame t + A, A = floor(lookahead_ms · 25 / 1000):
+        the query's and the library's descriptors and the goal's regression all read A frames ahead
+        (the library is re-indexed, not retrained), a stream emits a frame A frames (A · 40 ms)
+        later, and past a file's end the last prosody row is repeated.  0: causal.  A model that
+        is not ``live`` already reads its ``lookahead`` frames ahead and refuses a non-zero value
+    reader : ``"yin"`` or ``"praat"``, f0e-live prosody: how pitch and voicing are read — per-frame
+        YIN (``voicing_threshold``, ``pitch_jump``), or Praat (its own voicing threshold and path
+        search; :mod:`headmotion.features.praat_stream`): in blocks of 30 s read with 1 s on each
+        side, or with ``live`` frame by frame on the last 0.3 s of audio
+        (docs/decisions/read-any-voice.md)
     seed : int, default synthesis seed
 
     The defaults were chosen on held-out speakers (docs/decisions/motion-matching.md).
@@ -97,22 +113,34 @@ class MotionMatch(Synthesizer):
                  posture_s: float = 0.0, prosody: str | None = None, amount: float = 1.0,
                  base_cost: float = 0.0, repeat_cost: float = 0.0, wait_s: float = 0.0,
                  voicing_threshold: float = 0.35, pitch_jump: float = 5.0, centred: bool = False,
-                 ease_in: float = 0.0, seed: int = 0):
+                 ease_in: float = 0.0, lookahead_ms: float = 0.0, reader: str = "yin", seed: int = 0):
         self._store_params(locals())
 
     @property
     def capabilities(self) -> frozenset[str]:  # type: ignore[override]
-        """Causal when ``live``, streaming with lookahead on the f0e-live prosody; either way the
-        stream equals ``predict``."""
+        """Causal when ``live`` (streaming with a lookahead when it reads ``lookahead_ms`` ahead),
+        streaming with lookahead on the f0e-live prosody; either way the stream equals ``predict``."""
         live = isinstance(self.live, (bool, np.bool_)) and bool(self.live)  # not a truthy "yes"
         if live:
-            return frozenset({CAUSAL})
+            return frozenset({STREAMING}) if self._shift else frozenset({CAUSAL})
         return frozenset({STREAMING}) if self.prosody == "f0e-live" else frozenset()
 
     @property
     def _live_prosody(self) -> bool:
         """The prosody is f0e-live (computed frame by frame), not the whole-file f0e."""
         return bool(self.live) or self.prosody == "f0e-live"
+
+    @property
+    def _shift(self) -> int:
+        """``live``: frames a decision reads the speech ahead of its own, A = floor(``lookahead_ms``
+        · 25 / 1000) (0 when not ``live``, or for a value :meth:`_validate_params` refuses)."""
+        try:
+            ms = float(self.lookahead_ms)
+        except (TypeError, ValueError):
+            return 0
+        if not self.live or not np.isfinite(ms) or ms <= 0:
+            return 0
+        return int(np.floor(ms * FPS / 1000.0 + 1e-9))
     # -- parameters ------------------------------------------------------------------------------
     #: what each parameter may be (:mod:`.constraints`)
     _parameter_constraints: ClassVar[dict] = {
@@ -124,7 +152,9 @@ class MotionMatch(Synthesizer):
         "temperature": [real(0, closed="neither")],
         "voicing_threshold": [real(0, 1, closed="right")],
         "amount": [real(*AMOUNT_RANGE)],
+        "lookahead_ms": [real(0)],
         "prosody": [Options(("f0e", "f0e-live")), None],
+        "reader": [Options(READERS)],
         **{k: [BOOLEAN] for k in ("mirror", "goal_path", "pause_speed", "live", "centred")},
     }
 
@@ -133,6 +163,11 @@ class MotionMatch(Synthesizer):
         if self.live and self.prosody == "f0e":
             raise ParameterError(f"the 'live' parameter of {self.name} needs prosody 'f0e-live' (Praat's f0e reads "
                                  "the whole file)")
+        if self.lookahead_ms and not self.live:
+            raise ParameterError(f"the 'lookahead_ms' parameter of {self.name} is how far a live model reads ahead; "
+                                 f"this model is not live and already reads {1000.0 * self._reach[1] / FPS:g} ms "
+                                 "ahead (its 'lookahead' and 'hop'): give 0 or a live model (e.g. the shipped "
+                                 "'stream')")
         if self.lowpass and not 0.5 <= self.lowpass < FPS / 2:
             raise ParameterError(f"the 'lowpass' parameter of {self.name} must be 0 (off) or in [0.5, {FPS / 2:g}) Hz; "
                                  f"got {self.lowpass!r}")
@@ -151,23 +186,33 @@ class MotionMatch(Synthesizer):
 
     @property
     def _live_back(self) -> int:
-        """``live``: the frames of prosody a decision reads (its descriptor's reach, the pause test's hop)."""
+        """``live``: the frames of prosody a decision reads, ending at its frame plus :attr:`_shift`
+        (its descriptor's reach, the pause test's hop)."""
         return max(int(-self._taps.min()) + SMOOTH, int(self.hop))
 
     @property
     def _reach(self) -> tuple[int, int]:
         """Frames of prosody a decision at frame t reads: from t − back to t + ahead (``live``:
-        ahead 0; else the descriptors over the hop, their taps and smoothing)."""
+        ahead :attr:`_shift`, ``lookahead_ms``; else the descriptors over the hop, their taps and smoothing)."""
         if self.live:
-            return self._live_back, 0
+            return self._live_back, self._shift
         return int(self.context) + SMOOTH, int(self.hop) + int(self.lookahead) + SMOOTH // 2
 
     @property
     def _feature_params(self) -> dict:
-        """The f0e-live extractor's settings (:class:`~headmotion.features.streaming.StreamingF0e`)."""
-        params = {**LIVE_FEATURES, "voicing_threshold": float(self.voicing_threshold),
-                  "max_jump_semitones": float(self.pitch_jump)}
+        """The f0e-live extractor's settings (:func:`~headmotion.features.readers.f0e_stream`)."""
+        if self.reader == "praat":  # Praat's own voicing threshold and path search (no octave guard)
+            params = {**LIVE_FEATURES, **(PRAAT_LIVE if self.live else PRAAT_OFFLINE)}
+        else:
+            params = {**LIVE_FEATURES, "voicing_threshold": float(self.voicing_threshold),
+                      "max_jump_semitones": float(self.pitch_jump)}
         return {**params, **CENTRED_FEATURES} if self.centred else params
+
+    def _feature_stream(self):
+        """A new incremental extractor of the prosody this model reads, at its ``sample_rate_``."""
+        from ...features.readers import f0e_stream
+
+        return f0e_stream(sample_rate=int(self.sample_rate_), fps=FPS, **self._feature_params)
 
     @property
     def _voicing(self) -> int:
@@ -211,12 +256,37 @@ class MotionMatch(Synthesizer):
         return self
 
     def _index(self) -> None:
-        """The search tables (:class:`~.library.Library`) over the library's frames."""
-        self.library_ = Library(self.lib_motion_, self.lib_feats_, self.lib_lengths_,
-                                starts=getattr(self, "lib_starts_", None),  # files written before clips were stored
-                                own=getattr(self, "lib_own_", None),  # an adapted model: the speaker's recordings
-                                hop=int(self.hop), taps=self._taps, goal_steps=self._goal_steps,
-                                mirror=self.mirror, ridge=float(self.ridge), causal=bool(self.live))
+        """The search tables (:class:`~.library.Library`) over the library's frames, their
+        descriptors read :attr:`_shift` frames ahead; tables built before for other lookaheads are
+        dropped (the library or the settings may have changed)."""
+        self._libraries_: dict[int, Library] = {}
+        self.library_ = self._library_for(self._shift)
+
+    def _library_for(self, shift: int) -> Library:
+        """The search tables with descriptors ``shift`` frames ahead: built once and kept (for
+        :data:`KEPT_LIBRARIES` lookaheads) by this model and its copies — :func:`headmotion.synthesize`
+        and every stream of ``headmotion serve`` give a copy with the ``lookahead_ms`` asked for."""
+        kept = self._libraries_
+        lib = kept.get(shift)
+        if lib is None:
+            lib = Library(self.lib_motion_, self.lib_feats_, self.lib_lengths_,
+                          starts=getattr(self, "lib_starts_", None),  # files written before clips were stored
+                          own=getattr(self, "lib_own_", None),  # an adapted model: the speaker's recordings
+                          hop=int(self.hop), taps=self._taps, goal_steps=self._goal_steps,
+                          mirror=self.mirror, ridge=float(self.ridge), causal=bool(self.live), shift=shift)
+            while len(kept) >= KEPT_LIBRARIES:
+                kept.pop(next(iter(kept)), None)
+            kept[shift] = lib
+        return lib
+
+    def _indexed(self) -> None:
+        """``library_`` for the ``lookahead_ms`` now set: a runtime setting of a trained model
+        (``set_params``, or a copy with another value), so the search tables are re-indexed for it
+        here, before a synthesis or a stream, not retrained."""
+        if getattr(self.library_, "shift", 0) != self._shift:
+            if not hasattr(self, "_libraries_"):
+                self._libraries_ = {}
+            self.library_ = self._library_for(self._shift)
 
     # -- synthesis -------------------------------------------------------------------------------
     def goals(self, desc: np.ndarray) -> np.ndarray:
@@ -227,13 +297,15 @@ class MotionMatch(Synthesizer):
 
     def generate(self, feats: np.ndarray, seed: int) -> np.ndarray:
         """Motion ``(T, 3)`` in degrees about the mean pose for standardised prosody ``(T, D)``."""
+        self._indexed()
         T, H = len(feats), int(self.hop)
         walk = _Walk(self, seed)
         out = np.zeros((T, 3))
-        if self.live:  # every decision from the speech up to its frame, as the stream makes it
-            back = self._live_back
+        if self.live:  # every decision from the speech up to its frame (+ lookahead_ms), as the stream makes it
+            back, A = self._live_back, self._shift
+            rows = read_ahead(feats, A)  # past the end, the last row repeated
             for t in range(0, T, H):
-                out[t:t + H] = walk.hop(*self.live_inputs(feats[max(0, t + 1 - back):t + 1]), H)[:T - t]
+                out[t:t + H] = walk.hop(*self.live_inputs(rows[max(0, t + A + 1 - back):t + A + 1]), H)[:T - t]
             return out
         if self._live_prosody:  # every decision from a window of the speech around it, as the stream makes it
             back, ahead = self._reach
@@ -266,9 +338,9 @@ class MotionMatch(Synthesizer):
 
     def live_inputs(self, past: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, float]:
         """``live``: a decision's speech descriptor, goal and pause test from the standardised
-        prosody up to its frame (``past``, the last row is the frame): the goal is the one the
-        speech so far asks for, held over the hop; a pause is a hop whose last ``hop`` frames
-        had a voiced share below 0.2."""
+        prosody up to its frame plus :attr:`_shift` (``past``, the last row is that frame): the
+        goal is the one the speech so far asks for, held over the hop; a pause is a hop whose last
+        ``hop`` frames read had a voiced share below 0.2."""
         desc = descriptor_of_last(past, self._taps)
         goal = None
         if self.target_weight > 0:
@@ -302,6 +374,7 @@ class MotionMatch(Synthesizer):
             return self._degrees_to_motion(self.generate(f, seed))
 
     def _stream(self, *, seed: int) -> "MotionMatchStream | WindowStream":
+        self._indexed()
         return MotionMatchStream(self, seed=int(seed)) if self.live else WindowStream(self, seed=int(seed))
 
     # -- persistence -----------------------------------------------------------------------------

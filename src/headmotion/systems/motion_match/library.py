@@ -23,6 +23,14 @@ LIVE_NAMES = ("energy", "d_energy", "logf0", "d_logf0", "voiced")
 LIVE_FEATURES = {"smooth_lookahead": 0, "delta_lookahead": 0, "voicing": True}
 #: ``centred``: the smoothing (2 frames at 25 fps) and the 5-frame deltas centred on their frame
 CENTRED_FEATURES = {"smooth_lookahead": 1, "delta_lookahead": 2}
+#: ``reader="praat"``: how Praat reads the f0e-live prosody's pitch (:mod:`headmotion.features.praat_stream`)
+#: — offline in blocks of 30 s with 1 s read on each side, one 40 ms analysis step a frame, unvoiced
+#: frames interpolated; ``live`` one frame at a time on the last 0.3 s of audio at a 20 ms step,
+#: unvoiced frames held (docs/decisions/read-any-voice.md)
+PRAAT_OFFLINE = {"reader": "praat", "praat_block": 750, "praat_back_s": 1.0, "praat_ahead_s": 1.0,
+                 "praat_step": 0.04, "interpolate": True}
+PRAAT_LIVE = {"reader": "praat", "praat_block": 1, "praat_back_s": 0.3, "praat_ahead_s": 0.0, "praat_step": 0.02,
+              "interpolate": False}
 #: frames of the moving average over the features before they are matched
 SMOOTH = 5
 #: ``amount``: how far the choice leans per doubling — a frame's cost changes by
@@ -75,6 +83,14 @@ def clean_clips(motion: np.ndarray, starts: np.ndarray, hz: float, *, fps: float
         if b - a >= 4:
             out[a:b] = sosfiltfilt(sos, out[a:b], axis=0, padlen=min(b - a - 1, 15))
     return out.astype(np.asarray(motion).dtype)
+
+
+def read_ahead(feats: np.ndarray, shift: int) -> np.ndarray:
+    """``feats`` with ``shift`` copies of its last row after it: the rows a ``lookahead_ms`` decision
+    reads past a file's end (the speech is taken to go on as it ended; nothing when ``feats`` is empty)."""
+    if shift <= 0 or len(feats) == 0:
+        return feats
+    return np.concatenate([feats, np.repeat(feats[-1:], int(shift), 0)])
 
 
 def descriptor_of_last(past: np.ndarray, taps: np.ndarray) -> np.ndarray:
@@ -138,16 +154,21 @@ class Library:
     starts : bool per frame, where a clip starts (:func:`clip_starts`), or None: found from ``motion``
     own : bool per recording, an adapted model's speaker's own (the others are the base's), or None
     hop, taps, goal_steps, mirror, ridge : the estimator's settings; causal : descriptors from the past only
+    shift : frames, ``causal``: each frame's descriptor (and so the goal's regression) is the one
+        of the frame ``shift`` later, its speech read that far ahead (a live model's
+        ``lookahead_ms``); past a recording's end its last row is repeated (:func:`read_ahead`)
     """
 
     def __init__(self, motion: np.ndarray, feats: np.ndarray, lengths: np.ndarray, *, starts: np.ndarray | None,
                  own: np.ndarray | None, hop: int, taps: np.ndarray, goal_steps: np.ndarray, mirror: bool,
-                 ridge: float, causal: bool):
+                 ridge: float, causal: bool, shift: int = 0):
         S, P, V, ok, A, end, Q, mine = [], [], [], [], [], [], [], []
-        start, offset, H = 0, 0, int(hop)
+        start, offset, H, shift = 0, 0, int(hop), int(shift)
+        #: frames the descriptors read ahead of their frame (``shift``)
+        self.shift = shift
         for r, n in enumerate(lengths):
             m = motion[start:start + n].astype(np.float64)
-            d = speech_descriptors(feats[start:start + n], taps, causal=causal)
+            d = speech_descriptors(read_ahead(feats[start:start + n], shift), taps, causal=causal)[shift:]
             clip = starts[start:start + n] if starts is not None else clip_starts(m)
             bounds = np.append(np.flatnonzero(clip), n)
             clip_end = np.repeat(bounds[1:], np.diff(bounds))  # per frame: where its clip ends

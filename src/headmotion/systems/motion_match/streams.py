@@ -22,23 +22,25 @@ def _tail_rows(last: np.ndarray | None, raw: np.ndarray, n: int) -> np.ndarray:
 
 class MotionMatchStream:
     """:meth:`MotionMatch.stream` (``live`` models): push float samples at the model's
-    ``sample_rate``; a frame is final once its f0e-live features are (``latency_ms``, 39 ms at
-    16 kHz), and the frames equal ``predict``'s.  Every ``hop`` frames a decision is made from the
-    prosody so far and its frames are emitted as their features arrive.  State: the feature
-    extractor, the last frames of prosody a decision reads, the take's walk — bounded."""
+    ``sample_rate``; a frame is final once the f0e-live features of the frame ``lookahead_ms``
+    later (A = :attr:`MotionMatch._shift` frames) are (``latency_ms``: 39 ms at 16 kHz + A · 40 ms),
+    and the frames equal ``predict``'s.  Every ``hop`` frames a decision is made from the prosody
+    so far (up to its frame + A) and its frames are emitted as the features A frames after them
+    arrive; at the end the last prosody row stands for the A rows past it, as in ``predict``.
+    State: the feature extractor, the last frames of prosody a decision reads, the take's walk — bounded."""
 
     def __init__(self, model, *, seed: int):
-        from ...features.streaming import StreamingF0e
-
         self.m = model
-        self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **model._feature_params)
-        self.latency_ms = self.ex.latency_ms
+        self.ex = model._feature_stream()
+        self.ahead = model._shift  # frames of prosody read past a frame before it is emitted
+        self.latency_ms = self.ex.latency_ms + 1000.0 * self.ahead / FPS
         self.walk = _Walk(model, seed)
         self.back = model._live_back
         self.cols = [list(self.ex.names).index(n) for n in LIVE_NAMES]  # the matched columns, by name
         self.past = np.zeros((0, len(LIVE_NAMES)), np.float32)
         self.pending = np.zeros((0, 3))
         self.k = 0            # frames emitted
+        self.rows = 0         # feature rows read (the frames emitted + ahead, once that many came)
         self.samples = 0      # samples pushed
         self.raw_last = None  # the last raw feature row (repeated if the file ends before its frames)
 
@@ -47,15 +49,20 @@ class MotionMatchStream:
         if not len(raw):  # most 10 ms pushes finish no frame (25 a second)
             return Motion(np.zeros((0, 3)), FPS)
         out = np.zeros((len(raw), 3))
-        for i, row in enumerate(raw):
+        n = 0
+        for row in raw:
             f = ((row[self.cols] - m.feat_mean_) / m.feat_std_).astype(np.float32)
             self.past = np.concatenate([self.past, f[None]])[-self.back:]
+            self.rows += 1
+            if self.rows <= self.ahead:  # frame 0's decision reads this far ahead
+                continue
             if self.k % H == 0:  # a decision: its hop of frames, as rotation vectors at once
                 self.pending = m._degrees_to_motion(self.walk.hop(*m.live_inputs(self.past), H)).rotvec
-            out[i] = self.pending[self.k % H]
+            out[n] = self.pending[self.k % H]
             self.k += 1
+            n += 1
         self.raw_last = raw[-1]
-        return Motion(out, FPS)
+        return Motion(out[:n], FPS)
 
     def push(self, samples: np.ndarray) -> Motion:
         x = np.asarray(samples, dtype=np.float64).reshape(-1)
@@ -65,8 +72,13 @@ class MotionMatchStream:
     def flush(self) -> Motion:
         """The remaining frames: as many in all as ``predict`` gives for the audio pushed."""
         raw = np.asarray(self.ex.flush()).reshape(-1, len(self.ex.names))
-        n = max(_n_frames(self.samples, int(self.m.sample_rate_), FPS) - self.k, 0)
-        return self._frames(_tail_rows(self.raw_last, raw, n))
+        total = _n_frames(self.samples, int(self.m.sample_rate_), FPS)
+        rows = _tail_rows(self.raw_last, raw, max(total - self.rows, 0))
+        last = rows[-1:] if len(rows) else (None if self.raw_last is None else self.raw_last[None])
+        pad = max(total + self.ahead - self.rows - len(rows), 0)  # rows past the end the last frames read
+        if pad and last is not None:  # the last row repeated, as predict reads them
+            rows = np.concatenate([rows, np.repeat(last, pad, 0)])
+        return self._frames(rows)
 
 
 class WindowStream:
@@ -78,10 +90,8 @@ class WindowStream:
     State: the feature extractor, the prosody rows a decision can still read, the take's walk."""
 
     def __init__(self, model, *, seed: int):
-        from ...features.streaming import StreamingF0e
-
         self.m = model
-        self.ex = StreamingF0e(sample_rate=int(model.sample_rate_), fps=FPS, **model._feature_params)
+        self.ex = model._feature_stream()
         self.back, self.ahead = model._reach
         self.latency_ms = self.ex.latency_ms + 1000.0 * self.ahead / FPS
         self.walk = _Walk(model, seed)

@@ -2,7 +2,9 @@
 // (WS /v1/stream) → frames → the VRM avatar's neck and head bones (avatar.js, bundled three.js and
 // @pixiv/three-vrm).  Query: input=mic|file, autostart=1 (mic: start at once), model, resample
 // (exact default | fast), role=listen (the head hears the input instead of speaking it; listening=0..3),
-// vrm (a VRM file on this server), record=1 (keep the audio sent, for tests).
+// lookahead_ms (0..1080: the model reads the speech that far ahead; a file is then heard that much
+// later, so the head, whose frames come that much later, moves with the voice), vrm (a VRM file on
+// this server), record=1 (keep the audio sent, for tests).
 //
 // window.headmotionAvatar (tests, integrators, the console):
 //   headRotation()  [pitch, yaw, roll] degrees: the head bone against its rest pose (the avatar's
@@ -26,6 +28,8 @@
 //   played(position, idle)  seconds of the agent's audio the player has played (or dropped); idle:
 //                   it has played all it was given
 //   sentAudio()     {sampleRate, encoding, base64} of the audio sent (with record=1)
+//   audioDelayS()   seconds by which the page delays the file it plays aloud (the whole frames of
+//                   lookahead_ms; 0 without a lookahead, or for the microphone)
 import { mountAvatar } from "./avatar.js";
 import { stream } from "../client/index.js";
 
@@ -49,6 +53,7 @@ const st = window.headmotionAvatar = {
     return { median: quantile(l, 0.5), p95: quantile(l, 0.95), n: l.length };
   },
   setRotvec(r) { if (avatar) { avatar.setRotvec(r); dirty = true; } },
+  audioDelayS: () => (player && player.delay ? player.delay.delayTime.value : 0),
   follow: (message, given) => follow(message, given),
   played: (position, idle) => played(position, idle),
   start: (what) => start(what),
@@ -176,14 +181,28 @@ async function source(what) {
     return navigator.mediaDevices.getUserMedia({ audio: { echoCancellation: false, noiseSuppression: false,
       autoGainControl: false } });
   }
-  // a file: played aloud, and its sound captured as the microphone would be
+  // a file: played aloud, and its sound captured as the microphone would be; with a lookahead the
+  // stream's frames come that much later, so what is heard is delayed by as much
   const ctx = new AudioContext();
   const buffer = await ctx.decodeAudioData(await what.arrayBuffer());
   const src = ctx.createBufferSource(), out = ctx.createMediaStreamDestination();
-  src.buffer = buffer; src.connect(ctx.destination); src.connect(out);
+  src.buffer = buffer; src.connect(out);
+  let delay = null;  // its time is set from the ready message: the whole frames the model reads ahead
+  if (lookaheadMs() > 0) {
+    delay = ctx.createDelay(Math.max(1, 2 * lookaheadMs() / 1000));
+    src.connect(delay); delay.connect(ctx.destination);
+  } else {
+    src.connect(ctx.destination);
+  }
   src.onended = () => { if (abort) abort.abort(); };
-  player = { ctx, src, start: () => src.start() };
+  player = { ctx, src, delay, start: () => src.start() };
   return out.stream;
+}
+
+/** The lookahead asked for (ms; the query's lookahead_ms, 0 without); the server checks its range. */
+function lookaheadMs() {
+  const v = params.get("lookahead_ms");
+  return v === null || v === "" ? 0 : Number(v);
 }
 
 async function start(what) {
@@ -196,6 +215,7 @@ async function start(what) {
   const options = { apiKey: $("key").value || undefined, signal: abort.signal, onAudio,
     resample: params.get("resample") || "exact" };
   if (params.get("model")) options.model = params.get("model");
+  if (params.get("lookahead_ms") !== null) options.lookaheadMs = lookaheadMs();
   if (params.get("role") === "listen") {  // the avatar listens to the microphone (or file) rather than speaking it
     options.role = "listen";
     if (params.get("listening")) options.listening = Number(params.get("listening"));
@@ -203,6 +223,7 @@ async function start(what) {
   options.onReady = (m) => {
     st.ready = m; sampleRate = m.sample_rate;  // the capture's rate, as the start message declared it
     setStatus(`${options.role === "listen" ? "listening to" : "streaming"} (${what === "mic" ? "microphone" : "file"}): ${m.model} (${m.system}), lookahead ${m.latency_ms.toFixed(0)} ms`);
+    if (player && player.delay) player.delay.delayTime.value = Math.floor(lookaheadMs() * m.fps / 1000 + 1e-9) / m.fps;
     if (player) player.start();
   };
   $("stop").disabled = false;

@@ -162,6 +162,8 @@ function toPcm(chunk, encoding) {
  *   default 20), `role` ("speak" default; "listen": the source is the other party's audio, sent as
  *   hear messages with as much silence as the avatar's own speech), `listening` (0 to 3, with
  *   "listen"), `settle` (seconds the head takes to ease to rest after the end, 0 to 5; default 0),
+ *   `lookaheadMs` (how far ahead a live model reads the speech, 0 to 1080 ms, for speech made before
+ *   it plays: the frames come that much later, the ready message's `latency_ms`; default 0),
  *   `interrupt` (an AbortSignal: when it aborts, the speech is cut off — the server drops the frames
  *   not yet final and settles the head from the last one sent, `settle` seconds), `signal`, `onReady(ready)`, `onAudio(pcm,
  *   sentAtMs)` (each PCM ArrayBuffer as sent, in the stream's encoding, and the performance.now()
@@ -176,6 +178,7 @@ export async function* stream(source, options = {}) {
   const encoding = options.encoding || "s16le", fmt = options.frames || "binary";
   const start = { type: "start", sample_rate: sampleRate, encoding, frames: fmt };
   for (const k of ["model", "seed", "gain", "offset", "still", "settle"]) if (options[k] !== undefined) start[k] = options[k];
+  if (options.lookaheadMs !== undefined) start.lookahead_ms = options.lookaheadMs;
   start.resample = options.resample || (live ? "fast" : "exact");
   const listen = options.role === "listen";
   if (listen) {  // the source is the other party: heard, while the avatar's own channel is silence

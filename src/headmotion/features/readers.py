@@ -1,0 +1,38 @@
+"""How the ``f0e-live`` prosody reads pitch (docs/decisions/read-any-voice.md): per-frame YIN
+(:class:`.streaming.StreamingF0e`) or Praat in blocks (:class:`.praat_stream.StreamingPraatF0e`),
+both incremental with the same columns, so a stream and a whole file give the same values."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..types import Audio
+from .praat_stream import StreamingPraatF0e
+from .streaming import StreamingF0e
+
+#: the pitch readers of the f0e-live set
+READERS = ("yin", "praat")
+
+
+def f0e_stream(*, reader: str = "yin", **params) -> StreamingF0e:
+    """The incremental f0e-live extractor that reads pitch with ``reader`` (:data:`READERS`);
+    ``params`` are the extractor's."""
+    if reader == "yin":
+        return StreamingF0e(**params)
+    if reader == "praat":
+        return StreamingPraatF0e(**params)
+    raise ParameterError(f"the f0e-live reader must be one of {', '.join(READERS)}; got {reader!r}")
+
+
+def f0e_live(audio: Audio, *, fps: float, n_frames: int, **params):
+    """The ``f0e-live`` feature set: :func:`f0e_stream`'s extractor run over the whole file at once
+    (the same code path as streaming, so identical values).  Returns ``(values (T, 6|7), names)``."""
+    from .frames import fit_length
+
+    ex = f0e_stream(sample_rate=audio.sample_rate, fps=fps, **params)
+    values = np.vstack([ex.push(audio.samples), ex.flush()])
+    return fit_length(values, n_frames), list(ex.names)
+
+
+__all__ = ["READERS", "f0e_stream", "f0e_live"]
