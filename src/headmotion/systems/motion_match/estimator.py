@@ -89,7 +89,8 @@ class MotionMatch(Synthesizer):
     lookahead_ms : float >= 0, ``live`` models: how far ahead of its frames a decision may read the
         speech (a voice agent's text-to-speech makes its audio before it is played).  The decision
         for frames t… reads the prosody up to frame t + A, A = floor(lookahead_ms · 25 / 1000):
-        the query's and the library's descriptors and the goal's regression all read A frames ahead
+        the query's and the library's descriptors (from ``context`` frames before their frame to A
+        after it) and the goal's regression all read A frames ahead
         (the library is re-indexed, not retrained), a stream emits a frame A frames (A · 40 ms)
         later, and past a file's end the last prosody row is repeated.  0: causal.  A model that
         is not ``live`` already reads its ``lookahead`` frames ahead and refuses a non-zero value
@@ -180,7 +181,14 @@ class MotionMatch(Synthesizer):
 
     @property
     def _taps(self) -> np.ndarray:
-        ahead = 0 if self.live else int(self.lookahead)
+        """Offsets (frames) of a descriptor's taps.  ``live``: relative to the last frame read,
+        ``context`` frames back from the decision's own frame to the :attr:`_shift` frames it reads
+        ahead — the speech it reads ahead is added to the speech around the decision, which the
+        descriptor keeps (it is not moved wholly into the future)."""
+        if self.live:
+            back = int(self.context) + self._shift
+            return np.unique(np.append(np.arange(-back, 1, max(1, back // 4)), 0))
+        ahead = int(self.lookahead)
         step = max(1, (int(self.context) + ahead) // 4)
         return np.unique(np.append(np.arange(-int(self.context), ahead + 1, step), ahead))
 
