@@ -60,12 +60,20 @@ def evaluate_cmd(
     no_detectability: bool = typer.Option(False, "--no-detectability",
                                           help="skip the classifier two-sample test of every condition against the "
                                                "recorded motion"),
+    sides: str = typer.Option("all", "--sides",
+                              help="speech sides of the cross-speaker coupling, comma-separated: praat (the --features "
+                                   "set, f0e: the measure as before), own (the frame-by-frame f0e-live reading), "
+                                   "energy (no pitch); 'all'"),
+    level: Optional[bool] = typer.Option(None, "--level/--no-level",
+                                         help="add each motion-match condition's Praat-read library (prosody=f0e) as "
+                                              "its level (default: with --protocol sources)"),
 ):
     """Cross-validate systems on a corpus and write metrics.csv, report.md and figures.
 
     Trained models (the shipped 'default' and 'stream', or a .hmz file) are scored as they are on
     every held-out recording of every fold, so they line up with the systems trained per fold."""
     from ..corpus import Corpus
+    from ..evaluation.measures.speech_sides import parse_sides
     from ..evaluation.protocol.protocols import evaluate
     from ..evaluation.reporting.report import write_report
 
@@ -100,6 +108,7 @@ def evaluate_cmd(
         result = evaluate(corpus, names, protocol=protocol, features=features, n_jobs=jobs, scheduler=scheduler,
                           seed=seed, n_shifts=shifts, window_s=window, feature_sets=fsets, strict=strict,
                           samples=samples, speaker_folds=speaker_folds, detectability=not no_detectability,
+                          speech_sides=parse_sides(sides), level=protocol == "sources" if level is None else level,
                           progress=lambda done, total, desc: update(done, total=total, description=desc))
     result.warnings[:0] = pause_warns
     if folds_at_pauses:

@@ -1,13 +1,20 @@
 """``headmotion evaluate-speech``: does a model follow voices that have no recorded head?
 
 A thin wrapper over :func:`headmotion.evaluation.protocol.speech_only.speech_coupling`: the
-projections are fitted on a corpus's recorded heads, each model synthesises each speech file (and
+projections are fitted on a corpus's recorded heads (once per speech side: Praat's f0e, the
+project's own frame-by-frame reading, energy alone), each model synthesises each speech file (and
 its degraded copies) with each seed, and the coupling of the motion to its own speech is tested
-against the circular-shift null.
+against the circular-shift null.  Each ``motion-match`` model is put beside its level, the same
+library read by Praat (:mod:`headmotion.evaluation.protocol.levels`), fitted here on the corpus
+without ``--level-exclude``'s recordings (the shipped models never see ``mead_lrs3``).
+
+    headmotion evaluate-speech ~/.cache/headmotion/corpus/talking_video --speech-set ../shared/data \
+        --systems default,stream --seeds 0-3 --degrade all -o runs/speech_only
 """
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Optional
 
@@ -58,7 +65,8 @@ def speech_files(paths: list[Path]) -> list[Path]:
 @app.command("evaluate-speech")
 def evaluate_speech_cmd(
     corpus_dir: Path = typer.Argument(..., help="corpus of recorded heads with their speech (the projections)"),
-    speech: list[Path] = typer.Argument(..., help="speech files or folders (searched recursively); no head needed"),
+    speech: Optional[list[Path]] = typer.Argument(None, help="speech files or folders (searched recursively); "
+                                                             "no head needed"),
     systems: str = typer.Option("default,stream", "--systems", "-s",
                                 help="comma-separated trained models: shipped names (default, stream) or model files"),
     output: Path = typer.Option(..., "-o", "--output", help="report directory (speech_coupling.csv, speech_coupling.md)"),
@@ -69,15 +77,30 @@ def evaluate_speech_cmd(
     shifts: int = typer.Option(200, "--shifts", min=10, help="circular shifts of the null"),
     exclude: Optional[str] = typer.Option(None, "--exclude",
                                           help="comma-separated recording-id prefixes of the corpus to leave out"),
+    speech_set: Optional[Path] = typer.Option(
+        None, "--speech-set", help="the shared data folder (../shared/data): add the documented speech-only set — "
+                                   "its speech/ files not in the corpus, the ZEGGS actor's speech, the bundled examples"),
+    sides: str = typer.Option("all", "--sides",
+                              help="speech sides of the measure, comma-separated: praat (Praat's f0e, the measure "
+                                   "as before), own (the frame-by-frame f0e-live reading), energy (no pitch); 'all'"),
+    level: bool = typer.Option(True, "--level/--no-level",
+                               help="put each motion-match model beside its Praat-read library (prosody=f0e), "
+                                    "fitted on the corpus without --level-exclude"),
+    level_exclude: str = typer.Option("mead_lrs3", "--level-exclude",
+                                      help="comma-separated recording-id prefixes the level's library leaves out "
+                                           "(those the shipped models never saw)"),
 ):
     """Coupling of each model's motion to its own speech, on speech with no recorded head.
 
     The motion is scored against the clean speech of each file (a degraded copy changes what the
-    model hears, not what was said); per seed, the files are pooled (mean excess, Stouffer's p)."""
+    model hears, not what was said); per seed, the files are pooled (mean excess, Stouffer's p).
+    Every speech side gets its own projections; every motion-match model its level and its
+    ratio to it (excess / the level's excess, same side and seeds)."""
     from ..corpus import Corpus
+    from ..evaluation.measures.speech_sides import SIDE_DESCRIPTIONS, parse_sides
     from ..evaluation.protocol.degraded import DEGRADATIONS
-    from ..evaluation.protocol.speech_only import pooled_table, speech_coupling
-    from ..io import load_audio
+    from ..evaluation.protocol.speech_only import files_table, pooled_table, speech_coupling
+    from ..evaluation.protocol.speech_set import describe, speech_set_files
     from ..io.atomic import atomic_write_text
     from ..systems.spec import split_systems
     from .eval_cmds import without_prefixes
@@ -89,26 +112,87 @@ def evaluate_speech_cmd(
     bad = [d for d in degs if d != "clean" and d not in DEGRADATIONS]
     if bad or not degs:
         raise ParameterError(f"--degrade takes clean, all or {', '.join(DEGRADATIONS)}; got {degrade!r}")
+    side_list = parse_sides(sides)
     seed_list = parse_seeds(seeds)
-    files = speech_files(list(speech))
-    corpus = Corpus.load(corpus_dir)
-    corpus = without_prefixes(corpus, exclude)
+    files = speech_files(list(speech or []))
+    if speech_set is not None:
+        found, missing = speech_set_files(speech_set)
+        for line in missing:
+            console.print(f"[yellow]speech set:[/] {line}", highlight=False, soft_wrap=True)
+        files += found
+    if not files:
+        raise ParameterError("no speech: name files or folders, or --speech-set")
+    corpus = without_prefixes(Corpus.load(corpus_dir), exclude)
+    audio = load_speech(files)
+    models, levels, notes = with_levels(names, without_prefixes(corpus, level_exclude) if level else None)
+    with progress_bar("coupling on speech") as update:
+        rows = speech_coupling(corpus, models, audio, seeds=seed_list, degradations=degs, n_shifts=shifts,
+                               sides=side_list, levels=levels,
+                               progress=lambda d, t, desc: update(d, total=t, description=desc))
+    output.mkdir(parents=True, exist_ok=True)
+    keys = ("side", "degradation", "system", "seed", "file", "excess", "p", "score", "level", "ratio")
+    buf = [",".join(keys)]
+    for r in rows:
+        buf.append(",".join(_cell(r.get(k, "")) for k in keys))
+    atomic_write_text(output / "speech_coupling.csv", "\n".join(buf) + "\n")
+    table = pooled_table(rows)
+    sides_md = "\n".join(f"* `{s}`: {SIDE_DESCRIPTIONS[s]}" for s in side_list)
+    level_md = "\n".join(f"* {n}" for n in notes)
+    atomic_write_text(output / "speech_coupling.md",
+                      f"# Coupling on speech with no recorded head\n\nProjections: {corpus_dir} "
+                      f"({len(corpus)} recordings), fitted per speech side:\n\n{sides_md}\n\n"
+                      f"Speech: {len(audio)} files. Shifts: {shifts}.\n\n"
+                      + (f"Levels:\n\n{level_md}\n\n" if notes else "")
+                      + f"{table}\n## Files\n\n{files_table(rows, describe)}")
+    console.print(table, highlight=False, soft_wrap=True)
+    for n in notes:
+        console.print(f"level: {n}", highlight=False, soft_wrap=True)
+    console.print(f"wrote {output / 'speech_coupling.csv'} and {output / 'speech_coupling.md'}")
+
+
+def _cell(v) -> str:
+    return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+
+def load_speech(files: list[Path]) -> dict:
+    """name → Audio at 16 kHz (the stem; the path where two files share a stem)."""
+    from ..io import load_audio
+
     audio = {}
     for f in files:
         key = f.stem if f.stem not in audio else str(f)
         audio[key] = load_audio(f, sample_rate=16000)
-    with progress_bar("coupling on speech") as update:
-        rows = speech_coupling(corpus, {n: n for n in names}, audio, seeds=seed_list, degradations=degs,
-                               n_shifts=shifts, progress=lambda d, t, desc: update(d, total=t, description=desc))
-    output.mkdir(parents=True, exist_ok=True)
-    buf = [",".join(("degradation", "system", "seed", "file", "excess", "p", "score"))]
-    for r in rows:
-        buf.append(",".join(str(r[k]) if not isinstance(r[k], float) else f"{r[k]:.6g}"
-                            for k in ("degradation", "system", "seed", "file", "excess", "p", "score")))
-    atomic_write_text(output / "speech_coupling.csv", "\n".join(buf) + "\n")
-    table = pooled_table(rows)
-    atomic_write_text(output / "speech_coupling.md",
-                      f"# Coupling on speech with no recorded head\n\nProjections: {corpus_dir} "
-                      f"({len(corpus)} recordings). Speech: {len(audio)} files. Shifts: {shifts}.\n\n{table}")
-    console.print(table, highlight=False, soft_wrap=True)
-    console.print(f"wrote {output / 'speech_coupling.csv'} and {output / 'speech_coupling.md'}")
+    return audio
+
+
+def with_levels(names: list[str], level_corpus) -> tuple[dict, dict, list[str]]:
+    """The models named and, with a ``level_corpus``, the Praat-read level of each ``motion-match``
+    one fitted on it (:func:`~headmotion.evaluation.protocol.levels.praat_read_level`).
+
+    Returns
+    -------
+    (models, levels, notes) — name → model (the levels after the models), model → its level's
+    name, and one line per model saying what its level is or why it has none
+    """
+    from ..evaluation.protocol.levels import level_name, praat_read_level
+    from ..synthesis import load_model
+
+    models = {n: load_model(n) for n in names}
+    if level_corpus is None:
+        return models, {}, []
+    if not len(level_corpus):
+        raise ParameterError("no recordings left for the level's library after --level-exclude")
+    levels, notes, twins = {}, [], {}
+    for n, m in models.items():
+        t0 = time.perf_counter()
+        try:
+            twin = praat_read_level(m, level_corpus)
+        except ParameterError as exc:
+            notes.append(f"{n}: no level ({exc})")
+            continue
+        twins[level_name(n)] = twin
+        levels[n] = level_name(n)
+        changed = {k: v for k, v in twin.get_params().items() if m.get_params().get(k) != v}
+        notes.append(f"{level_name(n)}: {n}'s settings with {changed}, fitted on {len(level_corpus)} recordings "
+                     f"in {time.perf_counter() - t0:.0f} s")
+    return {**models, **twins}, levels, notes

@@ -37,7 +37,8 @@ class ConditionSpec:
     """A picklable description of one condition (shipped to the fold workers, which make it).
 
     ``kind`` is ``"anchor"`` (``target`` = anchor name), ``"system"`` (``target`` = a callable
-    returning an unfitted system) or ``"model"`` (``target`` = model file path)."""
+    returning an unfitted system), ``"model"`` (``target`` = model file path) or ``"fitted"``
+    (``target`` = a model fitted before the folds, e.g. a level of :mod:`.levels`)."""
 
     name: str
     kind: str
@@ -47,12 +48,13 @@ class ConditionSpec:
     def make(self, random_state: int | None = None):
         """A new, unfitted condition; ``random_state`` is a trained system's training seed."""
         from .anchors import create_anchor
-        from .conditions import ModelFileCondition, SystemCondition
+        from .conditions import FittedCondition, ModelFileCondition, SystemCondition
 
         makers = {
             "anchor": lambda: create_anchor(self.target, random_state),
             "system": lambda: SystemCondition(self.name, self.target, random_state),
             "model": lambda: ModelFileCondition(self.name, self.target),
+            "fitted": lambda: FittedCondition(self.name, self.target),
         }
         return makers[self.kind]()
 

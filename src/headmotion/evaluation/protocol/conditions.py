@@ -19,6 +19,7 @@ The conditions:
 * :class:`SystemCondition` — a :class:`~headmotion.systems.base.Synthesizer` trained on the fold:
   ``motion_for`` is ``predict(recording.audio, seed=seed)``;
 * :class:`ModelFileCondition` — a model file, scored as it is, without training;
+* :class:`FittedCondition` — a model fitted before the folds, scored as a model file is;
 * the anchors of :mod:`.anchors` (ground truth, desync, shifted, other speaker, shaped noise,
   still), which make their motion from the recordings' data, not from speech.
 
@@ -151,4 +152,19 @@ class ModelFileCondition(SystemCondition):
         return self
 
 
-__all__ = ["GROUND_TRUTH", "Condition", "SystemCondition", "ModelFileCondition"]
+class FittedCondition(ModelFileCondition):
+    """A model fitted before the folds (a level built once on the evaluated corpus,
+    :mod:`.levels`), scored as it is in every fold, as a model file is.
+
+    Parameters
+    ----------
+    name : str — the name in the report
+    model : a fitted Synthesizer
+    """
+
+    def __init__(self, name: str, model):
+        self.path = None
+        SystemCondition.__init__(self, name, lambda: model)
+
+
+__all__ = ["GROUND_TRUTH", "Condition", "SystemCondition", "ModelFileCondition", "FittedCondition"]

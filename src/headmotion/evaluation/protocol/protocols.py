@@ -86,10 +86,12 @@ from typing import Callable, Sequence
 from ...corpus import Corpus, paper_split
 from ...errors import ParameterError
 from ..measures import chance as C
+from ..measures.speech_sides import parse_sides
 from .condition_specs import condition_spec
 from .conditions import GROUND_TRUTH
 from .feature_table import feature_set_name, feature_table
 from .folds import longest_held_out, make_folds, speaker_groups
+from .levels import level_specs
 from .parallel import dask_client, run_map
 from .results import EvaluationResult, assemble
 from .running import FoldTask, run_fold
@@ -127,7 +129,8 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
              scheduler=None, seed: int = 0, window_s: float = DEFAULT_WINDOW_S, n_shifts: int = C.DEFAULT_SHIFTS,
              feature_sets: Sequence[str] | None = None, trajectory_recording: str | None = None,
              fig48: bool = True, strict: bool = False, progress: Callable | None = None, samples: int = 4,
-             realism: bool = True, speaker_folds: int = 0, detectability: bool = True) -> EvaluationResult:
+             realism: bool = True, speaker_folds: int = 0, detectability: bool = True,
+             speech_sides: Sequence[str] | str | None = None, level: bool = False) -> EvaluationResult:
     """Cross-validate ``systems`` on ``corpus`` (see the module docstring).
 
     Parameters
@@ -167,6 +170,11 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
         fold has other speakers, the ``floor`` condition (:class:`.anchors.Floor`: their recorded
         heads) is added after the ground truth and every condition's detectability is reported
         beside it (``detect_floor``, ``detect_above_floor``, ``detect_3hz_floor``, …).
+    speech_sides : the speech sides of the cross-speaker coupling (:mod:`..measures.speech_sides`;
+        default every one): ``praat`` scores with ``features`` (``xcca``, as before), ``own`` and
+        ``energy`` with their own features and projections (``xcca_own``, ``xcca_energy``).
+    level : bool — add each ``motion-match`` condition's level, the same library read by Praat
+        (:func:`.levels.level_specs`); ``config["levels"]`` says whose level each one is.
 
     Returns
     -------
@@ -179,6 +187,14 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     if dup:
         raise ParameterError(f"systems listed twice: {dup}")
     specs = [s for s in specs if s.name != GROUND_TRUTH]
+    sides = parse_sides(speech_sides)
+    levels_of, level_notes = {}, []
+    if level:
+        twins, levels_of, level_notes = level_specs(specs, corpus)
+        clash = sorted({t.name for t in twins} & set(names))
+        if clash:
+            raise ParameterError(f"systems named like a level: {clash}")
+        specs += twins
     conditions = [GROUND_TRUTH] + [s.name for s in specs]
     feature_sets = _feature_sets(feature_sets)
     folds = make_folds(corpus, protocol, seed=seed, speaker_folds=speaker_folds)
@@ -192,7 +208,7 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
     tasks = [FoldTask(fold=name, train=tr, test=te, others=ot, systems=tuple(specs), features=features, seed=int(seed),
                       window_s=float(window_s), n_shifts=int(n_shifts),
                       trajectory_recording=trajectory_recording, fig48=fig48, strict=bool(strict),
-                      samples=int(samples), realism=bool(realism))
+                      samples=int(samples), realism=bool(realism), speech_sides=sides)
              for name, tr, te, ot in folds]
     timings: dict[str, float] = {}
     with dask_client(scheduler) as client:  # one connection for the folds and the feature table
@@ -207,7 +223,8 @@ def evaluate(corpus: Corpus, systems: Sequence, *, protocol: str = "loo", featur
               "seed": seed, "window_s": window_s, "n_shifts": n_shifts, "systems": conditions,
               "folds": len(tasks), "feature_sets": [feature_set_name(f) for f in feature_sets], "splits": splits,
               "samples": int(samples), "speaker_folds": int(speaker_folds) if protocol == "speakers" else None,
-              "fold_tests": {t.fold: list(t.test.ids) for t in tasks}}
+              "fold_tests": {t.fold: list(t.test.ids) for t in tasks}, "speech_sides": list(sides),
+              "levels": levels_of, "level_notes": level_notes}
     result = assemble(results, corpus=corpus, conditions=conditions, table=table, table_warnings=table_warns,
                       fig48=fig48, n_shifts=n_shifts, trajectory_recording=trajectory_recording, config=config,
                       timings=timings, splits=splits, seed=int(seed),

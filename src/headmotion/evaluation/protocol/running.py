@@ -53,6 +53,10 @@ class FoldTask:
     strict: bool = False
     samples: int = 4
     realism: bool = True
+    #: the speech sides of the cross-speaker coupling (:mod:`~..measures.speech_sides`): ``praat``
+    #: scores with the FCCA feature set (``xcca``), ``own`` and ``energy`` with their own features
+    #: and projections (``xcca_own``, ``xcca_energy``)
+    speech_sides: tuple = ("praat",)
 
 
 @M.single_threaded
@@ -77,10 +81,11 @@ def run_fold(task: FoldTask) -> dict:
         out["gt"][rec.id] = (np.asarray(rec.motion.rotvec), np.asarray(M.as_array(feats[rec.id])[0], dtype=np.float32),
                              rec.speaker, float(rec.motion.fps))
     t0 = time.perf_counter()
-    coupling = fit_cross_coupling(task, out["warnings"])
+    coupling = fit_cross_coupling(task, out["warnings"]) if "praat" in task.speech_sides else None
+    sided = fit_side_couplings(task, tests, out["warnings"])
     out["timings"]["cross-speaker projections"] = time.perf_counter() - t0
     for spec in (GROUND_TRUTH_SPEC,) + tuple(task.systems):
-        run_condition(task, spec, tests, feats, contexts, out, coupling)
+        run_condition(task, spec, tests, feats, contexts, out, coupling, sided)
     return out
 
 
@@ -99,6 +104,46 @@ def _features_of(task: FoldTask, rec):
             _TRAIN_FEATURES.clear()
         _TRAIN_FEATURES[key] = f
     return f
+
+
+def _side_features_of(task: FoldTask, rec, side: str):
+    """A recording's features of a further speech side at its motion's rate (``energy`` taken from
+    the FCCA features when they are ``f0e``: the same columns, not read twice)."""
+    from ..measures.speech_sides import ENERGY_COLUMNS, side_features
+
+    if side == "energy" and task.features == "f0e":
+        return _features_of(task, rec).select(ENERGY_COLUMNS)
+    key = (rec.id, f"side:{side}", float(rec.motion.fps), len(rec.motion))
+    if key not in _TRAIN_FEATURES:
+        if len(_TRAIN_FEATURES) > 2000:
+            _TRAIN_FEATURES.clear()
+        _TRAIN_FEATURES[key] = side_features(rec.audio, side, fps=float(rec.motion.fps), n_frames=len(rec.motion))
+    return _TRAIN_FEATURES[key]
+
+
+def fit_side_couplings(task: FoldTask, tests, warns: list[str]) -> dict:
+    """The further speech sides' projections (``task.speech_sides`` but ``praat``), each fitted on
+    the other speakers' recorded heads with its own features, and the held-out recordings'
+    features of each: ``{recording: {side: (projections, features)}}`` (empty without other
+    speakers; a side that fails leaves a warning)."""
+    from ..measures.cross_coupling import CrossSpeakerCCA
+
+    sides = [s for s in task.speech_sides if s != "praat"]
+    if not sides or task.others is None or not len(task.others):
+        return {}
+    out: dict = {rec.id: {} for rec in tests}
+    recs = list(task.others)
+    for side in sides:
+        try:
+            model = CrossSpeakerCCA().fit([r.motion for r in recs], [_side_features_of(task, r, side) for r in recs])
+            for rec in tests:
+                out[rec.id][side] = (model, _side_features_of(task, rec, side))
+        except Exception as exc:
+            if task.strict:
+                raise
+            warns.append(f"cross-speaker coupling ({side} side) could not be fitted for fold {task.fold}: "
+                         f"{type(exc).__name__}: {exc}")
+    return out
 
 
 def fit_cross_coupling(task: FoldTask, warns: list[str]):
@@ -183,9 +228,10 @@ def _measure(task: FoldTask, scoring: RecordingScoring, vals: dict, out: dict) -
 
 
 def run_condition(task: FoldTask, spec: ConditionSpec, tests, feats: dict, contexts: dict, out: dict,
-                  coupling=None) -> None:
+                  coupling=None, sided: dict | None = None) -> None:
     """Fit one condition, make and score its motion for every held-out recording (``coupling``: the
-    fold's cross-speaker projections, :func:`fit_cross_coupling`)."""
+    fold's cross-speaker projections, :func:`fit_cross_coupling`; ``sided``: those of the further
+    speech sides, :func:`fit_side_couplings`)."""
     condition = fit_condition(task, spec, out)
     if condition is None:
         return
@@ -211,7 +257,8 @@ def run_condition(task: FoldTask, spec: ConditionSpec, tests, feats: dict, conte
         scoring = RecordingScoring(condition=condition, recording=rec, pred=pred, features=feats[rec.id], seed=rseed,
                                    base_seed=task.seed, window_s=task.window_s, n_shifts=task.n_shifts,
                                    others=task.others, context=contexts.get(rec.id),
-                                   samples=samples, coupling_model=coupling)
+                                   samples=samples, coupling_model=coupling,
+                                   side_couplings=(sided or {}).get(rec.id))
         vals: dict[str, float] = {}
         _measure(task, scoring, vals, out)
         if task.realism:
@@ -226,4 +273,5 @@ def run_condition(task: FoldTask, spec: ConditionSpec, tests, feats: dict, conte
 
 
 __all__ = ["FoldTask", "run_fold", "fit_condition", "run_condition", "draw_samples", "fit_cross_coupling",
+           "fit_side_couplings",
            "GROUND_TRUTH_SPEC"]

@@ -144,6 +144,9 @@ class RecordingScoring:
     #: the fold's speech ↔ motion projections fitted on other speakers' recorded heads
     #: (:class:`~.cross_coupling.CrossSpeakerCCA`), or None
     coupling_model: Any = None
+    #: the further speech sides (:mod:`~..measures.speech_sides`: ``own``, ``energy``):
+    #: ``{side: (projections, the recording's features of that side)}``
+    side_couplings: dict | None = None
 
     @property
     def window(self) -> int:
@@ -193,15 +196,21 @@ def realism_measures(s: RecordingScoring) -> dict[str, float]:
 def cross_speaker_coupling(s: RecordingScoring) -> dict[str, float]:
     """Cross-speaker coupling (:mod:`.cross_coupling`): the condition's motion scored with the
     fold's projections fitted on other speakers' recorded heads and speech, against the bridge
-    shift null (``xcca``, ``xcca_null_mean``, ``xcca_null_p95``, ``xcca_p``, ``xcca_excess``)."""
+    shift null (``xcca``, ``xcca_null_mean``, ``xcca_null_p95``, ``xcca_p``, ``xcca_excess``: the
+    speech side ``praat``, the FCCA feature set); each further speech side the same with its own
+    projections and features (``xcca_own``, ``xcca_own_excess``, …; ``xcca_energy``, …), the same
+    null offsets."""
     from .parallel import sub_seed
 
-    if s.coupling_model is None:
-        return {}
+    out: dict[str, float] = {}
     rec = s.recording
-    r = s.coupling_model.test(np.asarray(s.pred, dtype=float), s.features, fps=float(rec.motion.fps),
-                              n_shifts=s.n_shifts, seed=sub_seed(s.seed, "xcca"))
-    return {"xcca": r.score, **r.as_dict("xcca_")}
+    pred = np.asarray(s.pred, dtype=float)
+    sides = ([("xcca", s.coupling_model, s.features)] if s.coupling_model is not None else []) + [
+        (f"xcca_{side}", model, feats) for side, (model, feats) in (s.side_couplings or {}).items()]
+    for name, model, feats in sides:
+        r = model.test(pred, feats, fps=float(rec.motion.fps), n_shifts=s.n_shifts, seed=sub_seed(s.seed, "xcca"))
+        out.update({name: r.score, **r.as_dict(f"{name}_")})
+    return out
 
 
 def beat_alignment(s: RecordingScoring) -> dict[str, float]:
@@ -353,7 +362,8 @@ def pooled_rows(rows: list[dict], systems: Sequence[str], *, n_shifts: int | Non
     alignment excess over the held-out recordings and the Stouffer-combined p-value of their
     circular-shift tests (their mid-p values with ``n_shifts``,
     :func:`~headmotion.evaluation.measures.realism.stouffer`): ``<m>_excess_pooled``, ``<m>_p_pooled``,
-    ``<m>_n_pooled`` for ``m`` in ``fcca``, ``fcca_local``, ``xcca``, ``bc``."""
+    ``<m>_n_pooled`` for ``m`` in :data:`POOLED_TESTS` (``xcca_own`` and ``xcca_energy``: the
+    coupling's further speech sides)."""
     from ..measures.realism import stouffer
 
     out = []
@@ -399,7 +409,7 @@ def fig48_rows(gt: dict, windows_s=FIG48_WINDOWS_S) -> list[dict]:
 
 
 #: the shift-tested scores pooled over recordings by :func:`pooled_rows`
-POOLED_TESTS = ("fcca", "fcca_local", "xcca", "bc")
+POOLED_TESTS = ("fcca", "fcca_local", "xcca", "xcca_own", "xcca_energy", "bc")
 
 
 def _pooled_coupling(p: PooledScoring) -> list[dict]:

@@ -283,8 +283,14 @@ def _detectability_md(result: EvaluationResult) -> str:
     return detectability_section(result.rows, result.systems)
 
 
-REPORT_SECTIONS = (_intro_md, _table2_md, _fcca_md, realism_md, _detectability_md, _feature_table_md, _amplitude_md,
-                   _chance_md, _fig48_md)
+def _levels_md(result: EvaluationResult) -> str:
+    from .levels_report import levels_md  # coupling per speech side beside its levels
+
+    return levels_md(result)
+
+
+REPORT_SECTIONS = (_intro_md, _table2_md, _fcca_md, realism_md, _levels_md, _detectability_md, _feature_table_md,
+                   _amplitude_md, _chance_md, _fig48_md)
 
 
 def _evaluation_figures(result: EvaluationResult, folder) -> list[Path]:
