@@ -42,10 +42,10 @@ from .nods import nod_bank
 HEAR_RATE = 8000
 #: analysis frames per second (10 ms frames, Ward & Tsukahara's pitch step)
 ANALYSIS_FPS = 100.0
-#: how the other party's pitch is read: Praat, as the shipped models read their own speech, on the
-#: last 0.3 s of audio for every two frames (a frame's voicing is final at most 40 ms after its
-#: time, within ``HEAR_DELAY_S``; docs/decisions/read-any-voice.md)
-HEARD_READER = {"reader": "praat", "praat_block": 2, "praat_back_s": 0.3, "praat_step": 0.01}
+#: how the other party's pitch is read: per-frame YIN.  Praat, as the shipped models read their own
+#: speech (on the last 0.3 s for every two frames), made hearing cost 2.7x a stream's CPU, not the
+#: 1.2x of YIN (docs/decisions/read-any-voice.md)
+HEARD_READER = {"reader": "yin"}
 #: the attentive posture at listening 1: chin 2° down, the head 3° towards the right shoulder —
 #: a design choice (no recorded listener is reachable here), eased in while listening
 POSTURE_DEG = (2.0, 0.0, 3.0)

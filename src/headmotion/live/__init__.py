@@ -35,5 +35,8 @@ and closes every output at the end; the errors it raises are :class:`~headmotion
 
 #: milliseconds a voice agent's live model reads its speech ahead unless told otherwise (the
 #: integrations' ``lookahead_ms``, the avatar page's): the agent's TTS makes its audio before it
-#: plays, and the integration holds the audio by as much (:mod:`.hold`), so head and voice stay in step
-AGENT_LOOKAHEAD_MS = 0.0
+#: plays, and the integration holds the audio by as much (:mod:`.hold`), so head and voice stay in step.
+#: 100 ms is the least budget at which the shipped ``stream`` is tied to held-out speech at 0.8× the
+#: Praat-read library or more (0.92–1.02×; causal 0.46–0.53×); the voice starts 100 ms later
+#: (docs/decisions/read-any-voice.md, the latency curve)
+AGENT_LOOKAHEAD_MS = 100.0
