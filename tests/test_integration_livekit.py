@@ -5,7 +5,9 @@ next output unchanged and in order, the frames are the stream's own for the same
 settles at the end of a reply and when the user interrupts, and the next reply starts fresh.
 
 Runs where ``livekit-agents`` is installed (scripts/test-integrations.sh makes that environment);
-elsewhere it is skipped."""
+elsewhere it is skipped.  Outputs that pass the audio on at once are built with
+``lookahead_ms=0``; the agents' default budget (``AGENT_LOOKAHEAD_MS``) holds the audio by as much
+(tests/test_agent_lookahead.py, and the lookahead tests here)."""
 
 from __future__ import annotations
 
@@ -120,7 +122,7 @@ def test_reply_frames_equal_the_stream_and_audio_passes_unchanged(rate, channels
 
     async def main():
         sink, pub = PlayingOutput(), Publisher()
-        out = HeadMotionAudioOutput(sink, send=pub, pace=False)
+        out = HeadMotionAudioOutput(sink, send=pub, pace=False, lookahead_ms=0)
         await _speak(out, frames)
         assert await out.wait_sent(5.0)
         await out.aclose()
@@ -147,7 +149,7 @@ def test_interruption_settles_and_the_next_reply_starts_fresh():
 
     async def main():
         sink, pub = PlayingOutput(), Publisher()
-        out = HeadMotionAudioOutput(sink, send=pub, pace=False)
+        out = HeadMotionAudioOutput(sink, send=pub, pace=False, lookahead_ms=0)
         await _speak(out, frames[:k], flush=False)
         out.clear_buffer()  # the user cut the agent off
         out.flush()         # the agent's speech handle ends the segment after the clear
@@ -177,7 +179,7 @@ def test_paced_frames_go_out_as_the_audio_plays_and_settle_on_interruption():
 
     async def main():
         sink, pub = PlayingOutput(), Publisher()
-        out = HeadMotionAudioOutput(sink, send=pub)  # pace=True
+        out = HeadMotionAudioOutput(sink, send=pub, lookahead_ms=0)  # pace=True
         t0 = time.monotonic()
         await _speak(out, frames, flush=False)  # the whole reply at once, faster than real time
         await asyncio.sleep(1.0)
@@ -273,7 +275,7 @@ def test_pause_holds_the_frames_with_the_audio():
 
     async def main():
         sink, pub = PlayingOutput(), Publisher()
-        out = HeadMotionAudioOutput(sink, send=pub)
+        out = HeadMotionAudioOutput(sink, send=pub, lookahead_ms=0)
         await _speak(out, frames, flush=False)
         await asyncio.sleep(0.3)
         out.pause()
@@ -316,7 +318,7 @@ def test_attach_to_an_agent_session_and_publish_to_a_room():
         sink = PlayingOutput(sample_rate=24000)
         session.output.audio = sink  # what session.start puts there for a room
         room = Room()
-        out = attach_head_motion(session, room, pace=False)
+        out = attach_head_motion(session, room, pace=False, lookahead_ms=0)
         assert session.output.audio is out and out.sample_rate == 24000
         pcm = _speech(24000)[:24000]
         await _speak(out, _audio_frames(pcm, 24000))

@@ -4,7 +4,9 @@ the audio out unchanged and in order, the head motion out as transport messages 
 the stream's own for the same audio, and the head settling on TTS stop and on an interruption.
 
 Runs where ``pipecat-ai`` is installed (scripts/test-integrations.sh makes that environment);
-elsewhere it is skipped."""
+elsewhere it is skipped.  Processors that pass the audio on at once are built with
+``lookahead_ms=0``; the agents' default budget (``AGENT_LOOKAHEAD_MS``) holds it by as much
+(tests/test_agent_lookahead.py, the lookahead tests here and the browser test, which runs the default)."""
 
 from __future__ import annotations
 
@@ -75,7 +77,7 @@ def _assert_audio_unchanged(sent: list, received: list) -> None:
 def test_utterance_frames_equal_the_stream_and_audio_passes_unchanged(rate):
     pcm = _speech(rate)
     audio = _tts_frames(pcm, rate)
-    proc = HeadMotionProcessor(pace=False)
+    proc = HeadMotionProcessor(pace=False, lookahead_ms=0)
     down, _ = asyncio.run(run_test(proc, frames_to_send=[TTSStartedFrame(), *audio, TTSStoppedFrame()]))
 
     _assert_audio_unchanged(audio, _audio_out(down))
@@ -107,7 +109,7 @@ def test_interruption_settles_and_the_next_utterance_starts_fresh():
     pcm = _speech()
     audio = _tts_frames(pcm, 16000)
     k = 30  # 1.5 s of the 2.8 s, then the user cuts the agent off
-    proc = HeadMotionProcessor(pace=False)
+    proc = HeadMotionProcessor(pace=False, lookahead_ms=0)
     frames = [TTSStartedFrame(), *audio[:k], SleepFrame(0.5), InterruptionFrame(), SleepFrame(0.2),
               TTSStartedFrame(), *audio, TTSStoppedFrame()]
     down, _ = asyncio.run(run_test(proc, frames_to_send=frames))
@@ -149,7 +151,7 @@ class _Sent(BaseObserver):
 def test_paced_frames_go_out_as_their_audio_plays():
     pcm = _speech()
     audio = _tts_frames(pcm, 16000)
-    proc = HeadMotionProcessor()  # pace=True
+    proc = HeadMotionProcessor(lookahead_ms=0)  # pace=True
     seen = _Sent(proc)
     down, _ = asyncio.run(run_test(proc, frames_to_send=[TTSStartedFrame(), *audio, TTSStoppedFrame()],
                                    observers=[seen]))
@@ -175,7 +177,7 @@ def test_paced_frames_go_out_as_their_audio_plays():
 def test_paced_interruption_settles_from_the_last_pose_sent():
     pcm = _speech()
     audio = _tts_frames(pcm, 16000)
-    proc = HeadMotionProcessor()
+    proc = HeadMotionProcessor(lookahead_ms=0)
     frames = [TTSStartedFrame(), *audio, SleepFrame(1.0), InterruptionFrame(), SleepFrame(0.8)]
     down, _ = asyncio.run(run_test(proc, frames_to_send=frames))
     _assert_audio_unchanged(audio, _audio_out(down))
@@ -207,7 +209,7 @@ def test_with_a_lookahead_the_audio_is_held_by_it_and_the_frames_read_ahead():
     text = TextFrame("half way")
     sent = [TTSStartedFrame(), *audio[:20], text, *audio[20:], TTSStoppedFrame()]
     proc = HeadMotionProcessor(pace=False, lookahead_ms=200)
-    assert proc.latency_ms == pytest.approx(HeadMotionProcessor(pace=False).latency_ms + 200)
+    assert proc.latency_ms == pytest.approx(HeadMotionProcessor(pace=False, lookahead_ms=0).latency_ms + 200)
     down, _ = asyncio.run(run_test(proc, frames_to_send=sent))
     _assert_audio_unchanged(audio, _audio_out(down))
     seq = [f for f in down if not isinstance(f, OutputTransportMessageFrame)]  # the frames it was given
