@@ -36,6 +36,7 @@ import math
 import numpy as np
 
 from ..errors import ParameterError
+from .prosody import PITCH_CEILING, PITCH_FLOOR
 from .streaming import StreamingF0e
 
 #: Praat's voicing threshold (its own default for speech) and silence threshold
@@ -81,7 +82,8 @@ class StreamingPraatF0e(StreamingF0e):
         self.back = int(round(praat_back_s * self.sample_rate))
         self.ahead = int(round(praat_ahead_s * self.sample_rate))
         self.interpolate = bool(interpolate)
-        self.floor, self.ceiling = float(kw.get("pitch_floor", 75.0)), float(kw.get("pitch_ceiling", 500.0))
+        self.floor = float(kw.get("pitch_floor", PITCH_FLOOR))
+        self.ceiling = float(kw.get("pitch_ceiling", PITCH_CEILING))
         # Praat's frames are centred in what it reads: with half its window (3 periods of the floor)
         # and half a step past a frame's centre, its last frame lies within half a step of that centre
         self.edge = int(math.ceil((1.5 / self.floor + 0.5 * step) * self.sample_rate))

@@ -4,12 +4,10 @@ both incremental with the same columns, so a stream and a whole file give the sa
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..errors import ParameterError
 from ..types import Audio
 from .praat_stream import StreamingPraatF0e
-from .streaming import StreamingF0e
+from .streaming import StreamingF0e, whole_file
 
 #: the pitch readers of the f0e-live set
 READERS = ("yin", "praat")
@@ -28,11 +26,7 @@ def f0e_stream(*, reader: str = "yin", **params) -> StreamingF0e:
 def f0e_live(audio: Audio, *, fps: float, n_frames: int, **params):
     """The ``f0e-live`` feature set: :func:`f0e_stream`'s extractor run over the whole file at once
     (the same code path as streaming, so identical values).  Returns ``(values (T, 6|7), names)``."""
-    from .frames import fit_length
-
-    ex = f0e_stream(sample_rate=audio.sample_rate, fps=fps, **params)
-    values = np.vstack([ex.push(audio.samples), ex.flush()])
-    return fit_length(values, n_frames), list(ex.names)
+    return whole_file(f0e_stream(sample_rate=audio.sample_rate, fps=fps, **params), audio, n_frames)
 
 
 __all__ = ["READERS", "f0e_stream", "f0e_live"]

@@ -490,15 +490,20 @@ class StreamingF0e:
         return out
 
 
+def whole_file(ex: StreamingF0e, audio: Audio, n_frames: int):
+    """A whole file through the incremental extractor ``ex`` (the stream's code path, so the same
+    values): ``(values (n_frames, D), names)``, fitted to ``n_frames`` as the feature sets are."""
+    from .frames import fit_length
+
+    values = np.vstack([ex.push(audio.samples), ex.flush()])
+    return fit_length(values, n_frames), list(ex.names)
+
+
 def f0e_live(audio: Audio, *, fps: float, n_frames: int, **params):
     """:class:`StreamingF0e` (YIN) run over the whole file at once (the same code path as streaming,
     so identical values); the ``f0e-live`` set with either reader is
     :func:`headmotion.features.readers.f0e_live`.  Returns ``(values (T, 6|7), names)``."""
-    from .frames import fit_length
-
-    ex = StreamingF0e(sample_rate=audio.sample_rate, fps=fps, **params)
-    values = np.vstack([ex.push(audio.samples), ex.flush()])
-    return fit_length(values, n_frames), list(ex.names)
+    return whole_file(StreamingF0e(sample_rate=audio.sample_rate, fps=fps, **params), audio, n_frames)
 
 
 class StreamingProsody(StreamingF0e):
@@ -542,12 +547,8 @@ class StreamingProsody(StreamingF0e):
 def prosody_live(audio: Audio, *, fps: float, n_frames: int, **params):
     """The ``prosody-live`` feature set: :class:`StreamingProsody` over the whole file (the
     streaming code path).  Returns ``(values (T, 2), ["pitch", "loudness"])``."""
-    from .frames import fit_length
-
-    ex = StreamingProsody(sample_rate=audio.sample_rate, fps=fps, **params)
-    values = np.vstack([ex.push(audio.samples), ex.flush()])
-    return fit_length(values, n_frames), list(ex.names)
+    return whole_file(StreamingProsody(sample_rate=audio.sample_rate, fps=fps, **params), audio, n_frames)
 
 
-__all__ = ["StreamingF0e", "StreamingProsody", "f0e_live", "prosody_live", "yin_frame", "yin_frames",
+__all__ = ["StreamingF0e", "StreamingProsody", "whole_file", "f0e_live", "prosody_live", "yin_frame", "yin_frames",
            "regression_weights", "NAMES"]
