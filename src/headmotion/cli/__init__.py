@@ -39,11 +39,13 @@ from . import stream_cmds  # noqa: E402,F401  stream
 from . import templates_cmds  # noqa: E402,F401  templates encode-error / analyse / confusion
 from . import eval_cmds  # noqa: E402,F401  evaluate, stats
 from . import speech_eval_cmds  # noqa: E402,F401  evaluate-speech
+from . import listening_eval_cmds  # noqa: E402,F401  evaluate-listening
 from . import detect_cmds  # noqa: E402,F401  detect
 from . import render_cmds  # noqa: E402,F401  render, view, plot
 from . import listen_cmds  # noqa: E402,F401  listen serve / analyze
 from . import serve_cmds  # noqa: E402,F401  serve, serve hash-key
 from . import blender_cmds  # noqa: E402,F401  blender-addon
+from . import robot_cmds  # noqa: E402,F401  robot reachy
 
 #: exit codes (also in ``headmotion --help`` and :mod:`headmotion.errors`)
 EXIT_BAD_INPUT, EXIT_USAGE, EXIT_MISSING_DEPENDENCY, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 2, 3, 4, 130

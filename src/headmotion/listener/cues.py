@@ -10,9 +10,14 @@ feedback is appropriate upon
 * **P4** when no back-channel was output within the preceding 800 ms,
 * **P5** output 700 ms after the start of the region.
 
-Here, on a pitch track of 10 ms frames (:class:`CueDetector`): the percentile is of the speaker's
-voiced frames heard so far (the rule is causal; no cue before ``min_voiced_s`` of voiced speech
-sets the level); a region is a run of voiced frames below that level (an unvoiced frame ends it);
+Here, on a pitch track of 10 ms frames (:class:`CueDetector`): the percentile is of **the voice
+being heard now** — the voiced frames heard so far, each weighing less by half every
+``level_half_life_s`` of voiced speech after it, and the frames before a pause of ``turn_pause_s``
+or more (a turn change: perhaps another voice) weighing ``turn_keep`` as much again — so the level
+follows a new speaker or a pitch range that moves.  Before ``min_voiced_s`` of voiced speech the
+level leans on a **prior**: ``prior_semitones`` below the median pitch heard (the typical distance
+from a voice's median to its 26th percentile), blended with the percentile by their weights (the
+rule is causal); a region is a run of voiced frames below that level (an unvoiced frame ends it);
 "speech" is the current run of the speaker's talk, broken by ``pause_s`` without a voiced frame;
 P4 is checked when the region qualifies (its 110th ms), against the cues already given, whose
 output times are the back-channels' times.  A cue is ``(start_s, output_s)``: the region's start
@@ -38,12 +43,22 @@ class CueRule:
     refractory_s: float = 0.800    # P4: no back-channel output within this much before
     delay_s: float = 0.700         # P5: output this long after the region's start
     pause_s: float = 0.300         # a run of speech ends after this long without a voiced frame
-    min_voiced_s: float = 1.0      # voiced speech heard before the percentile is trusted
+    min_voiced_s: float = 1.0      # voiced speech (weighted) at which the percentile and the prior weigh alike
+    level_half_life_s: float = 5.0  # voiced speech over which a frame's weight in the level halves (0: never)
+    turn_pause_s: float = 1.0      # a pause this long in the heard voice is a turn change ...
+    turn_keep: float = 0.2         # ... after which the frames before it weigh this much
+    prior_semitones: float = 1.6   # the prior level: this far below the median pitch heard
+    prior_min_voiced_s: float = 0.3  # voiced speech before any level at all
 
     def __post_init__(self):
         if not 0.0 < self.low_percentile < 100.0:
             raise ParameterError(f"low_percentile must be between 0 and 100; got {self.low_percentile!r}")
-        for name in ("min_region_s", "min_speech_s", "refractory_s", "delay_s", "pause_s", "min_voiced_s"):
+        if not 0.0 <= self.turn_keep <= 1.0:
+            raise ParameterError(f"turn_keep must be between 0 and 1; got {self.turn_keep!r}")
+        if not 0.0 <= self.prior_semitones <= 24.0:
+            raise ParameterError(f"prior_semitones must be from 0 to 24; got {self.prior_semitones!r}")
+        for name in ("min_region_s", "min_speech_s", "refractory_s", "delay_s", "pause_s", "min_voiced_s",
+                     "level_half_life_s", "turn_pause_s", "prior_min_voiced_s"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and 0.0 <= v <= 60.0):
                 raise ParameterError(f"{name} must be seconds from 0 to 60; got {v!r}")
@@ -52,6 +67,7 @@ class CueRule:
 #: log F0 histogram for the running percentile: 1/20 semitone bins from 40 to 1000 Hz
 _LO, _HI, _BIN = np.log(40.0), np.log(1000.0), np.log(2.0) / 240.0
 _NBINS = int(np.ceil((_HI - _LO) / _BIN)) + 1
+_SEMITONE = np.log(2.0) / 12.0
 
 
 class CueDetector:
@@ -69,8 +85,13 @@ class CueDetector:
         self._min_region = max(1, int(round(r.min_region_s * self.fps)))
         self._min_speech = int(round(r.min_speech_s * self.fps))
         self._pause = max(1, int(round(r.pause_s * self.fps)))
-        self._min_voiced = int(round(r.min_voiced_s * self.fps))
-        self._hist = np.zeros(_NBINS, np.int64)
+        self._min_voiced = r.min_voiced_s * self.fps
+        self._prior_min = r.prior_min_voiced_s * self.fps
+        self._turn_pause = max(1, int(round(r.turn_pause_s * self.fps)))
+        # a frame's weight grows by this factor per voiced frame (the older frames' shrink, relatively)
+        self._grow = 2.0 ** (1.0 / (r.level_half_life_s * self.fps)) if r.level_half_life_s > 0 else 1.0
+        self._inc = 1.0             # the weight the next voiced frame adds
+        self._hist = np.zeros(_NBINS, np.float64)
         self._voiced = 0
         self._t = 0                 # frames pushed
         self._run_start = None      # first frame of the current run of speech
@@ -85,12 +106,14 @@ class CueDetector:
         return None if self._threshold is None else float(np.exp(self._threshold))
 
     def _update_threshold(self) -> None:
-        if self._voiced < self._min_voiced:
+        c = np.cumsum(self._hist)
+        weight = c[-1] / self._inc  # voiced frames' worth, in the newest frame's weight
+        if weight < self._prior_min:
             self._threshold = None
             return
-        c = np.cumsum(self._hist)
-        k = int(np.searchsorted(c, self.rule.low_percentile / 100.0 * c[-1]))
-        self._threshold = _LO + (k + 0.5) * _BIN
+        pct = _LO + (int(np.searchsorted(c, self.rule.low_percentile / 100.0 * c[-1])) + 0.5) * _BIN
+        prior = _LO + (int(np.searchsorted(c, 0.5 * c[-1])) + 0.5) * _BIN - self.rule.prior_semitones * _SEMITONE
+        self._threshold = (weight * pct + self._min_voiced * prior) / (weight + self._min_voiced)
 
     def push(self, logf0, voiced) -> list[tuple[float, float]]:
         lf = np.asarray(logf0, dtype=np.float64).reshape(-1)
@@ -110,9 +133,15 @@ class CueDetector:
         if voiced:
             if self._run_start is None or t - self._last_voiced > self._pause:
                 self._run_start = t
+            if self._voiced and t - self._last_voiced > self._turn_pause:  # a turn change
+                self._hist *= self.rule.turn_keep
             self._last_voiced = t
             k = int(np.clip((lf - _LO) / _BIN, 0, _NBINS - 1))
-            self._hist[k] += 1
+            self._hist[k] += self._inc
+            self._inc *= self._grow
+            if self._inc > 1e200:  # (the weights are relative)
+                self._hist /= self._inc
+                self._inc = 1.0
             self._voiced += 1
             if self._voiced % 10 == 0 or self._threshold is None:  # the level moves slowly
                 self._update_threshold()

@@ -42,10 +42,11 @@ from .nods import nod_bank
 HEAR_RATE = 8000
 #: analysis frames per second (10 ms frames, Ward & Tsukahara's pitch step)
 ANALYSIS_FPS = 100.0
-#: how the other party's pitch is read: per-frame YIN.  Praat, as the shipped models read their own
-#: speech (on the last 0.3 s for every two frames), made hearing cost 2.7x a stream's CPU, not the
-#: 1.2x of YIN (docs/decisions/read-any-voice.md)
-HEARD_READER = {"reader": "yin"}
+#: how the other party's pitch is read: Praat, as the shipped models read their own speech, here in
+#: blocks of 0.25 s each read with the 0.3 s before it (a frame is final at most 0.28 s after it;
+#: the cues are due 0.59 s after they are found, so none comes late).  Per-frame YIN missed the
+#: voice on a telephone line and half the cues of several voices (docs/listening.md)
+HEARD_READER = {"reader": "praat", "praat_block": 25, "praat_back_s": 0.3}
 #: the attentive posture at listening 1: chin 2° down, the head 3° towards the right shoulder —
 #: a design choice (no recorded listener is reachable here), eased in while listening
 POSTURE_DEG = (2.0, 0.0, 3.0)
@@ -53,9 +54,18 @@ EASE_S = 0.6             # posture in/out
 HOLD_S = 1.0             # the other still counts as speaking this long after a voiced frame
 OWN_HOLD_S = 0.3         # this head counts as speaking this long after a loud frame
 OWN_SPEECH_DB = -45.0    # a 10 ms frame of the own speech louder than this (dB re full scale) is speech
-HEAR_DELAY_S = 0.05      # the heard voicing a frame uses is this much older than the frame
+HEAR_DELAY_S = 0.3       # the heard voicing a frame uses is this much older than the frame (the reading's delay)
 LATE_S = 0.3             # a back-channel this late (heard audio that came late) is still made
 PENDING_S = 1.0          # audio held for analysis is analysed once this much has gathered
+#: while listening (at 1), this share of the model's own movement about its slow course is taken
+#: out, so that the waiting head's sways do not read as nods and the nods stand out
+CALM = 0.8
+CALM_TAU_S = 1.0         # the slow course: a one-pole low-pass of this time constant, from where listening begins
+#: a recorded nod shallower than this (degrees of pitch) is scaled up to it, one deeper scaled down
+NOD_MIN_DEG, NOD_MAX_DEG = 2.5, 5.0
+#: the recorded nods a listener makes: those at least this long (a speaker's quick nods do not read
+#: as a nod when listening)
+NOD_MIN_S = 0.4
 
 
 class _Held:
@@ -140,6 +150,8 @@ class ListeningLayer:
         self._model = model
         self._bank = None
         self._last_nod = -1
+        self._slow_keep = math.exp(-1.0 / max(1.0, CALM_TAU_S * self.fps))  # one pole per frame
+        self._slow = None  # the slow course of the model's frames (their last frame while not listening)
         self.nod_starts: list[int] = []  # frames at which nods started (for measures and tests)
         self.nod_spans: list[tuple[int, int]] = []  # frames [start, end) of each nod
 
@@ -215,20 +227,29 @@ class ListeningLayer:
         if self._heard_held.parts and self._heard_needed((first + len(rv) - 1) / self.fps):
             self._analyse_heard()  # (else these frames do not reach what is held: later, in a batch)
         self._analyse_own()
-        if self.amount == 0.0 or not len(rv) or (self._heard.last_true < 0 and self._ramp == 0.0):
+        if self.amount == 0.0 or not len(rv):
+            return rotvec
+        if self._heard.last_true < 0 and self._ramp == 0.0:
+            self._slow = rv[-1].copy()
             return rotvec  # nothing heard yet: the model's frames as they are
-        delta = np.zeros((len(rv), 3))
+        delta, calm, slow = np.zeros((len(rv), 3)), np.zeros(len(rv)), np.zeros((len(rv), 3))
+        c = CALM * min(1.0, self.amount)
         for k in range(len(rv)):
-            delta[k] = self._frame(first + k)
-        moved = np.flatnonzero(np.any(delta != 0.0, axis=1))
+            delta[k], w = self._frame(first + k)
+            # the slow course of the model's frames since the listening began (at rest before it)
+            self._slow = rv[k].copy() if w == 0.0 or self._slow is None else \
+                self._slow_keep * self._slow + (1.0 - self._slow_keep) * rv[k]
+            slow[k], calm[k] = self._slow, c * w
+        moved = np.flatnonzero(np.any(delta != 0.0, axis=1) | (calm > 0.0))
         if not len(moved):
             return rotvec
         out = rv.copy()
         for k in moved:
-            out[k] = turned(rv[k], np.radians(delta[k]))
+            out[k] = turned(slow[k] + (1.0 - calm[k]) * (rv[k] - slow[k]), np.radians(delta[k]))
         return out
 
-    def _frame(self, t: int) -> np.ndarray:
+    def _frame(self, t: int) -> tuple[np.ndarray, float]:
+        """(what frame ``t`` adds, pitch/yaw/roll degrees; the listening weight at it)."""
         tau = t / self.fps
         a = int(math.floor(tau * ANALYSIS_FPS))
         own = self._own.any_in(a - int(OWN_HOLD_S * ANALYSIS_FPS), a)
@@ -243,7 +264,7 @@ class ListeningLayer:
                 self._start_nod(t)
         d = np.zeros(3)
         if w == 0.0 and not self._playing:
-            return d
+            return d, w
         d += w * self.amount * self._posture
         keep = []
         for start, curve in self._playing:
@@ -252,19 +273,24 @@ class ListeningLayer:
                 d += w * self.amount * curve[i]
                 keep.append((start, curve))
         self._playing = keep
-        return d
+        return d, w
 
     def _start_nod(self, t: int) -> None:
         if self._bank is None:
             self._bank = nod_bank(self._model)
-        n = len(self._bank)
+            long = [i for i, c in enumerate(self._bank.nods) if len(c) >= NOD_MIN_S * self._bank.fps]
+            self._choices = long or list(range(len(self._bank)))
+        n = len(self._choices)
         if n == 0:
             return
         k = int(self._rng.integers(n - 1 if n > 1 and self._last_nod >= 0 else n))
         if self._last_nod >= 0 and n > 1 and k >= self._last_nod:  # never the same nod twice running
             k += 1
         self._last_nod = k
-        curve = self._bank.nods[k]
+        curve = self._bank.nods[self._choices[k]]
+        depth = float(curve[:, 0].max())
+        if depth > 0.0:
+            curve = curve * (min(max(depth, NOD_MIN_DEG), NOD_MAX_DEG) / depth)
         if self._bank.fps != self.fps:
             ts = np.arange(int(round(len(curve) * self.fps / self._bank.fps))) / self.fps * self._bank.fps
             src = np.arange(len(curve))
