@@ -107,3 +107,16 @@ def test_on_real_speech_the_listening_head_follows_the_cues_and_the_still_head_d
     assert rows["listening"].result.pooled_p < 0.05 and rows["cue-led nods"].result.pooled_p < 0.05
     assert rows["not listening"].result.pooled_p > 0.05
     assert 2 <= rows["listening"].nods_per_min <= 25
+
+
+def test_the_command_refuses_bad_input_in_one_line(tmp_path, capsys):
+    from headmotion.cli import main
+
+    for args, needle in ((["--set", "nope"], "unknown set of conversations 'nope'"),
+                         (["--corpus", str(tmp_path / "missing")], "--corpus must be a folder"),
+                         (["--degrade", "clean,loud"], "unknown degradation 'loud'"),
+                         (["--listening", "5"], "listening (--listening) must be a number from 0 to 3")):
+        code = main(["evaluate-listening", "-o", str(tmp_path / "out"), *args])
+        err = capsys.readouterr().err
+        assert code != 0 and needle in " ".join(err.split()), (args, err)
+        assert "Traceback" not in err and not (tmp_path / "out").exists()

@@ -8,8 +8,8 @@ the other party's channel degraded (:mod:`.degraded`: ``noise20``, ``telephone``
 
 Two sets of voices, so that the listening head's settings are chosen on one and reported on the
 other (:data:`VOICE_SETS`): ``choice`` from the talking-video corpus's sources styletalk, sadtalker
-and mimictalk; ``report`` from the corpus's dfrf and pc_avs and from ``../shared/data/speech``
-(broadcast, phone-like, studio, Mandarin, Japanese).  This head's own voice is one of the bundled
+and mimictalk; ``report`` from the corpus's dfrf and from ``../shared/data/speech`` (broadcast,
+phone-like, studio, Mandarin, Japanese).  This head's own voice is one of the bundled
 examples (a different one per set).
 """
 
@@ -34,12 +34,11 @@ HEARD_MAX_S = 66.0
 #: shared data's ``speech/`` folder
 VOICE_SETS = {
     "choice": (["andrew", "feifeili", "german"],
-               ["radio2", "radio34", "alexandriaocasiocortez", "bobmenendez", "edmarkey", "katiehill", "trump",
-                "may", "kristinoem", "reagan"],
+               ["radio2", "radio34", "alexandriaocasiocortez", "bobmenendez", "edmarkey", "katiehill"],
                "examples/speech/speech_male.wav"),
     "report": (["french", "speech/2_scott_0_103_103_28s.wav", "speech/audio3_20sec.wav"],
                ["speech/00083.wav", "speech/jfk.flac", "speech/RD_Radio31_000.wav", "speech/RD_Radio34_002.wav",
-                "speech/chinese_news.wav", "speech/japanese.wav", "pcavs_7414", "pcavs_681100216"],
+                "speech/chinese_news.wav", "speech/japanese.wav"],
                "examples/speech/speech_female.wav"),
 }
 CONDITIONS = ("clean", "noise20", "telephone")
