@@ -259,3 +259,25 @@ def test_rtvi_messages_and_other_frames_pass_through():
     msgs = [f.data for f in down if isinstance(f, RTVIServerMessageFrame)]
     assert msgs and msgs[-1]["type"] == "end"
     assert proc.core.frames_made == len(reference(pcm[:8000], 16000))  # the non-TTS audio made no motion
+
+
+@pytest.mark.parametrize("pace", [True, False])
+def test_send_takes_the_messages_instead_of_the_pipeline(pace):
+    """``send=`` (e.g. a robot's head in the process, docs/robots.md): the frames and end messages
+    go to it, in order and paced as they would go downstream; the audio passes unchanged."""
+    pcm = _speech()
+    audio = _tts_frames(pcm, 16000)
+    got = []
+
+    async def send(message):
+        got.append(message)
+
+    proc = HeadMotionProcessor(lookahead_ms=0, pace=pace, send=send)
+    down, _ = asyncio.run(run_test(proc, frames_to_send=[TTSStartedFrame(), *audio, TTSStoppedFrame()]))
+    _assert_audio_unchanged(audio, _audio_out(down))
+    assert _messages(down, OutputTransportMessageUrgentFrame) == []
+    assert [m for m in _messages(down, OutputTransportMessageFrame) if m["type"] != "audio-start"] == []
+    (utt,) = utterances(got, angles=True)
+    ref = reference(pcm, 16000)
+    np.testing.assert_allclose(utt["rotvec"][:len(ref)], ref, atol=TOL, rtol=0)
+    check_settling(ref, utt["rotvec"][len(ref):], proc.core.settle_frames)

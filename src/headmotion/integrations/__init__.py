@@ -8,10 +8,13 @@
   (``pip install "headmotion[pipecat]"``).
 * :mod:`headmotion.integrations.livekit` — a LiveKit Agents ``AudioOutput``
   (``pip install "headmotion[livekit]"``).
+* :mod:`headmotion.integrations.reachy` — a Reachy Mini robot's head following the motion
+  (``pip install "headmotion[reachy]"``; docs/robots.md); a voice agent drives it with
+  ``send=head.send``.
 
 The messages are the JSON messages of ``headmotion serve``'s stream (``{"type": "frames", ...}``
 and ``{"type": "end", ...}``, docs/serve.md), so a page that applies the server's frames applies
-these too (docs/integrations.md).  Importing this package imports neither framework.
+these too (docs/integrations.md).  Importing this package imports no framework or SDK.
 """
 
 from __future__ import annotations

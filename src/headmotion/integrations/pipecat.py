@@ -23,6 +23,8 @@ docs/integrations.md)::
   (``hear_frames=()`` turns this off).
 * ``rtvi=True``: the messages go as ``RTVIServerMessageFrame`` (a Pipecat client's
   ``onServerMessage``) instead of transport messages.
+* ``send=``: the frames and end messages go to ``await send(message)`` instead (paced as above),
+  e.g. a robot's head in the same process (``headmotion.integrations.reachy.ReachyHead.send``).
 * Each utterance's audio is preceded by ``{"type": "audio-start", "utterance": n}``, in order with
   the audio (an ``OutputTransportMessageFrame``; with ``rtvi``, in RTVI's server-message form), and
   every message carries its ``utterance``: where audio and messages share one ordered channel (the
@@ -90,13 +92,16 @@ class HeadMotionProcessor(FrameProcessor):
         Send ``RTVIServerMessageFrame(data=message)`` rather than transport message frames.
     hear_frames : tuple of frame classes
         The user's audio the head listens to (default ``(InputAudioRawFrame,)``; ``()``: none).
+    send : async callable, optional
+        ``await send(message)`` for each frames and end message instead of a frame downstream
+        (the ``audio-start`` marks still go in order with the audio).
     """
 
     def __init__(self, model="stream", *, seed: int = 0, resample: str = "exact",
                  settle_s: float = DEFAULT_SETTLE_S, pace: bool = True, delay_s: float = 0.0,
                  audio_frames: tuple = (TTSAudioRawFrame,), rtvi: bool = False, controls=None,
                  name: str | None = None, hear_frames: tuple = (InputAudioRawFrame,),
-                 lookahead_ms: float | None = None, **controls_kwargs):
+                 lookahead_ms: float | None = None, send=None, **controls_kwargs):
         super().__init__(name=name)
         self.core = agent_core(model, lookahead_ms=lookahead_ms, seed=seed, resample=resample, settle_s=settle_s,
                                controls=controls, **controls_kwargs)
@@ -106,6 +111,7 @@ class HeadMotionProcessor(FrameProcessor):
         self.audio_frames = tuple(audio_frames)
         self.hear_frames = tuple(hear_frames)
         self.rtvi = bool(rtvi)
+        self._send = send
         self._sender = PacedSender(self.pacer, self._send_now) if pace else None
 
     @property
@@ -132,7 +138,10 @@ class HeadMotionProcessor(FrameProcessor):
         return OutputTransportMessageFrame(message=message)
 
     async def _send_now(self, message: dict) -> None:
-        await self.push_frame(self._frame(message, urgent=True))
+        if self._send is not None:
+            await self._send(message)
+        else:
+            await self.push_frame(self._frame(message, urgent=True))
 
     async def _pass_on(self, entries: list) -> None:
         """The frames the audio hold lets go, downstream in order."""
@@ -146,7 +155,10 @@ class HeadMotionProcessor(FrameProcessor):
         """Unpaced: the messages made so far, as data frames in order with the audio."""
         if self._sender is None:
             for message in self.pacer.due():
-                await self.push_frame(self._frame(message, urgent=False))
+                if self._send is not None:
+                    await self._send(message)
+                else:
+                    await self.push_frame(self._frame(message, urgent=False))
 
     def _motion(self, step, *args) -> None:
         """A pacer step; a failure is logged and the audio goes on."""
