@@ -1,7 +1,7 @@
 """The app factory of ``headmotion serve``: a FastAPI app with the offline route
 (:mod:`.offline`), the stream route (:mod:`.stream`), the model list, health, readiness and
 metrics, the OpenAPI page (``/docs``, ``/openapi.json``), the browser example (``/v1/example``) and
-the avatar page (``/v1/avatar``, :mod:`.avatar`),
+the avatar pages (``/v1/avatar``, :mod:`.avatar`; ``/v1/talkinghead``, :mod:`.talkinghead`),
 behind the Host/Origin guard (:mod:`.security`) and one JSON log line per request.
 
 The models are loaded once per worker, when it starts (the lifespan), and shared by every request
@@ -75,7 +75,7 @@ class AccessLog:
             st = self.state_ref()
             path = scope.get("path", "")
             route = path if path.startswith("/v1/") or path in ("/healthz", "/readyz", "/metrics") else "other"
-            for page in ("/v1/example", "/v1/avatar"):  # a page and its files: one route label
+            for page in ("/v1/example", "/v1/avatar", "/v1/talkinghead"):  # a page and its files: one route label
                 if route.startswith(page):
                     route = page
             extra = (scope.get("state") or {})
@@ -231,12 +231,14 @@ def _add_api_routes(app: FastAPI, st: ServeState) -> None:
 
 
 def _mount(app: FastAPI, config: ServeConfig) -> None:
-    """The avatar page, the offline route, the WebSocket routes, the example's files and CORS."""
+    """The avatar pages, the offline route, the WebSocket routes, the example's files and CORS."""
     from . import offline
     from .avatar import mount_avatar
     from .stream import no_such_stream, stream_endpoint
+    from .talkinghead import mount_talkinghead
 
     mount_avatar(app)
+    mount_talkinghead(app)
     app.include_router(offline.router)
     app.router.routes.append(WebSocketRoute("/v1/stream", stream_endpoint))
     app.router.routes.append(WebSocketRoute("/{path:path}", no_such_stream))  # after every real route

@@ -7,8 +7,12 @@
   the model's eyeballs, white with a brown iris and a black pupil looking ahead) — the model's own
   eyeballs are skin, made to be masked.
 
-Run ``python -m headmotion.web.build_assets`` after changing the mesh or the VRM writer; the test
-suite checks that the committed files match what the code builds.
+* ``static/talkinghead.glb`` — the TalkingHead page's full-body avatar with the Ready Player Me
+  skeleton and blendshapes (:mod:`headmotion.web.talkinghead_avatar`, written by
+  :func:`headmotion.io.rpm.rpm_bytes`): the same head, neck, ears and eyes on a body of its own.
+
+Run ``python -m headmotion.web.build_assets`` after changing the mesh or the VRM or glTF writers;
+the test suite checks that the committed files match what the code builds.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from ..render.mesh import HEAD_CENTER, build_head_mesh, mesh_to_bytes
 
 MESH_FILE = Path(__file__).resolve().parent / "static" / "head_mesh.bin"
 AVATAR_FILE = Path(__file__).resolve().parent / "static" / "avatar.vrm"
+TALKINGHEAD_FILE = Path(__file__).resolve().parent / "static" / "talkinghead.glb"
 WEB_DETAIL = 0
 #: the parts of the head model that make the avatar (the masks are for perception tests)
 AVATAR_PARTS = ("head", "ears", "neck", "torso")
@@ -85,6 +90,22 @@ def build_avatar(path=AVATAR_FILE) -> Path:
     return Path(path)
 
 
+def talkinghead_bytes() -> bytes:
+    """The TalkingHead page's avatar (module docstring)."""
+    from ..io.rpm import rpm_bytes
+    from .talkinghead_avatar import avatar_parts
+
+    return rpm_bytes(avatar_parts(eyes(), EYE_CENTER), extras={
+        "made_by": "python -m headmotion.web.build_assets (headmotion.render.mesh at detail 0, two eye "
+                   "spheres and a body of capsules, on the Ready Player Me skeleton)"})
+
+
+def build_talkinghead(path=TALKINGHEAD_FILE) -> Path:
+    atomic_write_bytes(path, talkinghead_bytes())
+    return Path(path)
+
+
 if __name__ == "__main__":
     print(f"wrote {build()}")
     print(f"wrote {build_avatar()}")
+    print(f"wrote {build_talkinghead()}")

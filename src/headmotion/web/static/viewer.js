@@ -37,7 +37,7 @@
  * Frame i is shown from i / fps to (i + 1) / fps, as in the rendered videos.
  */
 // three.js (MIT licence, https://threejs.org) is bundled in ./vendor/; built by web/js/build.mjs.
-import{Aa as ne,G as Q,H as X,J as k,L as Y,Q as Z,a as q,ba as ee,oa as te,w as I,x as J,y as U}from"./vendor/chunk-SS6ETLV5.js";var re=`// The head's vertex shader (three.js ShaderMaterial): the neck skinned by scaling the rotation.
+import{B as I,C as J,D as U,Ea as te,M as Q,N as X,P as k,T as Y,Va as ne,_ as Z,c as q,pa as ee}from"./vendor/chunk-NTRQNTM4.js";var re=`// The head's vertex shader (three.js ShaderMaterial): the neck skinned by scaling the rotation.
 attribute vec3 hmColor;
 attribute float hmMat;
 attribute float hmWeight;

@@ -165,7 +165,11 @@ function toPcm(chunk, encoding) {
  *   `lookaheadMs` (how far ahead a live model reads the speech, 0 to 1080 ms, for speech made before
  *   it plays: the frames come that much later, the ready message's `latency_ms`; default 0),
  *   `interrupt` (an AbortSignal: when it aborts, the speech is cut off — the server drops the frames
- *   not yet final and settles the head from the last one sent, `settle` seconds), `signal`, `onReady(ready)`, `onAudio(pcm,
+ *   not yet final and settles the head from the last one sent, `settle` seconds), `shown()` (with
+ *   `interrupt`: the number of frames the page showed, sent with the interrupt so that the head
+ *   settles from the last one shown), `hear` ({sampleRate, encoding}: the source also yields
+ *   `{hear: chunk}` — the other party's audio, sent as hear messages in order with the speech;
+ *   the avatar page's `role: "listen"` does it for you), `signal`, `onReady(ready)`, `onAudio(pcm,
  *   sentAtMs)` (each PCM ArrayBuffer as sent, in the stream's encoding, and the performance.now()
  *   of its send: to keep what was sent, or to time frames against the audio)
  */
@@ -183,8 +187,10 @@ export async function* stream(source, options = {}) {
   const listen = options.role === "listen";
   if (listen) {  // the source is the other party: heard, while the avatar's own channel is silence
     start.hear = { sample_rate: sampleRate, encoding };
-    if (options.listening !== undefined) start.listening = options.listening;
+  } else if (options.hear) {  // the source interleaves the other party's audio with the speech
+    start.hear = { sample_rate: options.hear.sampleRate || sampleRate, encoding: options.hear.encoding || encoding };
   }
+  if (start.hear && options.listening !== undefined) start.listening = options.listening;
   if (options.apiKey) start.api_key = options.apiKey;
 
   const ws = new WebSocket(`${url}/v1/stream`);
@@ -205,7 +211,8 @@ export async function* stream(source, options = {}) {
   const cut = () => {  // options.interrupt aborted: no more audio, the server settles the head and ends
     if (stopped) return;
     stopped = true;
-    if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify({ type: "interrupt" }));
+    const shown = options.shown ? options.shown() : null;
+    if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(Number.isInteger(shown) ? { type: "interrupt", shown } : { type: "interrupt" }));
   };
   if (options.interrupt) {
     if (options.interrupt.aborted) cut();
@@ -215,6 +222,10 @@ export async function* stream(source, options = {}) {
     const width = encoding === "s16le" ? 2 : 4;
     for await (const c of chunks) {
       if (stopped || ws.readyState !== WebSocket.OPEN) return;
+      if (c && c.hear !== undefined && start.hear) {  // the other party's audio (options.hear)
+        ws.send(JSON.stringify({ type: "hear", audio: base64(toPcm(c.hear, start.hear.encoding)) }));
+        continue;
+      }
       const pcm = toPcm(c, encoding);
       if (t0 === null) t0 = performance.now() - (pcm.byteLength / width / sampleRate) * 1000;
       while (ws.bufferedAmount > (1 << 20) && ws.readyState === WebSocket.OPEN) {
