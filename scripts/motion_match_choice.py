@@ -20,6 +20,9 @@ makes four takes (seeds 0–3) of every held-out recording.  Per variant and see
 variant's mean cross-speaker excess over its level's, per side and seed
 (docs/decisions/rulers-with-a-level.md).
 
+A variant ``{"system": NAME, ...}`` is another registered system with those parameters, scored by
+the same rulers (e.g. the ``loudness-wobble`` baseline beside the variants).
+
 Choose on seeds that are not reported (``evaluate`` reports seeds 1 and 2):
 
     python scripts/motion_match_choice.py ~/.cache/headmotion/corpus/talking_video --seeds 0 3 4 \
@@ -67,8 +70,10 @@ def takes(corpus: Corpus, seed: int, params: dict, folds: int, sides=("praat",))
     {side: (the fold's cross-speaker CCA of that side fitted on its training recordings, the
     recording's features of that side)})."""
     out = {}
+    params = dict(params)
+    system = params.pop("system", "motion-match")  # another registered system as a baseline beside the variants
     for k, (_, train, test, _) in enumerate(make_folds(corpus, "speakers", seed=seed, speaker_folds=folds)):
-        model = create("motion-match", **params).fit(train)
+        model = create(system, **params).fit(train)
         cca = {side: CrossSpeakerCCA().fit([r.motion for r in train], [side_feats(r, side) for r in train],
                                            fps=float(train[0].motion.fps)) for side in sides}
         for r in test:

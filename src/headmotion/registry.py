@@ -18,6 +18,7 @@ SYSTEMS: dict[str, str] = {
     "motion-flow": "headmotion.systems.flow:MotionFlow",
     "motion-match": "headmotion.systems.motion_match:MotionMatch",
     "adapt": "headmotion.systems.adapt:Adapt",
+    "loudness-wobble": "headmotion.systems.loudness_wobble:LoudnessWobble",
 }
 
 
