@@ -32,6 +32,7 @@ TINY = {
                         sampling_steps=2, n_threads=1),
     "motion-match": dict(),
     "adapt": dict(min_speech_s=0.0),
+    "loudness-wobble": dict(),
 }
 BAD = {
     "tws-basic": {"method": "best"},
@@ -41,6 +42,7 @@ BAD = {
     "motion-flow": {"sampling_steps": 0},
     "motion-match": {"temperature": 0.0},
     "adapt": {"min_speech_s": -1.0},
+    "loudness-wobble": {"fps": 0.5},
 }
 
 
