@@ -7,11 +7,16 @@ generator on the same cores as the server.
 * concurrent paced streams: N clients each send 20 ms chunks of real speech (s16le, 16 kHz) in
   real time to one worker with the shipped streaming model; a frame's latency runs from the send
   of the chunk that completes it (the chunk holding the audio up to the frame's time plus the
-  model's lookahead) to its arrival; N grows (1, 2, 4, 8, 12, 16, …) until the p95 passes 50 ms
-  or a frame is lost or repeated — the largest N that held and the curve, the server's CPU per
-  stream (all its workers, from the processes' CPU times) and the load client's — with one worker
-  and with two (one event loop is one core); then past it: a server started with ``--max-streams`` at that N gets more clients at
-  once — how many are refused with ``busy`` and the p95 of the streams it carries;
+  model's lookahead) to its arrival; N grows (:data:`LEVELS`, 1 … 64, the target, in ``--quick``
+  too) until the median p95 of :data:`RUNS` runs passes 50 ms or a frame is lost or repeated —
+  the largest N that held and the curve, each level with its runs' p95, the machine's free CPU
+  just before each run and the cores other programs used during it (above
+  :data:`TOO_BUSY_CORES` the level is marked too busy to tell, and a capacity that stopped there
+  is not judged), the server's CPU per stream (all its workers, from the processes' CPU times)
+  against the model's own stream in-process, the load client's, and one stream's latency and
+  first frame — with one worker and with two (one event loop is one core); then past it: a
+  server started with ``--max-streams`` at that N gets more clients at once — how many are
+  refused with ``busy`` and the p95 of the streams it carries;
 * offline: requests per second and p95 latency for 10 s clips with the default model, 1 and 2
   workers, 4 clients at once;
 * memory per open stream (server RSS with K streams open, minus before, ÷ K) and memory over a
@@ -48,15 +53,19 @@ def _free_port() -> int:
 
 
 class Server:
-    """``headmotion serve`` in a child process, ready when /readyz says so."""
+    """``headmotion serve`` in a child process, ready when /readyz says so (``prefix``: the command
+    before ``-m headmotion``, e.g. a profiler; ``src``: the package's source folder, default
+    ``$SERVE_BENCH_SRC`` or this checkout's)."""
 
-    def __init__(self, *, workers: int = 1, keys: list[tuple] | None = None, max_streams: int | None = None):
+    def __init__(self, *, workers: int = 1, keys: list[tuple] | None = None, max_streams: int | None = None,
+                 prefix: list[str] | None = None, src: Path | None = None):
         import httpx
 
         self.tmp = tempfile.TemporaryDirectory(prefix="hm-serve-bench-")
         self.port = _free_port()
         self.url = f"http://127.0.0.1:{self.port}"
-        args = [sys.executable, "-m", "headmotion", "serve", "--port", str(self.port), "--workers", str(workers)]
+        args = [*(prefix or [sys.executable]), "-m", "headmotion", "serve", "--port", str(self.port),
+                "--workers", str(workers)]
         if max_streams is not None:
             args += ["--max-streams", str(max_streams)]
         if keys:
@@ -65,7 +74,8 @@ class Server:
             kf = Path(self.tmp.name) / "keys.txt"
             kf.write_text("".join(key_line(k, name=n, streams=s, rate=r) + "\n" for k, n, s, r in keys))
             args += ["--api-keys", str(kf)]
-        env = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+        src = src or os.environ.get("SERVE_BENCH_SRC") or ROOT / "src"  # another version's source, to compare
+        env = {**os.environ, "PYTHONPATH": str(src) + os.pathsep + os.environ.get("PYTHONPATH", "")}
         self.log = open(Path(self.tmp.name) / "server.log", "w")
         self.proc = subprocess.Popen(args, env=env, stdout=self.log, stderr=subprocess.STDOUT)
         deadline = time.time() + 240
@@ -178,22 +188,29 @@ async def paced_stream(url: str, pcm: np.ndarray, *, key: str | None = None, chu
 
         sender = asyncio.create_task(send())
         end = None
+        first_at = []
         try:
-            await _read(ws, lat, sent_at, completing_chunk, frames_box := [0, True])
+            await _read(ws, lat, sent_at, completing_chunk, frames_box := [0, True], first_at)
         finally:
             if not sender.done():
                 sender.cancel()
             await asyncio.gather(sender, return_exceptions=True)
         frames, order_ok, end = frames_box[0], frames_box[1], frames_box[2] if len(frames_box) > 2 else None
-    return {"lat": lat, "frames": frames, "fps": fps, "ok": order_ok and end is not None and end["frames"] == frames}
+    # the first frame: from the send of the chunk that completes frame 0 to its arrival
+    k0 = int(completing_chunk(np.array([0]))[0])
+    first = first_at[0] - sent_at[k0] if first_at and k0 >= 0 and not np.isnan(sent_at[k0]) else np.nan
+    return {"lat": lat, "frames": frames, "fps": fps, "first": first,
+            "ok": order_ok and end is not None and end["frames"] == frames}
 
 
-async def _read(ws, lat, sent_at, completing_chunk, box) -> None:
+async def _read(ws, lat, sent_at, completing_chunk, box, first_at) -> None:
     """Frames of one paced stream: count, order and latency into ``lat``; ``box`` = [frames, in
-    order, end message]."""
+    order, end message]; ``first_at``: the arrival time of the first frames message."""
     async for msg in ws:
         now = time.perf_counter()
         if isinstance(msg, bytes):
+            if not first_at:
+                first_at.append(now)
             first, n = int.from_bytes(msg[4:8], "little"), int.from_bytes(msg[8:12], "little")
             box[1] &= first == box[0]
             box[0] += n
@@ -219,20 +236,42 @@ def stream_level(srv: "Server", n: int, seconds: float, pcm_pool) -> dict:
         jobs = [paced_stream(srv.url, pcm_pool[k % len(pcm_pool)], t_start=t0 + 0.02 * k / n) for k in range(n)]
         return await asyncio.gather(*jobs, return_exceptions=True)
 
-    cpu0, mine0 = srv.cpu(), time.process_time()
+    import psutil
+
+    cpu0, mine0, sys0, wall0 = srv.cpu(), time.process_time(), _busy_cpu(psutil.cpu_times()), time.perf_counter()
     res = asyncio.run(main())
     cpu, mine = srv.cpu() - cpu0, time.process_time() - mine0
+    wall = time.perf_counter() - wall0
+    others = max(0.0, _busy_cpu(psutil.cpu_times()) - sys0 - cpu - mine) / wall  # cores other programs used
     refused = [r for r in res if isinstance(r, Refused)]
     errs = [r for r in res if isinstance(r, BaseException) and not isinstance(r, Refused)]
     ok = [r for r in res if not isinstance(r, BaseException)]
     lat = np.concatenate([r["lat"] for r in ok]) * 1000 if ok else np.array([np.inf])
     # every frame at the model's rate (the ready message's fps)
     complete = all(r["ok"] and abs(r["frames"] - round(seconds * r["fps"])) <= 1 for r in ok) and not errs
+    first = [r["first"] for r in ok if np.isfinite(r["first"])]
     return {"n": n, "p50": float(np.percentile(lat, 50)), "p95": float(np.percentile(lat, 95)),
             "complete": complete, "errors": [repr(e)[:100] for e in errs][:3],
             "refused": [r.args[0] for r in refused], "carried": len(ok),
             "cpu_per_stream_s": cpu / (max(1, len(ok)) * seconds),
-            "client_cpu_per_stream_s": mine / (max(1, len(ok)) * seconds)}
+            "client_cpu_per_stream_s": mine / (max(1, len(ok)) * seconds),
+            "first_ms": float(np.median(first) * 1000) if first else float("nan"),
+            "others_cores": others, "load": os.getloadavg()[0]}
+
+
+def _busy_cpu(t) -> float:
+    """CPU seconds the whole machine has been busy (all cores; not idle, not waiting for I/O)."""
+    return sum(t) - t.idle - getattr(t, "iowait", 0.0) - getattr(t, "guest", 0.0) - getattr(t, "guest_nice", 0.0)
+
+
+def free_cpu(seconds: float = 1.0) -> float:
+    """Cores free on the machine over the next ``seconds`` (nothing of ours running)."""
+    import psutil
+
+    t0, w0 = _busy_cpu(psutil.cpu_times()), time.perf_counter()
+    time.sleep(seconds)
+    busy = (_busy_cpu(psutil.cpu_times()) - t0) / (time.perf_counter() - w0)
+    return max(0.0, (os.cpu_count() or 1) - busy)
 
 
 def model_cpu_per_second(pcm: np.ndarray, chunk: int = 320, sr: int = 16000) -> float:
@@ -321,16 +360,47 @@ async def unpaced_stream(url: str, pcm: np.ndarray, chunk: int = 160) -> np.ndar
     return np.vstack(rows)
 
 
-def _capacity(workers: int, seconds: float, pool, quick: bool) -> tuple[int, list]:
-    """The curve of paced streams on ``workers`` worker processes: N grows until the p95 passes
-    50 ms or a frame is lost; the largest N that held and the levels."""
+#: the stream counts tried, up to the target
+LEVELS = (1, 2, 4, 8, 12, 16, 20, 24, 32, 40, 48, 56, 64)
+TARGET_STREAMS = 64
+#: runs per level (the median is reported)
+RUNS = 3
+#: other programs using more than this many cores during a level: too busy to tell
+TOO_BUSY_CORES = 0.5
+#: the server's CPU per stream may be this many times the model's own stream's
+CPU_RATIO_TARGET = 1.5
+
+
+def _level(srv, n: int, seconds: float, pool, runs: int) -> dict:
+    """``runs`` runs of N paced streams: the median of each figure, each run's p95, the free CPU
+    measured just before each run and the cores other programs used during it."""
+    rs = []
+    for _ in range(runs):
+        free = free_cpu(0.5)
+        r = stream_level(srv, n, seconds, pool)
+        r["free_before"] = free
+        rs.append(r)
+
+    def med(k):
+        return float(np.median([r[k] for r in rs]))
+
+    out = {k: med(k) for k in ("p50", "p95", "cpu_per_stream_s", "client_cpu_per_stream_s", "first_ms",
+                               "others_cores", "free_before", "load")}
+    out.update(n=n, complete=all(r["complete"] for r in rs), p95_runs=[r["p95"] for r in rs],
+               carried=min(r["carried"] for r in rs), errors=[e for r in rs for e in r["errors"]][:3],
+               too_busy=out["others_cores"] > TOO_BUSY_CORES)
+    return out
+
+
+def _capacity(workers: int, seconds: float, pool, runs: int) -> tuple[int, list]:
+    """The curve of paced streams on ``workers`` worker processes: N grows up to
+    :data:`TARGET_STREAMS` until the median p95 passes 50 ms or a frame is lost; the largest N
+    that held and the levels."""
     srv = Server(workers=workers)
     curve, best = [], 0
     try:
-        for n in (1, 2, 4, 8, 12, 16, 20, 24, 28, 32, 40, 48, 64):
-            if quick and n > 16:
-                break
-            r = stream_level(srv, n, seconds, pool)
+        for n in LEVELS:
+            r = _level(srv, n, seconds, pool, runs)
             curve.append(r)
             if r["p95"] > P95_BUDGET_MS or not r["complete"]:
                 break
@@ -340,31 +410,49 @@ def _capacity(workers: int, seconds: float, pool, quick: bool) -> tuple[int, lis
     return best, curve
 
 
+def _level_note(r: dict) -> str:
+    busy = "; too busy to tell" if r["too_busy"] else ""
+    lost = "" if r["complete"] else ", frames lost"
+    runs = "/".join(f"{p:.0f}" for p in r["p95_runs"])
+    return (f"{r['n']}: {r['p95']:.0f} ms (runs {runs}{lost}; free CPU before {r['free_before']:.1f} cores, others "
+            f"{r['others_cores']:.1f} cores during, load {r['load']:.1f}{busy})")
+
+
 def bench_streams(res, Row, quick: bool) -> None:
-    seconds = 6.0 if quick else 10.0
+    seconds = 5.0 if quick else 10.0
     pool = [speech_pcm(seconds, seed=s) for s in range(4)]
     model_cpu = model_cpu_per_second(pool[0])
     best1 = 0
     for workers in (1, 2):
-        best, curve = _capacity(workers, seconds, pool, quick)
+        best, curve = _capacity(workers, seconds, pool, RUNS)
         best1 = best if workers == 1 else best1
-        pts = ", ".join(f"{r['n']}: {r['p95']:.0f}{'' if r['complete'] else ' (frames lost)'}" for r in curve)
         held = [r for r in curve if r["n"] <= max(best, 1)]
-        # the server's CPU per stream falls as streams are added (one wake-up serves several
-        # messages): given at the largest N that held, the median over the levels beside it
         at = held[-1]
         cpu, client = at["cpu_per_stream_s"], at["client_cpu_per_stream_s"]
-        cpu_median = float(np.median([r["cpu_per_stream_s"] for r in held]))
+        stop = curve[-1] if curve[-1]["n"] > best else None
+        unsure = stop is not None and stop["too_busy"]
+        verdict = None if unsure and best < TARGET_STREAMS else best >= TARGET_STREAMS
+        why = ("" if stop is None else
+               f"; stopped at N={stop['n']}" + (" with the machine too busy to tell (other programs used "
+                                                 f"{stop['others_cores']:.1f} cores)" if unsure else ""))
         res.add(Row("10 serve", f"paced real-time streams (20 ms chunks, {seconds:g} s of speech each), {workers} "
-                                f"worker{'s' if workers > 1 else ''}, largest N with p95 <= 50 ms from the chunk "
-                                "completing a frame to the frame, no frame lost",
-                    best, "streams", ">= 32 on 2 cores", best >= 32,
-                    f"p95 ms by N: {pts}; load average {os.getloadavg()[0]:.1f}; at N={at['n']} server CPU "
-                    f"{cpu * 100:.1f}% of a core per stream (about {1 / cpu:.0f} streams per free core), "
-                    f"{cpu / model_cpu:.1f}x the model's own stream ({model_cpu * 100:.1f}% of a core in-process, one "
-                    f"BLAS thread; target <= 3x; median over the levels that held {cpu_median * 100:.1f}%, "
-                    f"{cpu_median / model_cpu:.1f}x); the load client on the same cores {client * 100:.1f}% of a core "
-                    f"per stream"))
+                                f"worker{'s' if workers > 1 else ''}, largest N with the median p95 of {RUNS} runs "
+                                "<= 50 ms from the chunk completing a frame to the frame, no frame lost",
+                    best, "streams", f">= {TARGET_STREAMS} on 2 cores", verdict,
+                    f"median p95 by N: {'; '.join(_level_note(r) for r in curve)}{why}. At N={at['n']} server CPU "
+                    f"{cpu * 100:.2f}% of a core per stream, {cpu / model_cpu:.2f}x the model's own stream "
+                    f"({model_cpu * 100:.2f}% of a core in-process, one BLAS thread; target <= {CPU_RATIO_TARGET:g}x); "
+                    f"the load client on the same cores {client * 100:.2f}% of a core per stream"))
+        one = curve[0]
+        res.add(Row("10 serve", f"one paced stream, {workers} worker{'s' if workers > 1 else ''}: p50 / p95 latency "
+                                f"and first frame (median of {RUNS} runs)", one["p95"], "ms p95", "-", None,
+                    f"p50 {one['p50']:.1f} ms, p95 {one['p95']:.1f} ms, first frame {one['first_ms']:.1f} ms after "
+                    f"the chunk completing it; load {one['load']:.1f}"))
+        res.add(Row("10 serve", f"server CPU per stream at N={at['n']}, {workers} worker{'s' if workers > 1 else ''}, "
+                                "over the model's own stream in-process", cpu / model_cpu, "x",
+                    f"<= {CPU_RATIO_TARGET:g}x", None if at["too_busy"] else cpu / model_cpu <= CPU_RATIO_TARGET,
+                    f"{cpu * 100:.2f}% against {model_cpu * 100:.2f}% of a core; load {at['load']:.1f}"
+                    + ("; too busy to tell" if at["too_busy"] else "")))
     if best1 < 1:
         return
     best = best1
@@ -380,7 +468,7 @@ def bench_streams(res, Row, quick: bool) -> None:
                             f"--max-streams {best}: streams refused with busy", busy, f"of {extra} extra",
                 f"{extra}", ok,
                 f"{r['carried']} carried with every frame: {r['complete']}, p50 {r['p50']:.0f} ms, p95 "
-                f"{r['p95']:.0f} ms; refused: {r['refused']}"))
+                f"{r['p95']:.0f} ms; refused: {r['refused']}; load {r['load']:.1f}"))
 
 
 def bench_offline(res, Row, quick: bool) -> None:

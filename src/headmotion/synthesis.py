@@ -484,11 +484,19 @@ class SpeechStream:
 
     def push(self, samples) -> Motion:
         """Frames made final by these float32 mono samples (at :attr:`sample_rate`; may be none)."""
+        return _run_alone(self.push_steps(samples))
+
+    def push_steps(self, samples):
+        """:meth:`push` step by step: a generator of the model's decisions' asks, answered by
+        whoever drives it — one engine for many streams (:mod:`headmotion.live.engine`) or
+        each alone (:meth:`push`); returns the Motion (:mod:`headmotion.systems.decisions`)."""
+        from .systems.decisions import steps_of
+
         if self._listener is not None:
             self._listener.speech(samples)
         elif self.controls.listening > 0:
             self._keep_spoken(samples)
-        return self._controlled(self._inner.push(self._resample(samples)))
+        return self._controlled((yield from steps_of(self._inner, "push", self._resample(samples))))
 
     def hear(self, samples) -> None:
         """What the head hears: float32 mono samples at :attr:`heard_rate`, from the start of the
@@ -522,8 +530,14 @@ class SpeechStream:
 
     def flush(self) -> Motion:
         """The frames still held, at the end of the speech."""
-        tail = self._inner.push(self._resample(np.zeros(0, np.float32), last=True))
-        rest = self._inner.flush()
+        return _run_alone(self.flush_steps())
+
+    def flush_steps(self):
+        """:meth:`flush` step by step (as :meth:`push_steps`)."""
+        from .systems.decisions import steps_of
+
+        tail = yield from steps_of(self._inner, "push", self._resample(np.zeros(0, np.float32), last=True))
+        rest = yield from steps_of(self._inner, "flush")
         rv = np.vstack([np.asarray(tail.rotvec).reshape(-1, 3), np.asarray(rest.rotvec).reshape(-1, 3)])
         return self._controlled(rest if len(tail) == 0 else Motion(rv, rest.fps, meta=dict(rest.meta)))
 
@@ -538,6 +552,13 @@ class SpeechStream:
         if self._identity or not n:
             return motion
         return apply_controls(motion, self.model, self.controls)
+
+
+def _run_alone(steps):
+    """A stream's steps run to their end, each decision answered alone."""
+    from .systems.decisions import run_alone
+
+    return run_alone(steps)
 
 
 def open_stream(model=DEFAULT_STREAM_MODEL, *, seed: int | None = None, sample_rate: int | None = None,

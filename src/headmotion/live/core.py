@@ -42,9 +42,10 @@ import numpy as np
 from .. import quaternions
 from ..errors import HeadMotionError, ParameterError, SampleRateError
 from ..io.resampler import QUALITY
-from .blas import one_blas_thread
 from ..synthesis import DEFAULT_STREAM_MODEL, Controls, load_model, open_stream
+from ..systems.decisions import run_alone
 from ..types import Motion
+from .blas import one_blas_thread
 
 log = logging.getLogger("headmotion.live")
 
@@ -121,7 +122,8 @@ def _mono(samples, sample_rate) -> np.ndarray:
         x = x.mean(axis=1, dtype=np.float32)
     elif x.ndim != 1:
         raise ParameterError(f"samples must be mono (n,) or (n, channels); got shape {x.shape}")
-    if not np.all(np.isfinite(x)):
+    # a float64 sum of float32 samples cannot overflow: it is finite iff every sample is
+    if not math.isfinite(float(np.add.reduce(x, dtype=np.float64))):
         raise ParameterError("the samples hold NaN or infinite values")
     return x
 
@@ -273,10 +275,16 @@ class HeadMotionCore:
         the first push after an end or an interruption opens a fresh stream.  Returns the frames
         made final (maybe none).  Raises :class:`~headmotion.errors.SampleRateError` when the rate
         changes within an utterance."""
+        return run_alone(self.push_steps(samples, sample_rate))
+
+    def push_steps(self, samples, sample_rate: int):
+        """:meth:`push` step by step: a generator of the model's decisions' asks, answered by the
+        process's engine together with every other stream's (:mod:`headmotion.live.engine`), or
+        each alone by :meth:`push`; returns the FrameBatch."""
         x = _mono(samples, sample_rate)
         self.begin(sample_rate)
         self._samples_in += len(x)
-        return self._speech(self._stream.push(x).rotvec)
+        return self._speech((yield from self._stream.push_steps(x)).rotvec)
 
     def hear_along(self, samples) -> None:
         """The other party's audio (float32 mono at ``heard_rate``) on the open utterance's own
@@ -298,6 +306,10 @@ class HeadMotionCore:
         from the last pose shown — and returns its frames; the agent's next push ends the turn
         (:meth:`end_listening`).  While the agent speaks the user's audio is not listened to
         (an empty batch)."""
+        return run_alone(self.hear_steps(samples, sample_rate))
+
+    def hear_steps(self, samples, sample_rate: int):
+        """:meth:`hear` step by step (as :meth:`push_steps`)."""
         x = _mono(samples, sample_rate)
         if self._stream is not None:
             return FrameBatch(self._made, self.fps, np.zeros((0, 3)), self.audio_seconds)
@@ -311,7 +323,7 @@ class HeadMotionCore:
             self._ease = (np.asarray(shown, dtype=np.float64), self.settle_frames)
         self._listen.hear(x)
         self._samples_in += len(x)
-        return self._speech(self._listen.push(np.zeros(len(x), np.float32)).rotvec)
+        return self._speech((yield from self._listen.push_steps(np.zeros(len(x), np.float32))).rotvec)
 
     def end_listening(self) -> list:
         """Close the listening turn: ``[UtteranceEnd]`` (nothing when none is open).  The agent's
@@ -341,11 +353,15 @@ class HeadMotionCore:
         """End the utterance (the TTS stopped): ``[tail, settling, UtteranceEnd]`` — the frames the
         lookahead held, then the settling to the rest pose (batches left out when empty).
         Nothing when no utterance is open."""
+        return run_alone(self.end_steps())
+
+    def end_steps(self):
+        """:meth:`end` step by step (as :meth:`push_steps`)."""
         if self._stream is None:
             return []
         stream, self._stream = self._stream, None
         out = []
-        batch = self._speech(stream.flush().rotvec)
+        batch = self._speech((yield from stream.flush_steps()).rotvec)
         if len(batch):
             out.append(batch)
         settle = self._settling(self._made)

@@ -28,7 +28,9 @@ Protocol (docs/serve.md has examples):
    client showed; without ``shown``, the last one sent), numbered from ``K``, then the end
    message (``"interrupted": true``) and the close.
 
-The stream is the live core every live path shares (:class:`headmotion.live.core.HeadMotionCore`).
+The stream is the live core every live path shares (:class:`headmotion.live.core.HeadMotionCore`),
+advanced by the worker's one engine (:class:`headmotion.live.engine.LiveEngine`): the decisions due
+across all its streams are made together, and each stream's frames are those it gets alone.
 
 Errors: one text message ``{"type": "error", "error": KIND, "detail": SENTENCE}`` (``retry_after``
 when the server knows when) then a close with a code (1008 policy: bad start / message / key /
@@ -55,6 +57,7 @@ import numpy as np
 from ..errors import HeadMotionError
 from ..io.resampler import QUALITY
 from ..live.core import SETTLE_RANGE_S, FrameBatch, HeadMotionCore, check_seconds
+from ..live.engine import LiveEngine
 from . import engine
 from .access import ApiError, check_rate, identify
 from .metrics import log_event
@@ -258,6 +261,15 @@ def parse_binary_frames(data: bytes) -> tuple[int, float, float, np.ndarray]:
     return first, float(fps), audio_time, np.frombuffer(data, "<f4", offset=HEADER.size).reshape(n, 6)
 
 
+def live_engine(st) -> LiveEngine:
+    """The worker's one engine (:mod:`headmotion.live.engine`): every stream's decisions made
+    together."""
+    eng = getattr(st, "live_engine", None)
+    if eng is None:
+        eng = st.live_engine = LiveEngine()
+    return eng
+
+
 class _Closed(Exception):
     pass
 
@@ -338,9 +350,11 @@ class Session:
             self.st.metrics.requests.labels("/v1/stream", status).inc()
             if status not in ("ok", "client_closed", "server_shutdown"):
                 self.st.metrics.errors.labels(status).inc()
+            eng = getattr(self.st, "live_engine", None)  # the worker's engine so far: ticks, decisions, largest tick
             log_event("stream", key=None if self.key is None else self.key.name, status=status, reason=reason,
                       frames=self.frames, audio_s=round(self.samples_in / max(1, self.log.get("sr", 1)), 3),
-                      wall_s=round(time.perf_counter() - self.t0, 3), **{k: v for k, v in self.log.items() if k != "sr"})
+                      wall_s=round(time.perf_counter() - self.t0, 3), **{k: v for k, v in self.log.items() if k != "sr"},
+                      engine=None if eng is None else [eng.stats.ticks, eng.stats.decisions, eng.stats.largest])
 
     async def _receive(self, timeout: float) -> dict:
         try:
@@ -409,6 +423,7 @@ class Session:
         except HeadMotionError as exc:
             raise ProtocolError("bad_start", str(exc)) from None
         fps = core.fps
+        eng = live_engine(self.st)
         self.sender = asyncio.create_task(self._send_loop())
         await self._put(json.dumps({"type": "ready", "model": self.name, "system": model.name, "fps": fps,
                                     "latency_ms": core.latency_ms, "sample_rate": sr,
@@ -433,7 +448,7 @@ class Session:
                 if self.samples_in > max_samples:
                     raise ProtocolError("too_long", f"the stream passed its limit of "
                                                     f"{self.lim.max_stream_seconds:g} s of audio", 1009)
-                await self._emit(core.push(x, sr), start.frames, t_recv)
+                await self._emit(await eng.push(core, x, sr), start.frames, t_recv)
                 continue
             text = msg.get("text") or ""
             if len(text) > 2 * self.lim.max_message_bytes:
@@ -453,7 +468,7 @@ class Session:
                 core.hear_along(y)
                 continue
             if kind == "end" and set(obj) <= {"type"}:
-                items = core.end()
+                items = await eng.end(core)
             elif kind == "interrupt" and set(obj) <= {"type", "shown"}:
                 items = core.interrupt(shown=_shown(obj.get("shown"), self.frames))
             else:

@@ -184,13 +184,22 @@ class MotionMatch(Synthesizer):
         """Offsets (frames) of a descriptor's taps.  ``live``: relative to the last frame read,
         ``context`` frames back from the decision's own frame to the :attr:`_shift` frames it reads
         ahead — the speech it reads ahead is added to the speech around the decision, which the
-        descriptor keeps (it is not moved wholly into the future)."""
+        descriptor keeps (it is not moved wholly into the future).  Kept for the settings they
+        were made for (a live stream asks at every decision)."""
+        key = (bool(self.live), int(self.context), int(self.lookahead), self._shift)
+        kept = self.__dict__.get("_taps_kept")
+        if kept is not None and kept[0] == key:
+            return kept[1]
         if self.live:
             back = int(self.context) + self._shift
-            return np.unique(np.append(np.arange(-back, 1, max(1, back // 4)), 0))
-        ahead = int(self.lookahead)
-        step = max(1, (int(self.context) + ahead) // 4)
-        return np.unique(np.append(np.arange(-int(self.context), ahead + 1, step), ahead))
+            taps = np.unique(np.append(np.arange(-back, 1, max(1, back // 4)), 0))
+        else:
+            ahead = int(self.lookahead)
+            step = max(1, (int(self.context) + ahead) // 4)
+            taps = np.unique(np.append(np.arange(-int(self.context), ahead + 1, step), ahead))
+        taps.setflags(write=False)
+        self.__dict__["_taps_kept"] = (key, taps)
+        return taps
 
     @property
     def _live_back(self) -> int:

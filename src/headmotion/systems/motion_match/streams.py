@@ -7,6 +7,7 @@ import numpy as np
 from ...align import fit_length
 from ...align import n_frames as _n_frames
 from ...types import Motion
+from ..decisions import run_alone
 from .library import FPS, LIVE_NAMES
 from .walk import _Walk
 
@@ -44,7 +45,9 @@ class MotionMatchStream:
         self.samples = 0      # samples pushed
         self.raw_last = None  # the last raw feature row (repeated if the file ends before its frames)
 
-    def _frames(self, raw: np.ndarray) -> Motion:
+    def _frames(self, raw: np.ndarray):
+        """The frames ``raw``'s feature rows make final — a generator of the decisions' asks
+        (:meth:`push_steps`), returning the Motion."""
         m, H = self.m, int(self.m.hop)
         if not len(raw):  # most 10 ms pushes finish no frame (25 a second)
             return Motion(np.zeros((0, 3)), FPS)
@@ -57,7 +60,9 @@ class MotionMatchStream:
             if self.rows <= self.ahead:  # frame 0's decision reads this far ahead
                 continue
             if self.k % H == 0:  # a decision: its hop of frames, as rotation vectors at once
-                self.pending = m._degrees_to_motion(self.walk.hop(*m.live_inputs(self.past), H)).rotvec
+                ask = self.walk.ask(*m.live_inputs(self.past), H)
+                row = (yield ask) if ask.query is not None else None
+                self.pending = m._degrees_to_motion(self.walk.answer(ask, row)).rotvec
             out[n] = self.pending[self.k % H]
             self.k += 1
             n += 1
@@ -65,12 +70,23 @@ class MotionMatchStream:
         return Motion(out[:n], FPS)
 
     def push(self, samples: np.ndarray) -> Motion:
+        return run_alone(self.push_steps(samples))
+
+    def push_steps(self, samples: np.ndarray):
+        """:meth:`push` step by step: a generator that yields each decision's
+        :class:`~.walk.Ask` and is sent the library's costs for it (a batched engine answers
+        many streams' asks at once, :func:`~headmotion.systems.decisions.run_alone` each alone); returns the
+        Motion."""
         x = np.asarray(samples, dtype=np.float64).reshape(-1)
         self.samples += len(x)
-        return self._frames(self.ex.push(x))
+        return (yield from self._frames(self.ex.push(x)))
 
     def flush(self) -> Motion:
         """The remaining frames: as many in all as ``predict`` gives for the audio pushed."""
+        return run_alone(self.flush_steps())
+
+    def flush_steps(self):
+        """:meth:`flush` step by step (as :meth:`push_steps`)."""
         raw = np.asarray(self.ex.flush()).reshape(-1, len(self.ex.names))
         total = _n_frames(self.samples, int(self.m.sample_rate_), FPS)
         rows = _tail_rows(self.raw_last, raw, max(total - self.rows, 0))
@@ -78,7 +94,7 @@ class MotionMatchStream:
         pad = max(total + self.ahead - self.rows - len(rows), 0)  # rows past the end the last frames read
         if pad and last is not None:  # the last row repeated, as predict reads them
             rows = np.concatenate([rows, np.repeat(last, pad, 0)])
-        return self._frames(rows)
+        return (yield from self._frames(rows))
 
 
 class WindowStream:
@@ -109,9 +125,10 @@ class WindowStream:
             self.rows = np.concatenate([self.rows, f])
             self.raw_last = raw[-1]
 
-    def _decide(self, total: int | None) -> Motion:
+    def _decide(self, total: int | None):
         """Every decision whose window is final: all rows to ``t + ahead`` are known and will be
-        in the file (fewer than the frames of the samples pushed), or ``total`` (the file's frames) is known."""
+        in the file (fewer than the frames of the samples pushed), or ``total`` (the file's frames)
+        is known — a generator of the decisions' asks, returning the Motion."""
         H, out = int(self.m.hop), []
         known = self.row0 + len(self.rows)
         while self.t < (total if total is not None else 0) or (
@@ -119,7 +136,9 @@ class WindowStream:
             lo = max(0, self.t - self.back)
             window = self.rows[lo - self.row0:self.t + self.ahead + 1 - self.row0]
             n = H if total is None else min(H, total - self.t)
-            out.append(self.walk.hop(*self.m.window_inputs(window, self.t - lo), n))
+            ask = self.walk.ask(*self.m.window_inputs(window, self.t - lo), n)
+            row = (yield ask) if ask.query is not None else None
+            out.append(self.walk.answer(ask, row))
             self.t += H
         keep = max(0, self.t - self.back) - self.row0  # rows no later decision reads
         if keep > 0:
@@ -127,16 +146,24 @@ class WindowStream:
         return self.m._degrees_to_motion(np.vstack(out) if out else np.zeros((0, 3)))
 
     def push(self, samples: np.ndarray) -> Motion:
+        return run_alone(self.push_steps(samples))
+
+    def push_steps(self, samples: np.ndarray):
+        """:meth:`push` step by step (as :meth:`MotionMatchStream.push_steps`)."""
         x = np.asarray(samples, dtype=np.float64).reshape(-1)
         self.samples += len(x)
         self._add(self.ex.push(x))
-        return self._decide(None)
+        return (yield from self._decide(None))
 
     def flush(self) -> Motion:
         """The remaining frames: as many in all as ``predict`` gives for the audio pushed."""
+        return run_alone(self.flush_steps())
+
+    def flush_steps(self):
+        """:meth:`flush` step by step."""
         raw = np.asarray(self.ex.flush()).reshape(-1, len(self.ex.names))
         total = _n_frames(self.samples, int(self.m.sample_rate_), FPS)
         have = self.row0 + len(self.rows)
         self._add(_tail_rows(self.raw_last, raw, total if self.raw_last is None else max(total - have, 0)))
         self.rows = self.rows[:max(total - self.row0, 0)]
-        return self._decide(total)
+        return (yield from self._decide(total))

@@ -2,15 +2,31 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from .library import FPS, Weights
+from ..decisions import answer_alone
+from .library import FPS, Library, Query, Weights
 
 #: ``repeat_cost``: how long (seconds) a clip started is remembered
 REPEAT_S = 10.0
 #: ``wait_s``: the pause and repeat costs of a head that waits (docs/decisions/amount-and-adapt.md)
 WAIT_PAUSE_WEIGHT = 3.0
 WAIT_REPEAT_COST = 3.0
+
+
+@dataclass(frozen=True)
+class Ask:
+    """A decision's question to its library: the library, the :class:`~.library.Query` (None: no
+    search, the head holds the mean pose), the frames of the hop, and what the walk adds to the
+    costs: ``repeat`` on clips started lately, ``switch`` on leaving the clip playing."""
+
+    library: Library
+    query: Query | None
+    n: int
+    repeat: float = 0.0
+    switch: float = 0.0
 
 
 class _Walk:
@@ -34,11 +50,18 @@ class _Walk:
 
     def hop(self, desc: np.ndarray, goal: np.ndarray | None, speaking: float, n: int) -> np.ndarray:
         """The next ``n`` frames (degrees): one decision for the speech descriptor ``desc``, the
-        pose ``goal`` at the goal steps and whether the hop is speech (1) or a pause (0)."""
-        m, lib, pos = self.m, self.lib, self.pos
+        pose ``goal`` at the goal steps and whether the hop is speech (1) or a pause (0) — its
+        :meth:`ask` answered alone."""
+        ask = self.ask(desc, goal, speaking, n)
+        return self.answer(ask, answer_alone(ask))
+
+    def ask(self, desc: np.ndarray, goal: np.ndarray | None, speaking: float, n: int) -> Ask:
+        """The first half of :meth:`hop`: the decision's question to the library (its
+        :attr:`Ask.query`; None when the head holds the mean pose), the walk's state moved on to
+        the decision.  :meth:`answer` with the library's costs for it finishes the hop."""
+        m = self.m
         if m.amount == 0:  # holds the mean pose
-            self.t += n
-            return np.zeros((n, 3))
+            return Ask(self.lib, None, n)
         # the head waits in a pause that has already lasted wait_s before this hop
         waiting = m.wait_s > 0 and not speaking and self.quiet >= float(m.wait_s) * FPS
         self.quiet = 0 if speaking else self.quiet + n  # frames of pause so far
@@ -47,22 +70,35 @@ class _Walk:
         w = Weights.of(m)
         if self.t == 0:  # with ease_in, as if the head were at the mean pose, at rest
             rest = np.zeros(3) if m.ease_in > 0 else None
-            cost = lib.costs(w, desc, rest, rest, goal, speaking, pause_weight=pw)
-        else:
-            vel = self.last[-1] - self.last[-2] if len(self.last) >= 2 else np.zeros(3)
-            ahead = self.last[-1] + vel
-            switch = float(m.switch_cost) * (1.0 if speaking else float(m.pause_switch))
-            cost = lib.costs(w, desc, ahead, vel, goal, speaking, pause_weight=pw) + switch
-            if 0 <= pos < len(cost) and pos + n <= lib.ends[pos - 1]:  # the clip playing goes on
-                cost[pos] = lib.costs(w, desc, ahead, vel, goal, speaking, only=pos, pause_weight=pw)
-            base_pos = cost[pos] if 0 <= pos < len(cost) else np.inf
+            return Ask(self.lib, Query(w, desc, rest, rest, goal, speaking, pw), n, repeat=repeat)
+        vel = self.last[-1] - self.last[-2] if len(self.last) >= 2 else np.zeros(3)
+        ahead = self.last[-1] + vel
+        switch = float(m.switch_cost) * (1.0 if speaking else float(m.pause_switch))
+        return Ask(self.lib, Query(w, desc, ahead, vel, goal, speaking, pw), n, repeat=repeat, switch=switch)
+
+    def answer(self, ask: Ask, row: np.ndarray | None) -> np.ndarray:
+        """The second half of :meth:`hop`: the next ``ask.n`` frames (degrees) from the library's
+        costs ``row`` for ``ask.query`` (:meth:`Library.costs_many <.library.Library.costs_many>`):
+        the draw from the seed, the join, the frames."""
+        m, lib, pos, n = self.m, self.lib, self.pos, ask.n
+        if ask.query is None:  # holds the mean pose
+            self.t += n
+            return np.zeros((n, 3))
+        cost = np.where(lib.can_start, row, np.inf)
+        goes_on = self.t > 0 and 0 <= pos < len(cost) and pos + n <= lib.ends[pos - 1]  # the clip playing
+        if self.t > 0:
+            ahead, vel = ask.query.pose, ask.query.vel
+            cost = cost + ask.switch
+            if goes_on:
+                cost[pos] = row[pos]
+        repeat = ask.repeat
         if repeat > 0 and self.recent:  # clips started in the last REPEAT_S seconds cost more
             H = int(m.hop)
             for _t0, j0 in self.recent:  # ``cost`` is this decision's own array
                 lo, hi = max(0, j0 - H), j0 + H
                 cost[lo:hi] += repeat
-            if 0 <= pos < len(cost) and pos + n <= lib.ends[pos - 1]:
-                cost[pos] = base_pos
+            if goes_on:
+                cost[pos] = row[pos]
         j = lib.draw(cost, self.rng, top_k=m.top_k, temperature=m.temperature, hop=m.hop,
                      distinct=self.t == 0)  # a take's first movement: from different clips
         if (m.repeat_cost > 0 or m.wait_s > 0) and j != pos:
