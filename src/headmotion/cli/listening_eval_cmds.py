@@ -105,12 +105,13 @@ def evaluate_listening_cmd(
     atomic_write_text(output / "listening.csv", "\n".join(csv) + "\n")
     first = runs_by_model[names[0]][0]
     c = first.conversation
-    from ..synthesis import synthesize
+    wait = first.first.get("not listening")
+    if wait is None:  # (--no-levels: the not-listening head was not made)
+        from ..synthesis import synthesize
 
-    m0 = loaded[names[0]]
-    lis = synthesize(c.own, m0, seed=seed_list[0], hear=c.heard, listening=listening)[0]
-    wait = synthesize(c.own, m0, seed=seed_list[0], hear=c.heard, listening=0)[0]
-    conversation_figure(c, lis, wait, first.cues, first.nods["listening"][0], output / "listening_conversation.png")
+        wait = synthesize(c.own, loaded[names[0]], seed=seed_list[0], hear=c.heard, listening=0)[0]
+    conversation_figure(c, first.first["listening"], wait, first.cues, first.nods["listening"][0],
+                        output / "listening_conversation.png")
     md = ("# Listening: nods read from the motion against cues read by Praat\n\n"
           f"Conversations: {', '.join(sorted({f'{x.name} ({x.voices})' for x in convs}))}; conditions "
           f"{', '.join(conds)}; seeds {', '.join(map(str, seed_list))}; listening {listening:g}.\n\n" + table +

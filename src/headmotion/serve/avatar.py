@@ -17,26 +17,15 @@ Everything is a file of the package: nothing is fetched from a CDN, and the page
 
 from __future__ import annotations
 
-from pathlib import Path
+from .pages import CLIENT, WEB_STATIC, mount_page
 
-from .pages import WEB_STATIC, page_response
-
-#: @headmotion/client
-CLIENT = Path(__file__).resolve().parent / "static" / "client"
 #: where ``web/static`` is mounted
 STATIC_URL = "/v1/avatar/static"
 
 
 def mount_avatar(app) -> None:
     """Add ``/v1/avatar`` and its static files to the FastAPI ``app`` (module docstring)."""
-    from fastapi.staticfiles import StaticFiles
-
-    @app.get("/v1/avatar", include_in_schema=False)
-    def avatar_page():
-        return page_response("avatar", "avatar", static=STATIC_URL, stylesheets=("avatar.css",))
-
-    app.mount(STATIC_URL, StaticFiles(directory=WEB_STATIC), name="avatar-static")
-    app.mount("/v1/avatar/client", StaticFiles(directory=CLIENT), name="avatar-client")
+    mount_page(app, "avatar", "avatar", stylesheets=("avatar.css",))
 
 
 __all__ = ["mount_avatar", "WEB_STATIC", "CLIENT", "STATIC_URL"]

@@ -46,4 +46,24 @@ def page_response(name: str, title: str, *, static: str, stylesheets: tuple[str,
     return HTMLResponse(page_html(name, title, static=static, stylesheets=stylesheets))
 
 
-__all__ = ["WEB_STATIC", "page_html", "page_response"]
+#: @headmotion/client, which the avatar pages stream with
+CLIENT = Path(__file__).resolve().parent / "static" / "client"
+
+
+def mount_page(app, name: str, title: str, *, stylesheets: tuple[str, ...] = ()) -> str:
+    """Add the page ``/v1/NAME`` (:func:`page_response`) to the FastAPI ``app``, with ``web/static`` at
+    ``/v1/NAME/static`` and @headmotion/client at ``/v1/NAME/client``; returns the static files' URL."""
+    from fastapi.staticfiles import StaticFiles
+
+    static = f"/v1/{name}/static"
+
+    def page():
+        return page_response(name, title, static=static, stylesheets=stylesheets)
+
+    app.add_api_route(f"/v1/{name}", page, methods=["GET"], include_in_schema=False, name=f"{name}_page")
+    app.mount(static, StaticFiles(directory=WEB_STATIC), name=f"{name}-static")
+    app.mount(f"/v1/{name}/client", StaticFiles(directory=CLIENT), name=f"{name}-client")
+    return static
+
+
+__all__ = ["WEB_STATIC", "CLIENT", "page_html", "page_response", "mount_page"]

@@ -20,8 +20,7 @@ Everything is a file of the package: nothing is fetched from a CDN, and the page
 
 from __future__ import annotations
 
-from .avatar import CLIENT
-from .pages import WEB_STATIC, page_response
+from .pages import mount_page
 
 #: where ``web/static`` is mounted
 STATIC_URL = "/v1/talkinghead/static"
@@ -29,14 +28,7 @@ STATIC_URL = "/v1/talkinghead/static"
 
 def mount_talkinghead(app) -> None:
     """Add ``/v1/talkinghead`` and its static files to the FastAPI ``app`` (module docstring)."""
-    from fastapi.staticfiles import StaticFiles
-
-    @app.get("/v1/talkinghead", include_in_schema=False)
-    def talkinghead_page():
-        return page_response("talkinghead", "TalkingHead", static=STATIC_URL, stylesheets=("talkinghead.css",))
-
-    app.mount(STATIC_URL, StaticFiles(directory=WEB_STATIC), name="talkinghead-static")
-    app.mount("/v1/talkinghead/client", StaticFiles(directory=CLIENT), name="talkinghead-client")
+    mount_page(app, "talkinghead", "TalkingHead", stylesheets=("talkinghead.css",))
 
 
 __all__ = ["mount_talkinghead", "STATIC_URL"]

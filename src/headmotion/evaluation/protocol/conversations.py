@@ -22,7 +22,7 @@ import numpy as np
 
 from ...errors import FormatError, ParameterError
 from ...types import Audio
-from .degraded import degrade
+from .degraded import check_degradation, degrade
 
 SR = 16000
 TURN_S = 6.0
@@ -130,8 +130,7 @@ def build_conversations(set_name: str, *, corpus: Path | None, shared: Path | No
     if set_name not in VOICE_SETS:
         raise ParameterError(f"unknown set of conversations {set_name!r}; expected one of {', '.join(VOICE_SETS)}")
     for c in conditions:
-        if c != "clean":
-            degrade(Audio(np.zeros(SR, np.float32), SR), c)  # an unknown name fails before any work
+        check_degradation(c)  # an unknown name fails before any work
     one, several, own_name = VOICE_SETS[set_name]
     voices = _Voices(corpus, shared, repository or repository_root())
     own_x = voices(own_name)

@@ -110,13 +110,18 @@ DEGRADATIONS: dict[str, Callable[[Audio], Audio]] = {
 }
 
 
+def check_degradation(name: str) -> str:
+    """``name`` when it is ``"clean"`` or one of :data:`DEGRADATIONS`, else ParameterError."""
+    if name != "clean" and name not in DEGRADATIONS:
+        raise ParameterError(f"unknown degradation {name!r}; expected clean or one of {sorted(DEGRADATIONS)}")
+    return name
+
+
 def degrade(audio: Audio, name: str) -> Audio:
     """``audio`` degraded by the named degradation (:data:`DEGRADATIONS`; ``"clean"``: unchanged)."""
-    if name == "clean":
+    if check_degradation(name) == "clean":
         return audio
-    if name not in DEGRADATIONS:
-        raise ParameterError(f"unknown degradation {name!r}; expected clean or one of {sorted(DEGRADATIONS)}")
     return DEGRADATIONS[name](audio)
 
 
-__all__ = ["add_noise", "telephone", "gain", "mp3", "degrade", "DEGRADATIONS"]
+__all__ = ["add_noise", "telephone", "gain", "mp3", "degrade", "check_degradation", "DEGRADATIONS"]

@@ -43,6 +43,7 @@ class ConversationRun:
     cues: np.ndarray
     nods: dict = field(default_factory=dict)    # head -> [nods of each seed]
     speed: dict = field(default_factory=dict)   # head -> [°/s of each seed]
+    first: dict = field(default_factory=dict)   # head -> the first seed's Motion (for a figure)
 
 
 @dataclass
@@ -113,6 +114,7 @@ def run_conversation(conv, model, *, seeds, listening: float = 1.0, levels: bool
             motions["cue-led nods"] = planted(still, run.cues)
             motions["not listening"] = still
         for head, m in motions.items():
+            run.first.setdefault(head, m)
             run.nods.setdefault(head, []).append(motion_nods(m, conv.spans))
             run.speed.setdefault(head, []).append(speed_in(m, conv.spans))
     return run
