@@ -79,3 +79,20 @@ def check_settling(before: np.ndarray, settle: np.ndarray, n_settle: int) -> Non
     last_step = np.linalg.norm(before[-1] - before[-2]) if len(before) > 1 else 0.0
     assert steps.max() <= 1.5 * np.linalg.norm(before[-1]) / n_settle + last_step + 2 * TOL  # settle_path's bound
     assert steps.max() < np.radians(2.0)
+
+
+def check_decided_together(together: list, alone: list, sent: list[list[dict]], sent_alone: list[list[dict]]) -> None:
+    """Agents run in one event loop with the default engine (``together``) and with
+    ``engine=False`` (``alone``): the first shared one engine, whose ticks held decisions of
+    several, the second had none, and each agent sent the same frames and end messages either
+    way (grouped into messages as its sender found them due)."""
+    engine = together[0].engine.engine
+    assert engine is not None and all(a.engine.engine is engine for a in together)
+    assert all(a.engine.engine is None for a in alone)
+    assert engine.stats.largest >= 2  # decisions of several agents answered in one tick
+    for msgs, msgs_alone in zip(sent, sent_alone):
+        got, want = utterances(msgs), utterances(msgs_alone)
+        assert [u["numbers"] for u in got] == [u["numbers"] for u in want]
+        assert [u["end"] for u in got] == [u["end"] for u in want]
+        for u, v in zip(got, want):
+            np.testing.assert_array_equal(u["rotvec"], v["rotvec"])

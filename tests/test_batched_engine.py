@@ -273,3 +273,38 @@ def test_a_caller_that_goes_away_leaves_the_engine_whole(stream_model, voices):
     want = ref.push(x[8000:], 16000)
     assert stats.ticks >= 1
     assert after.first == want.first and np.array_equal(after.rotvec, want.rotvec)
+
+
+def test_finish_ends_a_waiting_call_so_a_call_without_the_engine_follows_it(stream_model, voices):
+    """An interruption (a call that does not go through the engine) made while the core's push waits
+    for a tick: ``finish`` runs the tick at once, so the push ends first and the settling starts
+    where it left the head — the frames of push-then-interrupt alone; the push's caller gets its
+    batch."""
+    a, _b = voices
+    x = a[:16000]
+
+    async def main():
+        eng = LiveEngine()
+        core, other = HeadMotionCore(stream_model, seed=5), HeadMotionCore(stream_model, seed=6)
+        task = asyncio.ensure_future(eng.push(core, x[:8000], 16000))
+        task_other = asyncio.ensure_future(eng.push(other, x[:8000], 16000))
+        await asyncio.sleep(0)  # both pushes have read their audio and asked for a decision
+        assert not task.done() and eng.stats.ticks == 0
+        eng.finish(core)
+        assert eng.stats.ticks == 1 and eng.stats.largest == 2  # the other stream's ask went too
+        items = core.interrupt()
+        eng.finish(core)  # nothing waits: nothing happens
+        assert eng.stats.ticks == 1
+        return await task, await task_other, items
+
+    pushed, _, items = asyncio.run(main())
+    ref = HeadMotionCore(stream_model, seed=5)
+    want = ref.push(x[:8000], 16000)
+    want_items = ref.interrupt()
+    assert pushed.first == want.first and np.array_equal(pushed.rotvec, want.rotvec)
+    assert len(items) == len(want_items)
+    for got, ref_item in zip(items, want_items):
+        if isinstance(ref_item, FrameBatch):
+            assert np.array_equal(got.rotvec, ref_item.rotvec)
+        else:
+            assert got == ref_item

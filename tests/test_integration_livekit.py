@@ -24,7 +24,7 @@ from livekit import rtc  # noqa: E402
 from livekit.agents import AgentSession  # noqa: E402
 from livekit.agents.voice import io  # noqa: E402
 
-from agent_helpers import FPS, TOL, check_settling, reference, utterances  # noqa: E402
+from agent_helpers import FPS, TOL, check_decided_together, check_settling, reference, utterances  # noqa: E402
 from agent_helpers import speech_pcm as _speech  # noqa: E402
 
 from headmotion.integrations.livekit import (  # noqa: E402
@@ -300,6 +300,40 @@ def test_pause_holds_the_frames_with_the_audio():
     for t, m in pub.sent[n_paused:]:
         if m["type"] == "frames":
             assert t - began >= m["first"] / FPS + paused - 0.03, (m["first"], t - began, paused)
+
+
+def test_outputs_of_one_loop_decide_together_and_keep_their_frames():
+    """Three outputs in one event loop (different seeds, one reading ahead by the agents' default
+    budget, one interrupted mid-reply) make their decisions together through the loop's engine;
+    each publishes the messages it publishes deciding alone."""
+    pcm = _speech(16000)
+
+    async def one(out, cut: bool):
+        frames = _audio_frames(pcm, 16000)
+        if cut:  # the user cuts in while the reply's last chunk is being read (with the engine:
+            await _speak(out, frames[:29], flush=False)  # its push waits for a tick, finished first)
+            task = asyncio.ensure_future(out.capture_frame(frames[29]))
+            await asyncio.sleep(0)
+            out.clear_buffer()
+            await task
+        await _speak(out, frames)
+        await asyncio.wait_for(out.wait_for_playout(), 2.0)  # the held audio went on, the reply ended
+        assert await out.wait_sent(5.0)
+        await out.aclose()
+
+    async def main(engine):
+        pubs = [Publisher() for _ in range(3)]
+        outs = [HeadMotionAudioOutput(PlayingOutput(), send=pubs[0], pace=False, lookahead_ms=0, seed=0, engine=engine),
+                HeadMotionAudioOutput(PlayingOutput(), send=pubs[1], pace=False, seed=1, engine=engine),
+                HeadMotionAudioOutput(PlayingOutput(), send=pubs[2], pace=False, lookahead_ms=0, seed=2,
+                                      engine=engine)]
+        await asyncio.gather(*(one(o, cut=k == 2) for k, o in enumerate(outs)))
+        return outs, [p.messages for p in pubs]
+
+    together, sent = asyncio.run(main(True))
+    alone, sent_alone = asyncio.run(main(False))
+    check_decided_together(together, alone, sent, sent_alone)
+    assert len(utterances(sent[2])) == 2 and sent[0] != sent[1]
 
 
 def test_attach_to_an_agent_session_and_publish_to_a_room():

@@ -30,7 +30,7 @@ from pipecat.frames.frames import (  # noqa: E402
 from pipecat.observers.base_observer import BaseObserver  # noqa: E402
 from pipecat.tests.utils import SleepFrame, run_test  # noqa: E402
 
-from agent_helpers import FPS, TOL, check_settling, reference, utterances  # noqa: E402
+from agent_helpers import FPS, TOL, check_decided_together, check_settling, reference, utterances  # noqa: E402
 from agent_helpers import speech_pcm as _speech  # noqa: E402
 
 from headmotion.integrations.pipecat import HeadMotionProcessor  # noqa: E402
@@ -281,3 +281,33 @@ def test_send_takes_the_messages_instead_of_the_pipeline(pace):
     ref = reference(pcm, 16000)
     np.testing.assert_allclose(utt["rotvec"][:len(ref)], ref, atol=TOL, rtol=0)
     check_settling(ref, utt["rotvec"][len(ref):], proc.core.settle_frames)
+
+
+def test_processors_of_one_loop_decide_together_and_keep_their_frames():
+    """Three processors in one event loop — different seeds, one reading ahead by the agents'
+    default budget, each hearing the user after its utterance — make their decisions together
+    through the loop's engine; each sends the messages it sends deciding alone."""
+    from pipecat.frames.frames import InputAudioRawFrame
+
+    pcm = _speech()
+    user = _speech()[::-1].copy()  # another voice's worth of audio: the same speech reversed
+
+    def frames():
+        heard = [InputAudioRawFrame(audio=user[i:i + 800].tobytes(), sample_rate=16000, num_channels=1)
+                 for i in range(0, len(user), 800)]
+        return [TTSStartedFrame(), *_tts_frames(pcm, 16000), TTSStoppedFrame(), *heard]
+
+    async def main(engine):
+        procs = [HeadMotionProcessor(pace=False, lookahead_ms=0, seed=0, engine=engine),
+                 HeadMotionProcessor(pace=False, lookahead_ms=0, seed=1, engine=engine),
+                 HeadMotionProcessor(pace=False, seed=2, engine=engine)]
+        runs = await asyncio.gather(*(run_test(p, frames_to_send=frames()) for p in procs))
+        return procs, [_messages(down, OutputTransportMessageFrame) for down, _ in runs]
+
+    together, sent = asyncio.run(main(True))
+    alone, sent_alone = asyncio.run(main(False))
+    check_decided_together(together, alone, sent, sent_alone)
+    for msgs in sent:
+        kinds = [m.get("listening", False) for m in msgs if m["type"] == "frames"]
+        assert any(kinds) and not all(kinds)  # it spoke, then listened
+    assert sent[0] != sent[1]  # the seeds differ

@@ -50,6 +50,7 @@ except ImportError as exc:  # pragma: no cover - exercised in a fresh process by
     ) from exc
 
 from ..live.core import DEFAULT_SETTLE_S, log, pcm16_to_float
+from ..live.engine import EngineUse
 from ..live.hold import AudioHold, agent_core
 from ..live.pacing import PacedSender, Pacer
 
@@ -89,14 +90,21 @@ class HeadMotionAudioOutput(io.AudioOutput):
     lookahead_ms : float or None
         How far ahead the model reads the agent's audio; the audio is held by as much
         (:func:`headmotion.live.hold.agent_core`; None: :data:`headmotion.live.AGENT_LOOKAHEAD_MS`).
+    engine : bool or LiveEngine
+        True (default): the decisions for the agent's audio are made together with every other
+        live stream of the event loop that shares its engine
+        (:func:`headmotion.live.engine.loop_engine`: all outputs of a process), one matrix product
+        for all; False: each alone.  The frames are the same.  (:meth:`hear` and the reply's end,
+        called without an await, make theirs alone.)
     """
 
     def __init__(self, next_in_chain: io.AudioOutput, *, send: Callable[[dict], Awaitable[None]],
                  model="stream", seed: int = 0, resample: str = "exact", settle_s: float = DEFAULT_SETTLE_S,
                  pace: bool = True, delay_s: float = 0.0, controls=None, label: str = "HeadMotion",
-                 lookahead_ms: float | None = None, **controls_kwargs):
+                 lookahead_ms: float | None = None, engine=True, **controls_kwargs):
         super().__init__(label=label, next_in_chain=next_in_chain,
                          capabilities=io.AudioOutputCapabilities(pause=True))
+        self.engine = EngineUse(engine)
         self.core = agent_core(model, lookahead_ms=lookahead_ms, seed=seed, resample=resample, settle_s=settle_s,
                                controls=controls, **controls_kwargs)
         self.pacer = Pacer(self.core, pace=pace, delay_s=delay_s, clock=time.monotonic)
@@ -112,7 +120,8 @@ class HeadMotionAudioOutput(io.AudioOutput):
         return self.next_in_chain.sample_rate if self.next_in_chain else None
 
     def _motion(self, step, *args) -> None:
-        """A pacer step; a failure is logged and the audio goes on."""
+        """A pacer step, its decisions alone; a failure is logged and the audio goes on."""
+        self.engine.finish(self.core)  # the core's call waiting for the engine ends first
         try:
             step(*args)
         except HeadMotionError as exc:
@@ -125,7 +134,9 @@ class HeadMotionAudioOutput(io.AudioOutput):
             await asyncio.wait([self._flushing])
         await super().capture_frame(frame)
         if frame.samples_per_channel:  # its frames are made now; it goes on once the hold lets it
-            entries = self.hold.audio(frame, pcm16_to_float(frame.data, frame.num_channels), int(frame.sample_rate))
+            samples = pcm16_to_float(frame.data, frame.num_channels)
+            entries = await self.engine.run(self.core,
+                                            lambda: self.hold.audio_steps(frame, samples, int(frame.sample_rate)))
         else:
             entries = self.hold.other(frame)
         self.sender.wake()
@@ -149,6 +160,7 @@ class HeadMotionAudioOutput(io.AudioOutput):
 
     def flush(self) -> None:
         super().flush()
+        self.engine.finish(self.core)
         held = self.hold.release()
         if held or self._flushing is not None:  # the held audio goes on first (an await), then the reply ends
             self._flushing = asyncio.ensure_future(self._flush_after(held, self._flushing))
@@ -177,6 +189,7 @@ class HeadMotionAudioOutput(io.AudioOutput):
             pending.cancel()
             if self.next_in_chain is not None:
                 self.next_in_chain.flush()
+        self.engine.finish(self.core)
         dropped = pending is not None or self.hold.held > 0
         self.hold.drop()  # the audio held never plays
         if self.next_in_chain is not None:
@@ -188,11 +201,13 @@ class HeadMotionAudioOutput(io.AudioOutput):
 
     def pause(self) -> None:
         super().pause()
+        self.engine.finish(self.core)
         self.pacer.pause()
         self.sender.wake()
 
     def resume(self) -> None:
         super().resume()
+        self.engine.finish(self.core)
         self.pacer.resume()
         self.sender.wake()
 

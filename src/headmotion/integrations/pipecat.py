@@ -34,6 +34,9 @@ docs/integrations.md)::
   ``stream``): the model reads the TTS audio that far ahead of each frame, and the processor holds
   the audio frames (and the frames behind them) until that much more audio has come or the TTS
   stops, so the voice plays in step with the head (:mod:`headmotion.live.hold`).
+* ``engine`` (default True): the processors of one process make their decisions together, one
+  matrix product over the model's library for all (:func:`headmotion.live.engine.loop_engine`);
+  each processor's frames are those it makes alone.
 
 Importing this module without Pipecat raises :class:`~headmotion.errors.MissingDependencyError`.
 """
@@ -64,6 +67,7 @@ except ImportError as exc:  # pragma: no cover - exercised in a fresh process by
     ) from exc
 
 from ..live.core import DEFAULT_SETTLE_S, log, pcm16_to_float
+from ..live.engine import EngineUse
 from ..live.hold import AudioHold, agent_core
 from ..live.pacing import PacedSender, Pacer
 
@@ -95,14 +99,19 @@ class HeadMotionProcessor(FrameProcessor):
     send : async callable, optional
         ``await send(message)`` for each frames and end message instead of a frame downstream
         (the ``audio-start`` marks still go in order with the audio).
+    engine : bool or LiveEngine
+        True (default): the decisions are made together with every other live stream of the event
+        loop that shares its engine (:func:`headmotion.live.engine.loop_engine`: all processors of
+        a process), one matrix product for all; False: each alone.  The frames are the same.
     """
 
     def __init__(self, model="stream", *, seed: int = 0, resample: str = "exact",
                  settle_s: float = DEFAULT_SETTLE_S, pace: bool = True, delay_s: float = 0.0,
                  audio_frames: tuple = (TTSAudioRawFrame,), rtvi: bool = False, controls=None,
                  name: str | None = None, hear_frames: tuple = (InputAudioRawFrame,),
-                 lookahead_ms: float | None = None, send=None, **controls_kwargs):
+                 lookahead_ms: float | None = None, send=None, engine=True, **controls_kwargs):
         super().__init__(name=name)
+        self.engine = EngineUse(engine)
         self.core = agent_core(model, lookahead_ms=lookahead_ms, seed=seed, resample=resample, settle_s=settle_s,
                                controls=controls, **controls_kwargs)
         self.pacer = Pacer(self.core, pace=pace, delay_s=delay_s, clock=time.monotonic)
@@ -161,13 +170,25 @@ class HeadMotionProcessor(FrameProcessor):
                     await self.push_frame(self._frame(message, urgent=False))
 
     def _motion(self, step, *args) -> None:
-        """A pacer step; a failure is logged and the audio goes on."""
+        """A pacer step that makes no decision; a failure is logged and the audio goes on."""
+        self.engine.finish(self.core)  # the core's call waiting for the engine ends first
         try:
             step(*args)
         except HeadMotionError as exc:
             log.warning("headmotion: no head motion for this audio: %s", exc)
         if self._sender is not None:
             self._sender.wake()
+
+    async def _decide(self, make_steps):
+        """A pacer step that makes decisions, through the engine; a failure is logged (None) and
+        the audio goes on."""
+        try:
+            return await self.engine.run(self.core, make_steps)
+        except HeadMotionError as exc:
+            log.warning("headmotion: no head motion for this audio: %s", exc)
+        finally:
+            if self._sender is not None:
+                self._sender.wake()
 
     async def process_frame(self, frame, direction: FrameDirection):
         await super().process_frame(frame, direction)
@@ -177,31 +198,33 @@ class HeadMotionProcessor(FrameProcessor):
                 self._sender.start()
         elif isinstance(frame, InterruptionFrame):
             await self.push_frame(frame, direction)
+            self.engine.finish(self.core)
             held = self.hold.drop()  # the audio held never plays
             self._motion(self.pacer.interrupt)
             await self._pass_on(held)
             await self._send_in_order()
         elif direction == FrameDirection.DOWNSTREAM and isinstance(frame, self.audio_frames):
             if frame.audio:  # its frames are made now; it goes on (after its audio-start) once the hold lets it
-                await self._pass_on(self.hold.audio(frame, pcm16_to_float(frame.audio, frame.num_channels),
-                                                    int(frame.sample_rate)))
+                samples = pcm16_to_float(frame.audio, frame.num_channels)
+                await self._pass_on(await self.engine.run(
+                    self.core, lambda: self.hold.audio_steps(frame, samples, int(frame.sample_rate))))
             else:
                 await self._pass_on(self.hold.other(frame))
             await self._send_in_order()
         elif direction == FrameDirection.DOWNSTREAM and self.hear_frames and isinstance(frame, self.hear_frames):
             if frame.audio:
-                self._motion(lambda: self.pacer.hear(pcm16_to_float(frame.audio, frame.num_channels),
-                                                     int(frame.sample_rate)))
+                samples = pcm16_to_float(frame.audio, frame.num_channels)
+                await self._decide(lambda: self.pacer.hear_steps(samples, int(frame.sample_rate)))
             await self.push_frame(frame, direction)
             await self._send_in_order()
         elif direction == FrameDirection.DOWNSTREAM and isinstance(frame, TTSStoppedFrame):
             await self._pass_on(self.hold.release())
-            self._motion(self.pacer.end)
+            await self._decide(self.pacer.end_steps)
             await self._send_in_order()
             await self.push_frame(frame, direction)
         elif isinstance(frame, EndFrame):
             await self._pass_on(self.hold.release())
-            self._motion(self.pacer.end)
+            await self._decide(self.pacer.end_steps)
             if self._sender is not None:  # the last frames go out as their audio plays, then the pipeline ends
                 wait = max(0.0, self.pacer.busy_until() - self.pacer.clock()) + 1.0
                 await self._sender.wait_idle(timeout=wait)

@@ -28,9 +28,11 @@ together.
 from __future__ import annotations
 
 import asyncio
+import weakref
 from dataclasses import dataclass
 
-from ..systems.decisions import answer_together
+from ..errors import ParameterError
+from ..systems.decisions import answer_together, run_alone
 
 
 def run_together(steps: list) -> list:
@@ -106,17 +108,30 @@ class LiveEngine:
     async def push(self, core, samples, sample_rate: int):
         """:meth:`HeadMotionCore.push <headmotion.live.core.HeadMotionCore.push>` with its
         decisions made together with the other streams'; the FrameBatch."""
-        return await self._run(core, lambda: core.push_steps(samples, sample_rate))
+        return await self.run(core, lambda: core.push_steps(samples, sample_rate))
 
     async def hear(self, core, samples, sample_rate: int):
         """:meth:`HeadMotionCore.hear <headmotion.live.core.HeadMotionCore.hear>` through the engine."""
-        return await self._run(core, lambda: core.hear_steps(samples, sample_rate))
+        return await self.run(core, lambda: core.hear_steps(samples, sample_rate))
 
     async def end(self, core) -> list:
         """:meth:`HeadMotionCore.end <headmotion.live.core.HeadMotionCore.end>` through the engine."""
-        return await self._run(core, core.end_steps)
+        return await self.run(core, core.end_steps)
 
-    async def _run(self, core, make_steps):
+    def finish(self, core) -> None:
+        """Bring ``core``'s call that waits for a tick to its end now (the tick runs at once, for
+        every stream waiting), so that code which uses the core without the engine (an
+        interruption, a pause) finds it between calls.  Nothing when none waits."""
+        if id(core) in self._busy:
+            if self._tick is not None:
+                self._tick.cancel()
+            self._run_tick()
+
+    async def run(self, core, make_steps):
+        """Run ``make_steps()`` — a generator of ``core``'s decisions, e.g. ``core.push_steps(...)``
+        or a pacing layer's ``pacer.audio_steps(...)`` — with its decisions answered in the ticks;
+        its value.  The generator is made once the core's previous call through the engine has
+        ended."""
         key = id(core)
         while key in self._busy:  # the core's previous call first (its state moves in order)
             try:
@@ -165,4 +180,42 @@ class LiveEngine:
                 fut.set_result(value)
 
 
-__all__ = ["LiveEngine", "EngineStats", "run_together"]
+_LOOP_ENGINES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def loop_engine() -> LiveEngine:
+    """The running event loop's engine: every live stream of the loop that asks for it (the Pipecat
+    and LiveKit processors of one process) shares it."""
+    loop = asyncio.get_running_loop()
+    eng = _LOOP_ENGINES.get(loop)
+    if eng is None:
+        eng = _LOOP_ENGINES[loop] = LiveEngine()
+    return eng
+
+
+class EngineUse:
+    """A live path's way to the engine (the voice-agent processors): ``engine`` True — the running
+    loop's (:func:`loop_engine`, found at the first call), False — none (each decision alone; the
+    frames are the same), or a :class:`LiveEngine`."""
+
+    def __init__(self, engine: LiveEngine | bool = True):
+        if not isinstance(engine, (bool, LiveEngine)):
+            raise ParameterError(f"engine must be True, False or a LiveEngine; got {engine!r}")
+        self._arg = engine
+        self.engine: LiveEngine | None = engine if isinstance(engine, LiveEngine) else None
+
+    async def run(self, core, make_steps):
+        """``make_steps()``'s value, its decisions answered by the engine (alone without one)."""
+        if self.engine is None and self._arg is True:
+            self.engine = loop_engine()
+        if self.engine is None:
+            return run_alone(make_steps())
+        return await self.engine.run(core, make_steps)
+
+    def finish(self, core) -> None:
+        """:meth:`LiveEngine.finish` (before the path uses ``core`` without the engine)."""
+        if self.engine is not None:
+            self.engine.finish(core)
+
+
+__all__ = ["LiveEngine", "EngineStats", "EngineUse", "loop_engine", "run_together"]

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import HeadMotionError, ParameterError
 from ..synthesis import Controls, load_model
+from ..systems.decisions import run_alone
 from . import AGENT_LOOKAHEAD_MS
 from .core import HeadMotionCore, log
 from .pacing import Pacer
@@ -65,6 +66,11 @@ class AudioHold:
         """The agent's audio chunk ``item`` with its ``samples`` (float32 mono at ``sample_rate``):
         its frames are made now (a failure is logged: the audio still goes on), and it goes on once
         ``hold_s`` more of the utterance's audio has come.  Returns the entries to pass on now."""
+        return run_alone(self.audio_steps(item, samples, sample_rate, now))
+
+    def audio_steps(self, item, samples, sample_rate: int, now=None):
+        """:meth:`audio` step by step: a generator that yields the model's decisions for an engine
+        to answer (:meth:`Pacer.audio_steps <headmotion.live.pacing.Pacer.audio_steps>`)."""
         rate = int(sample_rate)
         out = []
         if self._items and rate != self._rate:  # another rate ends the utterance: what is held goes first
@@ -75,7 +81,7 @@ class AudioHold:
             out = [(item, 0, 0) for item, _n, _r in out]
         self.pacer.audio_started = None
         try:
-            self.pacer.audio(samples, rate, now, handed=False)
+            yield from self.pacer.audio_steps(samples, rate, now, handed=False)
         except HeadMotionError as exc:
             log.warning("headmotion: no head motion for this audio: %s", exc)
         if self.pacer.audio_started is not None and self.on_start is not None:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SampleRateError
+from ..systems.decisions import run_alone
 from .core import FrameBatch, HeadMotionCore, UtteranceEnd, check_seconds, log
 
 
@@ -86,6 +87,12 @@ class Pacer:
         ``handed=False``: the audio is held back before the output (the model reads ahead of it,
         ``lookahead_ms``; :class:`~headmotion.live.hold.AudioHold`): its frames are made now and go
         out when it plays, once :meth:`handed` has said that it went to the output."""
+        return run_alone(self.audio_steps(samples, sample_rate, now, handed=handed))
+
+    def audio_steps(self, samples, sample_rate: int, now=None, *, handed: bool = True):
+        """:meth:`audio` step by step: a generator that yields the core's decisions
+        (:meth:`HeadMotionCore.push_steps`) for an engine to answer
+        (:class:`~headmotion.live.engine.LiveEngine`); its value is the FrameBatch."""
         now = self._now(now)
         self.audio_started = None
         start = max(now, self._playhead)
@@ -103,10 +110,10 @@ class Pacer:
             if self.pace and handed:  # the last utterance's settling gives way to this one's speech
                 self._cut(start + self.delay_s)
         try:
-            batch = self.core.push(samples, sample_rate)  # raises before the timeline moves
+            batch = yield from self.core.push_steps(samples, sample_rate)  # raises before the timeline moves
         except SampleRateError:  # the audio changed rate: that utterance ends and another begins
-            self.end(now)
-            return self.audio(samples, sample_rate, now, handed=handed)
+            yield from self.end_steps(now)
+            return (yield from self.audio_steps(samples, sample_rate, now, handed=handed))
         n = int(np.shape(samples)[0]) if np.ndim(samples) else 0
         self._rate = int(sample_rate)
         if self.pace and handed:
@@ -149,6 +156,10 @@ class Pacer:
         gone out, the head listens (:meth:`HeadMotionCore.hear`): a listening turn, numbered as an
         utterance, whose frames go out at once (plus ``delay_s``) — they belong to audio already
         heard.  Before that, nothing (an empty batch)."""
+        return run_alone(self.hear_steps(samples, sample_rate, now))
+
+    def hear_steps(self, samples, sample_rate: int, now=None):
+        """:meth:`hear` step by step (as :meth:`audio_steps`)."""
         now = self._now(now)
         if not self.core.listening and (self.core.speaking or now < self.busy_until()):
             return FrameBatch(0, self.core.fps, np.zeros((0, 3)), 0.0)
@@ -158,7 +169,7 @@ class Pacer:
             self._sent = {u: n for u, n in self._sent.items() if u >= self._utt - 1}
             self._segments = []
             self._listening_turns = {u for u in self._listening_turns if u >= self._utt - 1} | {self._utt}
-        batch = self.core.hear(samples, sample_rate)
+        batch = yield from self.core.hear_steps(samples, sample_rate)
         due = now + self.delay_s if self.pace else -math.inf
         for k, row in enumerate(batch.rotvec):
             self._add(_Entry(due, next(self._seq), self._utt, batch.first + k, row, batch.audio_time))
@@ -167,8 +178,12 @@ class Pacer:
     def end(self, now=None) -> None:
         """The utterance ended (the TTS stopped): its last frames, its settling after its audio,
         and its end message."""
+        run_alone(self.end_steps(now))
+
+    def end_steps(self, now=None):
+        """:meth:`end` step by step (as :meth:`audio_steps`)."""
         self._now(now)
-        items = self.core.end()
+        items = yield from self.core.end_steps()
         for item in items:
             if isinstance(item, FrameBatch):
                 self._schedule(item)
