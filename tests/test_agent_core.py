@@ -420,3 +420,25 @@ def test_hear_along_feeds_the_utterances_stream(model, speech):
     np.testing.assert_array_equal(np.vstack(got), np.vstack(want))
     with pytest.raises(ParameterError, match="heard_rate"):
         HeadMotionCore(model).hear_along(speech[:320])
+
+
+def test_agents_of_a_process_share_one_model(tmp_path):
+    """``agent_core`` loads a shipped name or a model file once per process (the agents share its
+    libraries, and the engine's one product per library); a file that changed is loaded again; a
+    loaded model is used as given."""
+    import os
+    import shutil
+
+    from headmotion.live.hold import agent_core, shared_model
+    from headmotion.shipped import resolve_model_path
+
+    a, b = agent_core("stream", settle_s=0.5, seed=0), agent_core("stream", settle_s=0.5, seed=1, lookahead_ms=200)
+    assert a.model is b.model is shared_model("stream")
+    path = tmp_path / "mine.hm"
+    shutil.copy(resolve_model_path("stream"), path)
+    first = shared_model(path)
+    assert shared_model(str(path)) is first and first is not a.model
+    os.utime(path, ns=(path.stat().st_atime_ns, path.stat().st_mtime_ns + 10**9))  # the file changed
+    assert shared_model(path) is not first
+    own = load_model("stream")
+    assert agent_core(own, settle_s=0.5).model is own

@@ -16,7 +16,9 @@ The voice starts L later; with L = 0 nothing waits.
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections import deque
+from pathlib import Path
 from collections.abc import Awaitable, Callable
 
 import numpy as np
@@ -138,6 +140,23 @@ class AudioHold:
                 self.pacer.handed(n, rate, now)
 
 
+_LOADED: dict = {}  # shipped name or (model file, its modification time) → the model loaded
+
+
+def shared_model(model):
+    """:func:`~headmotion.synthesis.load_model`, once per process for a shipped name or a model file
+    (a file again when it changed): the agents of a process share one model, its libraries (read
+    once, held once) and so the engine's one product per library for their decisions.  A loaded
+    model is returned as it is."""
+    if not isinstance(model, (str, os.PathLike)):
+        return load_model(model)
+    path = Path(model)
+    key = (str(path.resolve()), path.stat().st_mtime_ns) if path.is_file() else str(model)
+    if key not in _LOADED:
+        _LOADED[key] = load_model(model)
+    return _LOADED[key]
+
+
 def agent_core(model, *, lookahead_ms: float | None = None, controls: Controls | None = None, seed: int = 0,
                resample: str = "exact", settle_s: float, **controls_kwargs) -> HeadMotionCore:
     """A voice agent's live core (:class:`HeadMotionCore` with these arguments) whose model reads
@@ -147,7 +166,7 @@ def agent_core(model, *, lookahead_ms: float | None = None, controls: Controls |
     ``core.controls.lookahead_ms`` (:class:`AudioHold`)."""
     if controls is not None and controls_kwargs:
         raise ParameterError(f"give the controls as `controls=` or as keywords, not both; got {sorted(controls_kwargs)}")
-    m = load_model(model)
+    m = shared_model(model)
     c = Controls.parse(**controls_kwargs) if controls is None else controls
     if lookahead_ms is None:
         params = m.get_params()
@@ -157,4 +176,4 @@ def agent_core(model, *, lookahead_ms: float | None = None, controls: Controls |
     return HeadMotionCore(m, seed=seed, resample=resample, settle_s=settle_s, controls=c)
 
 
-__all__ = ["AudioHold", "AUDIO", "START", "OTHER", "agent_core"]
+__all__ = ["AudioHold", "AUDIO", "START", "OTHER", "agent_core", "shared_model"]
