@@ -13,9 +13,14 @@ from .streaming import StreamingF0e, whole_file
 READERS = ("yin", "praat")
 
 
-def f0e_stream(*, reader: str = "yin", **params) -> StreamingF0e:
+def f0e_stream(*, reader: str = "yin", speaker_half_life_s: float = 0.0, **params):
     """The incremental f0e-live extractor that reads pitch with ``reader`` (:data:`READERS`);
-    ``params`` are the extractor's."""
+    ``params`` are the extractor's.  ``speaker_half_life_s`` > 0: pitch and level relative to the
+    voice so far (:class:`~.speaker_level.SpeakerLevel`, its half-life in seconds of voiced speech)."""
+    if speaker_half_life_s:
+        from .speaker_level import SpeakerLevel
+
+        return SpeakerLevel(f0e_stream(reader=reader, **params), half_life_s=float(speaker_half_life_s))
     if reader == "yin":
         return StreamingF0e(**params)
     if reader == "praat":

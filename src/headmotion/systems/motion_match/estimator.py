@@ -99,6 +99,9 @@ class MotionMatch(Synthesizer):
         search; :mod:`headmotion.features.praat_stream`): in blocks of 30 s read with 1 s on each
         side, or with ``live`` frame by frame on the last 0.3 s of audio
         (docs/decisions/read-any-voice.md)
+    speaker_s : float, f0e-live prosody: > 0 — pitch and level read relative to the voice so far
+        (causal speaker normalisation, :mod:`headmotion.features.speaker_level`), the running level's
+        half-life in seconds of voiced speech; 0: absolute (docs/decisions/read-any-voice.md)
     seed : int, default synthesis seed
 
     The defaults were chosen on held-out speakers (docs/decisions/motion-matching.md).
@@ -114,7 +117,8 @@ class MotionMatch(Synthesizer):
                  posture_s: float = 0.0, prosody: str | None = None, amount: float = 1.0,
                  base_cost: float = 0.0, repeat_cost: float = 0.0, wait_s: float = 0.0,
                  voicing_threshold: float = 0.35, pitch_jump: float = 5.0, centred: bool = False,
-                 ease_in: float = 0.0, lookahead_ms: float = 0.0, reader: str = "yin", seed: int = 0):
+                 ease_in: float = 0.0, lookahead_ms: float = 0.0, reader: str = "yin", speaker_s: float = 0.0,
+                 seed: int = 0):
         self._store_params(locals())
 
     @property
@@ -149,7 +153,7 @@ class MotionMatch(Synthesizer):
         **{k: [whole(0)] for k in ("context", "lookahead", "seed")},
         **{k: [real(0)] for k in ("speech_weight", "pose_weight", "velocity_weight", "switch_cost", "target_weight",
                                   "ridge", "pause_weight", "pause_switch", "lowpass", "posture_s", "base_cost",
-                                  "repeat_cost", "wait_s", "ease_in", "pitch_jump")},
+                                  "repeat_cost", "wait_s", "ease_in", "pitch_jump", "speaker_s")},
         "temperature": [real(0, closed="neither")],
         "voicing_threshold": [real(0, 1, closed="right")],
         "amount": [real(*AMOUNT_RANGE)],
@@ -164,6 +168,9 @@ class MotionMatch(Synthesizer):
         if self.live and self.prosody == "f0e":
             raise ParameterError(f"the 'live' parameter of {self.name} needs prosody 'f0e-live' (Praat's f0e reads "
                                  "the whole file)")
+        if self.speaker_s and not self._live_prosody:
+            raise ParameterError(f"the 'speaker_s' parameter of {self.name} reads the f0e-live prosody relative to "
+                                 "the voice; give prosody 'f0e-live' (or a live model)")
         if self.lookahead_ms and not self.live:
             raise ParameterError(f"the 'lookahead_ms' parameter of {self.name} is how far a live model reads ahead; "
                                  f"this model is not live and already reads {1000.0 * self._reach[1] / FPS:g} ms "
@@ -223,6 +230,8 @@ class MotionMatch(Synthesizer):
         else:
             params = {**LIVE_FEATURES, "voicing_threshold": float(self.voicing_threshold),
                       "max_jump_semitones": float(self.pitch_jump)}
+        if self.speaker_s:
+            params = {**params, "speaker_half_life_s": float(self.speaker_s)}
         return {**params, **CENTRED_FEATURES} if self.centred else params
 
     def _feature_stream(self):
