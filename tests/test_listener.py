@@ -187,9 +187,15 @@ def test_the_listening_head_nods_while_the_other_speaks_and_never_jumps():
     for a, b in lis.meta["nod_spans"]:
         in_nod[max(0, a - 1):b] = True
     assert step[~in_nod].max() <= own_step and step.max() <= 2.0 * own_step
-    # while the other speaks the head's own movement is calmer than the model's
-    span = slice(int((b0 + 1.0) * lis.fps), int(b1 * lis.fps))
-    assert np.abs(np.diff(lis.rotvec[span], axis=0)).sum() < np.abs(np.diff(base.rotvec[span], axis=0)).sum()
+    # while the other speaks the head's own nodding movement (pitch, outside its nods) is calmer than
+    # the model's; its turns and tilts are not calmed (within the posture's easing, as lively)
+    span = np.zeros(len(step), bool)
+    span[int((b0 + 1.0) * lis.fps):int(b1 * lis.fps)] = True
+    pyr, base_pyr = lis.as_pitch_yaw_roll(degrees=True), base.as_pitch_yaw_roll(degrees=True)
+    moved = np.abs(np.diff(pyr, axis=0))[span & ~in_nod].sum(axis=0)
+    base_moved = np.abs(np.diff(base_pyr, axis=0))[span & ~in_nod].sum(axis=0)
+    assert moved[0] < 0.5 * base_moved[0]
+    np.testing.assert_allclose(moved[1:], base_moved[1:], rtol=0.25)
     silent = synthesize(own, "stream", seed=0, hear=Audio(np.zeros_like(heard.samples), 16000))[0]
     np.testing.assert_array_equal(silent.rotvec, base.rotvec)
     none = synthesize(own, "stream", seed=0, hear=heard, listening=0)[0]

@@ -58,8 +58,10 @@ HEAR_DELAY_S = 0.3       # the heard voicing a frame uses is this much older tha
 LATE_S = 0.3             # a back-channel this late (heard audio that came late) is still made
 PENDING_S = 1.0          # audio held for analysis is analysed once this much has gathered
 #: while listening (at 1), this share of the model's own movement about its slow course is taken
-#: out, so that the waiting head's sways do not read as nods and the nods stand out
-CALM = 0.8
+#: out, per axis (pitch, yaw, roll): of the pitch, so that the waiting head's sways do not read as
+#: nods and the nods stand out; not of the turns and tilts, which no one reads as a nod and which
+#: keep the listening head as lively as people in their pauses
+CALM = (0.8, 0.0, 0.0)
 CALM_TAU_S = 1.0         # the slow course: a one-pole low-pass of this time constant, from where listening begins
 #: a recorded nod shallower than this (degrees of pitch) is scaled up to it, one deeper scaled down
 NOD_MIN_DEG, NOD_MAX_DEG = 2.5, 5.0
@@ -232,15 +234,15 @@ class ListeningLayer:
         if self._heard.last_true < 0 and self._ramp == 0.0:
             self._slow = rv[-1].copy()
             return rotvec  # nothing heard yet: the model's frames as they are
-        delta, calm, slow = np.zeros((len(rv), 3)), np.zeros(len(rv)), np.zeros((len(rv), 3))
-        c = CALM * min(1.0, self.amount)
+        delta, calm, slow = np.zeros((len(rv), 3)), np.zeros((len(rv), 3)), np.zeros((len(rv), 3))
+        c = np.asarray(CALM, dtype=np.float64) * min(1.0, self.amount)
         for k in range(len(rv)):
             delta[k], w = self._frame(first + k)
             # the slow course of the model's frames since the listening began (at rest before it)
             self._slow = rv[k].copy() if w == 0.0 or self._slow is None else \
                 self._slow_keep * self._slow + (1.0 - self._slow_keep) * rv[k]
             slow[k], calm[k] = self._slow, c * w
-        moved = np.flatnonzero(np.any(delta != 0.0, axis=1) | (calm > 0.0))
+        moved = np.flatnonzero(np.any((delta != 0.0) | (calm > 0.0), axis=1))
         if not len(moved):
             return rotvec
         out = rv.copy()
