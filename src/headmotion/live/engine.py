@@ -201,12 +201,12 @@ class EngineUse:
     def __init__(self, engine: LiveEngine | bool = True):
         if not isinstance(engine, (bool, LiveEngine)):
             raise ParameterError(f"engine must be True, False or a LiveEngine; got {engine!r}")
-        self._arg = engine
+        self._loop = engine is True  # the running loop's, found at the first call
         self.engine: LiveEngine | None = engine if isinstance(engine, LiveEngine) else None
 
     async def run(self, core, make_steps):
         """``make_steps()``'s value, its decisions answered by the engine (alone without one)."""
-        if self.engine is None and self._arg is True:
+        if self.engine is None and self._loop:
             self.engine = loop_engine()
         if self.engine is None:
             return run_alone(make_steps())

@@ -18,12 +18,12 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections import deque
-from pathlib import Path
 from collections.abc import Awaitable, Callable
 
 import numpy as np
 
 from ..errors import HeadMotionError, ParameterError
+from ..shipped import resolve_model_path
 from ..synthesis import Controls, load_model
 from ..systems.decisions import run_alone
 from . import AGENT_LOOKAHEAD_MS
@@ -140,20 +140,20 @@ class AudioHold:
                 self.pacer.handed(n, rate, now)
 
 
-_LOADED: dict = {}  # shipped name or (model file, its modification time) → the model loaded
+_LOADED: dict = {}  # (model file, its modification time) → the model loaded
 
 
 def shared_model(model):
     """:func:`~headmotion.synthesis.load_model`, once per process for a shipped name or a model file
-    (a file again when it changed): the agents of a process share one model, its libraries (read
-    once, held once) and so the engine's one product per library for their decisions.  A loaded
-    model is returned as it is."""
+    (a file again when it changed; a name and its file are one model): the agents of a process
+    share one model, its libraries (read once, held once) and so the engine's one product per
+    library for their decisions.  A loaded model is returned as it is."""
     if not isinstance(model, (str, os.PathLike)):
         return load_model(model)
-    path = Path(model)
-    key = (str(path.resolve()), path.stat().st_mtime_ns) if path.is_file() else str(model)
+    path = resolve_model_path(model).resolve()
+    key = (str(path), path.stat().st_mtime_ns)
     if key not in _LOADED:
-        _LOADED[key] = load_model(model)
+        _LOADED[key] = load_model(path)
     return _LOADED[key]
 
 
