@@ -1,16 +1,18 @@
 """How the ``f0e-live`` prosody reads pitch (docs/decisions/read-any-voice.md): per-frame YIN
-(:class:`.streaming.StreamingF0e`) or Praat in blocks (:class:`.praat_stream.StreamingPraatF0e`),
-both incremental with the same columns, so a stream and a whole file give the same values."""
+(:class:`.streaming.StreamingF0e`), Praat in blocks (:class:`.praat_stream.StreamingPraatF0e`) or
+Praat's candidates frame by frame with its path searched forward (:class:`.praat_path.PraatPathF0e`), all
+incremental with the same columns, so a stream and a whole file give the same values."""
 
 from __future__ import annotations
 
 from ..errors import ParameterError
 from ..types import Audio
+from .praat_path import PraatPathF0e
 from .praat_stream import StreamingPraatF0e
 from .streaming import StreamingF0e, whole_file
 
 #: the pitch readers of the f0e-live set
-READERS = ("yin", "praat")
+READERS = ("yin", "praat", "praat-path")
 
 
 def f0e_stream(*, reader: str = "yin", speaker_half_life_s: float = 0.0, **params):
@@ -25,6 +27,8 @@ def f0e_stream(*, reader: str = "yin", speaker_half_life_s: float = 0.0, **param
         return StreamingF0e(**params)
     if reader == "praat":
         return StreamingPraatF0e(**params)
+    if reader == "praat-path":
+        return PraatPathF0e(**params)
     raise ParameterError(f"the f0e-live reader must be one of {', '.join(READERS)}; got {reader!r}")
 
 

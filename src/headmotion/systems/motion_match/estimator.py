@@ -227,6 +227,8 @@ class MotionMatch(Synthesizer):
         """The f0e-live extractor's settings (:func:`~headmotion.features.readers.f0e_stream`)."""
         if self.reader == "praat":  # Praat's own voicing threshold and path search (no octave guard)
             params = {**LIVE_FEATURES, **(PRAAT_LIVE if self.live else PRAAT_OFFLINE)}
+        elif self.reader == "praat-path":  # Praat's candidates frame by frame, its path searched forward
+            params = {**LIVE_FEATURES, "reader": "praat-path"}
         else:
             params = {**LIVE_FEATURES, "voicing_threshold": float(self.voicing_threshold),
                       "max_jump_semitones": float(self.pitch_jump)}
