@@ -64,7 +64,7 @@ def _rows(batches):
 def test_push_at_the_model_rate_gives_the_streams_frames(model, speech):
     core = HeadMotionCore(model)
     assert (core.fps, core.sample_rate, core.settle_frames) == (25.0, 16000, 13)
-    assert core.latency_ms == pytest.approx(50.0)  # the shipped stream: Praat reads each frame 30 ms past its centre
+    assert core.latency_ms == pytest.approx(40.0)  # the shipped stream: a frame is final once its Praat window (centre + 20 ms) is in
     batches = _push_all(core, speech)
     ends = core.end()
     ref = _direct(model, speech)

@@ -194,7 +194,7 @@ def test_paced_agent_frames_follow_the_pacer(examples_dir):
     assert np.allclose(tl.poses[:len(pyr)], pyr, atol=1e-3)  # the core's frames (JSON-rounded)
     played = np.array([pacer._wall(n / 25.0) for n in range(len(pyr))])  # when the pacer played each frame's audio
     late = tl.times[:len(pyr)] - (played + 1 / 25.0)
-    # the first frames are made 50 ms after their audio time (the model's latency; the audio comes at
+    # the first frames are made 40 ms after their audio time (the model's latency; the audio comes at
     # twice real time here): they go out late, the others on time
     assert np.all(late > -0.002) and np.median(late) < 0.01 and np.all(late[3:] < 0.03), late
 

@@ -60,7 +60,7 @@ CONDITIONS = ["clean", "noise20", "telephone", "quiet", "mp3-64k"]
 DEFAULT_READERS = ("praat-whole,praat-block10,praat-block30,yin045,yin035,yin045-nojump,yin035-nojump,"
                    "praat-causal0.3,praat-causal0.5,praat-causal1.0,praat-causal2.0,praat-causal0.5-sil0.01,"
                    "praat-causal0.5-sil0.1,praat-causal0.5-s1,praat-causal0.5-hold,pyin,pyin-fl1024,harvest,"
-                   "dio,reaper,swift")
+                   "dio,reaper,swift,praat-path")
 SHIFTS = np.arange(-10, 11)          # lag search, frames of 10 ms
 HOP = 60                             # 15 frames at 25 fps = 60 frames at 100 fps
 
@@ -174,6 +174,17 @@ def read_yin(x, n, thr, jump):
     return np.where(v, np.exp(tr.values[:, list(tr.names).index("logf0")].astype(np.float64)), 0.0), v, {}
 
 
+def read_path(x, n):
+    """The shipped stream's reader (``reader="praat-path"``: Praat's candidates of every 20 ms analysis
+    frame, its path searched forward) read whole at 100 fps; F0 taken where ``voiced``."""
+    from headmotion.features import extract
+    from headmotion.types import Audio
+    tr = extract("f0e-live", Audio(x.astype(np.float32), SR), fps=FPS, n_frames=n, voicing=True,
+                 reader="praat-path", praat_step=0.02, smooth_frames=1)
+    v = tr.values[:, list(tr.names).index("voiced")] > 0.5
+    return np.where(v, np.exp(tr.values[:, list(tr.names).index("logf0")].astype(np.float64)), 0.0), v, {}
+
+
 def yin_params(name: str):
     """``yin045[-nojump]`` -> (voicing threshold 0.45, octave guard 5 st or 0 = off)."""
     m = re.fullmatch(r"yin0(\d\d)(-nojump)?", name)
@@ -260,7 +271,8 @@ def reader(name: str):
     if m := re.fullmatch(r"pyin-fl(\d+)", name):
         return lambda x, n: read_pyin(x, n, int(m.group(1)))
     table = {"pyin": read_pyin, "harvest": lambda x, n: read_world(x, n, "harvest"),
-             "dio": lambda x, n: read_world(x, n, "dio"), "reaper": read_reaper, "swift": read_swift}
+             "dio": lambda x, n: read_world(x, n, "dio"), "reaper": read_reaper, "swift": read_swift,
+             "praat-path": read_path}
     if name in table:
         return table[name]
     raise SystemExit(f"unknown reader {name!r}")

@@ -87,11 +87,14 @@ def path_scores(prev: np.ndarray | None, costs: np.ndarray | None, local: np.nda
 def praat_candidates(window: np.ndarray, sample_rate: int, *, step: float, floor: float, ceiling: float,
                      voicing_threshold: float = PRAAT_VOICING, silence_threshold: float = PRAAT_SILENCE):
     """Praat's candidates of the one analysis frame a read of exactly ``window`` holds: frequencies
-    and strengths (sorted by frequency, the unvoiced candidate first) and the frame's local peak
-    (Praat's intensity of it times the window's peak about its mean)."""
+    and strengths (in Praat's order) and the frame's local peak (Praat's intensity of it times the
+    window's peak about its mean)."""
     import parselmouth
 
-    peak = float(np.max(np.abs(window - np.mean(window)))) if len(window) else 0.0
+    if not len(window):
+        return np.zeros(1), np.zeros(1), 0.0
+    mean = float(np.add.reduce(window)) / len(window)
+    peak = max(float(window.max()) - mean, mean - float(window.min()))   # max |window − mean|
     if peak == 0.0:
         return np.zeros(1), np.zeros(1), 0.0
     snd = parselmouth.Sound(window, sampling_frequency=float(sample_rate))
@@ -103,11 +106,13 @@ def praat_candidates(window: np.ndarray, sample_rate: int, *, step: float, floor
         return np.zeros(1), np.zeros(1), 0.0
     if pitch.n_frames < 1:
         return np.zeros(1), np.zeros(1), 0.0
-    arr = pitch.to_array()[:, (pitch.n_frames - 1) // 2]
-    ok = ~np.isnan(arr["frequency"])
-    freq, strength = arr["frequency"][ok], arr["strength"][ok]
-    order = np.lexsort((strength, freq))
-    return freq[order], strength[order], float(pitch.get_frame((pitch.n_frames - 1) // 2 + 1).intensity) * peak
+    i = (pitch.n_frames - 1) // 2
+    arr = pitch.to_array()[:, i]
+    freq, strength = arr["frequency"], arr["strength"]
+    ok = ~np.isnan(freq)
+    if not ok.all():
+        freq, strength = freq[ok], strength[ok]
+    return freq, strength, float(pitch.get_frame(i + 1).intensity) * peak
 
 
 class PraatPathF0e(StreamingF0e):

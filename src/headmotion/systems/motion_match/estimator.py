@@ -94,10 +94,12 @@ class MotionMatch(Synthesizer):
         (the library is re-indexed, not retrained), a stream emits a frame A frames (A · 40 ms)
         later, and past a file's end the last prosody row is repeated.  0: causal.  A model that
         is not ``live`` already reads its ``lookahead`` frames ahead and refuses a non-zero value
-    reader : ``"yin"`` or ``"praat"``, f0e-live prosody: how pitch and voicing are read — per-frame
-        YIN (``voicing_threshold``, ``pitch_jump``), or Praat (its own voicing threshold and path
-        search; :mod:`headmotion.features.praat_stream`): in blocks of 30 s read with 1 s on each
-        side, or with ``live`` frame by frame on the last 0.3 s of audio
+    reader : ``"yin"``, ``"praat"`` or ``"praat-path"``, f0e-live prosody: how pitch and voicing are
+        read — per-frame YIN (``voicing_threshold``, ``pitch_jump``); Praat (its own voicing
+        threshold and path search; :mod:`headmotion.features.praat_stream`) in blocks of 30 s read
+        with 1 s on each side, or with ``live`` frame by frame on the last 0.3 s of audio; or
+        Praat's candidates of each 20 ms analysis frame read once, its path searched forward over
+        everything heard (:mod:`headmotion.features.praat_path`; final 40 ms after a frame's start)
         (docs/decisions/read-any-voice.md)
     speaker_s : float, f0e-live prosody: > 0 — pitch and level read relative to the voice so far
         (causal speaker normalisation, :mod:`headmotion.features.speaker_level`), the running level's
