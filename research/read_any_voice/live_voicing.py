@@ -2,7 +2,8 @@
 """How the shipped models' Praat reading voices each recording against whole-file Praat
 (docs/decisions/read-any-voice.md, "the silence threshold"): per recording of the held-out sources
 named, the share of 25 fps frames whole-file Praat calls voiced, the live reading (last 0.3 s per
-frame; ``--half-life 0``: each read's own peak as Praat's silence reference) and YIN at 0.45, and
+frame, or ``--reader praat-path``: each analysis frame read once, the path searched forward;
+``--half-life 0``: each read's own peak as Praat's silence reference) and YIN at 0.45, and
 the share the live reading calls voiced where whole-file Praat does not, and the converse.
 
     python research/read_any_voice/live_voicing.py ~/.cache/headmotion/corpus/talking_video \\
@@ -28,8 +29,11 @@ def main(argv=None) -> int:
     ap.add_argument("corpus", type=Path)
     ap.add_argument("--sources", default="mimictalk,video_retalking,sadtalker,pc_avs")
     ap.add_argument("--half-life", type=float, default=None, help="peak_half_life_s of the live reading")
+    ap.add_argument("--reader", default="praat", choices=("praat", "praat-path"),
+                    help="the live reading: Praat on the last 0.3 s per frame, or each analysis frame once")
     a = ap.parse_args(argv)
-    live = dict(PRAAT_LIVE, **({} if a.half_life is None else {"peak_half_life_s": a.half_life}))
+    live = dict(PRAAT_LIVE) if a.reader == "praat" else {"reader": "praat-path"}
+    live.update({} if a.half_life is None else {"peak_half_life_s": a.half_life})
     corpus = Corpus.load(a.corpus)
     wanted = set(a.sources.split(","))
     rows = []

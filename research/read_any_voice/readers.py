@@ -60,7 +60,7 @@ CONDITIONS = ["clean", "noise20", "telephone", "quiet", "mp3-64k"]
 DEFAULT_READERS = ("praat-whole,praat-block10,praat-block30,yin045,yin035,yin045-nojump,yin035-nojump,"
                    "praat-causal0.3,praat-causal0.5,praat-causal1.0,praat-causal2.0,praat-causal0.5-sil0.01,"
                    "praat-causal0.5-sil0.1,praat-causal0.5-s1,praat-causal0.5-hold,pyin,pyin-fl1024,harvest,"
-                   "dio,reaper,swift,praat-path")
+                   "dio,reaper,swift,praat-path,praat-live0.3")
 SHIFTS = np.arange(-10, 11)          # lag search, frames of 10 ms
 HOP = 60                             # 15 frames at 25 fps = 60 frames at 100 fps
 
@@ -71,6 +71,8 @@ def plan(name: str):
     m = re.match(r"praat-causal([\d.]+)(.*)", name)
     if name.startswith("pyin") or name == "harvest" or (m and m.group(2)):            # 190-260 ms/s; variants of 0.5
         return ["clean"], True
+    if name == "praat-live0.3":   # one Praat call per 10 ms frame on 0.3 s: ~150 ms/s
+        return ["clean"], False
     if name == "reaper" or (m and float(m.group(1)) >= 1.0):         # 115-220 ms/s
         return ["clean", "noise20"], True
     if m:   # 35-60 ms/s; Praat is scale-invariant, so 'quiet' repeats 'clean' (dry run: identical)
@@ -174,6 +176,18 @@ def read_yin(x, n, thr, jump):
     return np.where(v, np.exp(tr.values[:, list(tr.names).index("logf0")].astype(np.float64)), 0.0), v, {}
 
 
+def read_live03(x, n):
+    """The stream's former reader (``reader="praat"`` live: Praat on the last 0.3 s for every frame,
+    the running peak) read whole at 100 fps with a 20 ms step; F0 taken where ``voiced``."""
+    from headmotion.features import extract
+    from headmotion.systems.motion_match.library import PRAAT_LIVE
+    from headmotion.types import Audio
+    tr = extract("f0e-live", Audio(x.astype(np.float32), SR), fps=FPS, n_frames=n, voicing=True,
+                 smooth_frames=1, **PRAAT_LIVE)
+    v = tr.values[:, list(tr.names).index("voiced")] > 0.5
+    return np.where(v, np.exp(tr.values[:, list(tr.names).index("logf0")].astype(np.float64)), 0.0), v, {}
+
+
 def read_path(x, n):
     """The shipped stream's reader (``reader="praat-path"``: Praat's candidates of every 20 ms analysis
     frame, its path searched forward) read whole at 100 fps; F0 taken where ``voiced``."""
@@ -272,7 +286,7 @@ def reader(name: str):
         return lambda x, n: read_pyin(x, n, int(m.group(1)))
     table = {"pyin": read_pyin, "harvest": lambda x, n: read_world(x, n, "harvest"),
              "dio": lambda x, n: read_world(x, n, "dio"), "reaper": read_reaper, "swift": read_swift,
-             "praat-path": read_path}
+             "praat-path": read_path, "praat-live0.3": read_live03}
     if name in table:
         return table[name]
     raise SystemExit(f"unknown reader {name!r}")
