@@ -25,7 +25,7 @@ from .synth_cmds import load_cli_model
 @app.command()
 def stream(
     model: Optional[str] = typer.Option(None, "-m", "--model", metavar="NAME|FILE", help="A model that streams: a shipped name "
-                                        "('stream', the default, 50 ms behind the audio; 'default', about 31 s "
+                                        "('stream', the default, 40 ms behind the audio; 'default', about 31 s "
                                         "behind: its pitch is read in 30 s blocks) or a model file."),
     input: str = typer.Option("-", "--input", "-i", help="'-' raw 16-bit mono PCM on stdin, 'mic' the microphone, "
                               "a named pipe of raw PCM, or an audio file."),

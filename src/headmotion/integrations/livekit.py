@@ -82,7 +82,7 @@ class HeadMotionAudioOutput(io.AudioOutput):
         ``await send(message)`` for each message (:func:`room_sender` for a room's data packets).
     model, seed, resample, settle_s, controls, **controls_kwargs
         As :class:`~headmotion.live.core.HeadMotionCore` (default model
-        ``"stream"``: 50 ms latency, 25 frames/s).
+        ``"stream"``: 40 ms latency, 25 frames/s).
     pace : bool
         Send each frame when its audio plays (True) or when it is made (False).
     delay_s : float

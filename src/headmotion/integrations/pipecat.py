@@ -78,7 +78,7 @@ class HeadMotionProcessor(FrameProcessor):
     Parameters
     ----------
     model : str, Path or Synthesizer
-        A model that streams (default ``"stream"``: 50 ms latency, 25 frames/s); a loaded model is
+        A model that streams (default ``"stream"``: 40 ms latency, 25 frames/s); a loaded model is
         shared, not copied.
     seed, resample, settle_s, controls, **controls_kwargs
         As :class:`~headmotion.live.core.HeadMotionCore` (``gain``,

@@ -7,8 +7,8 @@ timeline at the wall time their audio plays.
   frame ``n`` goes at ``start + n / fps``, ``start`` being when the first sample plays.  At the
   end the core's settling follows the audio.
 * :func:`follow` — live speech (the microphone): frame ``n`` at ``t0 + n / fps + delay``, ``t0``
-  the capture time of the first sample and ``delay`` the same margin (110 ms with the shipped
-  ``stream`` on 16 kHz audio, 150 ms resampled from another rate): the head trails a live voice by
+  the capture time of the first sample and ``delay`` the same margin (100 ms with the shipped
+  ``stream`` on 16 kHz audio, 140 ms resampled from another rate): the head trails a live voice by
   that much.
 * :func:`listen` — the other party's audio, once the speech is over: the core's listening turn
   (:meth:`~headmotion.live.core.HeadMotionCore.hear`), placed as :func:`follow` places speech.

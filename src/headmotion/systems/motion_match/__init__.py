@@ -34,7 +34,8 @@ default: the goal over the hop).
 
 **Live** (``live=True``, :class:`MotionMatchStream`): the prosody is the f0e-live set (pitch,
 energy, their deltas and voicing, computed incrementally with no lookahead: with ``reader="yin"`` a
-frame is final 39 ms after its start, with ``reader="praat"`` — the shipped ``stream`` — 50 ms),
+frame is final 39 ms after its start, with ``reader="praat"`` 50 ms, with ``reader="praat-path"`` — the
+shipped ``stream`` — 40 ms),
 smoothed and described from the past only, in the library as at
 synthesis; a decision reads the speech up to its own frame, its goal is the pose that speech
 asks for, held over the hop, and a hop is a pause when the last ``hop`` frames were mostly
