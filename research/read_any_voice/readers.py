@@ -165,38 +165,33 @@ def read_causal(x, n, window_s, stride=4, hold=False, silence=0.03):
     return f0, v, {"calls": calls}
 
 
-def read_yin(x, n, thr, jump):
-    """The project's streaming YIN (f0e-live) read whole; smooth_frames=1 so ``logf0`` is the raw
-    held YIN value (the default 10-frame average only blurs it), F0 taken where ``voiced``."""
+def _read_f0e_live(x, n, **params):
+    """The project's f0e-live extractor read whole at FPS with ``params``; smooth_frames=1 so
+    ``logf0`` is the raw held value, F0 taken where ``voiced``."""
     from headmotion.features import extract
     from headmotion.types import Audio
-    tr = extract("f0e-live", Audio(x.astype(np.float32), SR), fps=FPS, n_frames=n, voicing=True,
-                 voicing_threshold=thr, max_jump_semitones=jump, smooth_frames=1)
+    tr = extract("f0e-live", Audio(x.astype(np.float32), SR), fps=FPS, n_frames=n, voicing=True, smooth_frames=1,
+                 **params)
     v = tr.values[:, list(tr.names).index("voiced")] > 0.5
     return np.where(v, np.exp(tr.values[:, list(tr.names).index("logf0")].astype(np.float64)), 0.0), v, {}
+
+
+def read_yin(x, n, thr, jump):
+    """The project's streaming YIN (the default 10-frame average would only blur it)."""
+    return _read_f0e_live(x, n, voicing_threshold=thr, max_jump_semitones=jump)
 
 
 def read_live03(x, n):
     """The stream's former reader (``reader="praat"`` live: Praat on the last 0.3 s for every frame,
-    the running peak) read whole at 100 fps with a 20 ms step; F0 taken where ``voiced``."""
-    from headmotion.features import extract
+    the running peak) at a 20 ms step."""
     from headmotion.systems.motion_match.library import PRAAT_LIVE
-    from headmotion.types import Audio
-    tr = extract("f0e-live", Audio(x.astype(np.float32), SR), fps=FPS, n_frames=n, voicing=True,
-                 smooth_frames=1, **PRAAT_LIVE)
-    v = tr.values[:, list(tr.names).index("voiced")] > 0.5
-    return np.where(v, np.exp(tr.values[:, list(tr.names).index("logf0")].astype(np.float64)), 0.0), v, {}
+    return _read_f0e_live(x, n, **PRAAT_LIVE)
 
 
 def read_path(x, n):
     """The shipped stream's reader (``reader="praat-path"``: Praat's candidates of every 20 ms analysis
-    frame, its path searched forward) read whole at 100 fps; F0 taken where ``voiced``."""
-    from headmotion.features import extract
-    from headmotion.types import Audio
-    tr = extract("f0e-live", Audio(x.astype(np.float32), SR), fps=FPS, n_frames=n, voicing=True,
-                 reader="praat-path", praat_step=0.02, smooth_frames=1)
-    v = tr.values[:, list(tr.names).index("voiced")] > 0.5
-    return np.where(v, np.exp(tr.values[:, list(tr.names).index("logf0")].astype(np.float64)), 0.0), v, {}
+    frame, its path searched forward)."""
+    return _read_f0e_live(x, n, reader="praat-path", praat_step=0.02)
 
 
 def yin_params(name: str):

@@ -217,10 +217,7 @@ class PraatPathF0e(StreamingF0e):
         self._n_grid = j + 1
 
     def _static_frames(self, t0: int, t1: int) -> None:
-        xe = self._windows(t0, t1, self.win)
-        sq = xe * xe
-        p = np.sum(sq * self.hamming2, axis=1) / self.hamming2_sum
-        energy = np.maximum(10.0 * np.log10(np.maximum(p, 1e-30)), -100.0)
+        energy = self._energy_db(t0, t1)
         logf0, voiced = np.zeros(t1 - t0), np.zeros(t1 - t0, bool)
         for k, t in enumerate(range(t0, t1)):
             for j in range(self._n_grid, self._grid_of(t) + 1):

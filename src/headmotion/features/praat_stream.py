@@ -160,10 +160,7 @@ class StreamingPraatF0e(StreamingF0e):
         return logf0, voiced, t0
 
     def _static_frames(self, t0: int, t1: int) -> None:
-        xe = self._windows(t0, t1, self.win)
-        sq = xe * xe
-        p = np.sum(sq * self.hamming2, axis=1) / self.hamming2_sum
-        energy = np.maximum(10.0 * np.log10(np.maximum(p, 1e-30)), -100.0)
+        energy = self._energy_db(t0, t1)
         logf0, voiced = np.zeros(t1 - t0), np.zeros(t1 - t0, bool)
         for b in range(t0 // self.B, (t1 - 1) // self.B + 1):
             lf, v, first = self._praat(b)

@@ -329,6 +329,13 @@ class StreamingF0e:
         self._static.extend(np.stack([logf0, energy], axis=1))
         self._voiced.extend(voiced.astype(np.float64))
 
+    def _energy_db(self, t0: int, t1: int) -> np.ndarray:
+        """Frames ``t0 … t1−1``'s energy (dB, Hamming² weighted, floored at −100) in one batch: the
+        energy column of the readers that take their pitch from elsewhere (Praat)."""
+        xe = self._windows(t0, t1, self.win)
+        p = np.sum(xe * xe * self.hamming2, axis=1) / self.hamming2_sum
+        return np.maximum(10.0 * np.log10(np.maximum(p, 1e-30)), -100.0)
+
     def _hold(self, t: int, voiced: bool, lf: float) -> bool:
         """The hold and the octave-jump guard of frame ``t`` (sequential); returns its voicing."""
         if not voiced:
