@@ -10,12 +10,15 @@ import pytest
 from headmotion.errors import ParameterError
 from headmotion.features import extract
 from headmotion.features.praat_path import (
+    BLOCK,
     MAX_CANDIDATES,
     PRAAT_SILENCE,
     PRAAT_VOICING,
     PraatPathF0e,
+    local_peaks,
     local_strengths,
     path_scores,
+    praat_candidates,
     transition_costs,
 )
 from headmotion.features.readers import f0e_live, f0e_stream
@@ -114,8 +117,42 @@ def test_voicing_is_close_to_praats_on_the_whole_file(rng):
     assert np.mean((v[:, 6] > 0.5) == voiced) > 0.93
 
 
+def test_windows_read_together_get_the_candidates_they_get_alone(rng):
+    """One Praat call for many windows (a stream's frames, or other streams') gives each window the
+    candidates and local peak of a read of it alone, bit for bit; a silent window has only the
+    unvoiced candidate."""
+    x = _speechlike(rng, 3.0).astype(np.float64)
+    wins = np.stack([x[s:s + 640] for s in range(0, len(x) - 640, 333)])
+    wins[::2] *= 0.02   # quiet beside loud: Praat's own path (which orders its candidates) differs
+    wins[3] = 0.0
+    freq, strength, peaks = praat_candidates(wins, SR, floor=75.0, ceiling=600.0)
+    assert freq.shape[0] == len(wins) and np.count_nonzero(~np.isnan(freq[3])) == 1 and freq[3, 0] == 0.0
+    assert peaks[3] == 0.0 and (peaks[np.arange(len(wins)) != 3] > 0).all()
+    for k in range(len(wins)):
+        f, s, p = praat_candidates(wins[k:k + 1], SR, floor=75.0, ceiling=600.0)
+        ok, ok_k = ~np.isnan(f[0]), ~np.isnan(freq[k])
+        np.testing.assert_array_equal(f[0][ok], freq[k][ok_k])
+        np.testing.assert_array_equal(s[0][ok], strength[k][ok_k])
+        assert p[0] == peaks[k]
+
+
+def test_local_peak_is_praats(rng):
+    """The local peak is Praat's: a read of the window alone reports it as its intensity (the
+    local peak over the window's peak about its mean)."""
+    import parselmouth
+
+    x = _speechlike(rng, 2.0).astype(np.float64)
+    wins = np.stack([x[s:s + 640] for s in range(0, len(x) - 640, 997)])
+    ours = local_peaks(wins, SR, floor=75.0)
+    for w, p in zip(wins, ours):
+        pitch = parselmouth.Sound(w, sampling_frequency=float(SR)).to_pitch_ac(time_step=0.02, pitch_floor=75.0,
+                                                                               pitch_ceiling=600.0)
+        praat = pitch.get_frame(1).intensity * np.abs(w - w.mean()).max()
+        assert p == pytest.approx(praat, rel=1e-9)
+
+
 def test_streamed_equals_offline_exactly(rng):
-    x = _speechlike(rng, 5.0)
+    x = _speechlike(rng, 2 * BLOCK * 0.02 + 1.0)   # offline, read in more than one block
     n = int(len(x) / SR * 25)
     whole = extract("f0e-live", Audio(x, SR), fps=25, n_frames=n, voicing=True, **PATH).values
     for sizes in ([160], [37, 1200, 5], [SR * 3]):

@@ -12,7 +12,8 @@ ceiling count as unvoiced).
 
 :class:`.praat_stream.StreamingPraatF0e` reads the last 0.3 s for every frame: 15 analysis frames
 analysed again per frame, and a path that forgets everything before them.  Here each analysis
-frame is read **once** (one Praat call on exactly its window), and the path search runs
+frame is read **once** (Praat reads exactly its window; the frames that are ready are read by one
+call, their windows laid side by side, :func:`praat_candidates`), and the path search runs
 **forward** over everything heard so far: a frame's value is the end of the best path to it
 (its forward score's best candidate), final as soon as its window is in — 40 ms after the frame's
 start at 25 fps, a 20 ms step and a 75 Hz floor.  The forward search is
@@ -21,13 +22,13 @@ start at 25 fps, a 20 ms step and a 75 Hz floor.  The forward search is
 
 Praat's silence cost compares a frame's local peak with the read's global peak.  A stream has no
 global peak, so the peak is the **running peak**: the loudest frame so far, halving every
-``peak_half_life_s``.  A frame's local peak is Praat's own (its intensity on a read of exactly the
-window, times that window's peak about its mean), so every frame's reading depends only on the
-audio up to its window's end, whatever the chunking.  Why this reader: docs/decisions/read-any-voice.md.
+``peak_half_life_s``.  A frame's local peak is Praat's own (:func:`local_peaks`), so every frame's
+reading depends only on the audio up to its window's end, whatever the chunking.  Why this reader: docs/decisions/read-any-voice.md.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -47,29 +48,38 @@ VOICED_UNVOICED_COST = 0.14
 MAX_CANDIDATES = 15
 #: seconds over which the running peak halves
 PEAK_HALF_LIFE_S = 10.0
+#: analysis frames read by one Praat call at most (a long push is read in blocks: bounded memory)
+BLOCK = 256
 
 
-def local_strengths(freq: np.ndarray, strength: np.ndarray, peak_ratio: float, *, ceiling: float,
+def local_strengths(freq: np.ndarray, strength: np.ndarray, peak_ratio, *, ceiling: float,
                     voicing_threshold: float = PRAAT_VOICING, silence_threshold: float = PRAAT_SILENCE,
                     octave_cost: float = OCTAVE_COST) -> tuple[np.ndarray, np.ndarray]:
-    """One frame's candidate strengths as the path search weighs them (Boersma 1993, eq. 24 and
-    the unvoiced candidate's strength): voiced candidates ``r − octave_cost · log2(ceiling / F)``,
-    unvoiced ones (F = 0 or F ≥ ceiling) ``voicing_threshold + max(0, 2 − peak_ratio ·
-    (1 + voicing_threshold) / silence_threshold)``.  Returns ``(strengths, voiced mask)``."""
+    """Candidate strengths as the path search weighs them (Boersma 1993, eq. 24 and the unvoiced
+    candidate's strength): voiced candidates ``r − octave_cost · log2(ceiling / F)``, unvoiced ones
+    (F = 0 or F ≥ ceiling) ``voicing_threshold + max(0, 2 − peak_ratio · (1 + voicing_threshold) /
+    silence_threshold)``; ``−inf`` where F is NaN (no candidate: a frame with fewer than others).
+    One frame (``freq`` ``(K,)``, ``peak_ratio`` a number) or many (``(n, K)`` and ``(n,)``).
+    Returns ``(strengths, voiced mask)``."""
     voiced = (freq > 0) & (freq < ceiling)
-    unvoiced = voicing_threshold + max(0.0, 2.0 - peak_ratio * (1.0 + voicing_threshold) / silence_threshold)
-    return np.where(voiced, strength - octave_cost * np.log2(ceiling / np.where(voiced, freq, 1.0)), unvoiced), voiced
+    unvoiced = voicing_threshold + np.maximum(0.0, 2.0 - np.asarray(peak_ratio, dtype=np.float64)
+                                              * (1.0 + voicing_threshold) / silence_threshold)
+    if unvoiced.ndim:
+        unvoiced = unvoiced[:, None]
+    local = np.where(voiced, strength - octave_cost * np.log2(ceiling / np.where(voiced, freq, 1.0)), unvoiced)
+    return np.where(np.isnan(freq), -np.inf, local), voiced
 
 
 def transition_costs(log2_prev: np.ndarray, voiced_prev: np.ndarray, log2_next: np.ndarray, voiced_next: np.ndarray,
                      *, step: float, octave_jump_cost: float = OCTAVE_JUMP_COST,
                      voiced_unvoiced_cost: float = VOICED_UNVOICED_COST) -> np.ndarray:
-    """Praat's cost of going from each candidate of a frame to each of the next, ``(k_prev, k_next)``:
-    octaves jumped times the octave-jump cost between voiced ones, the voiced/unvoiced cost between
-    a voiced and an unvoiced one, nothing between unvoiced ones; both scaled by ``0.01 s / step``."""
+    """Praat's cost of going from each candidate of a frame to each of the next, ``(k_prev, k_next)``
+    (or ``(n, k_prev, k_next)`` for ``n`` pairs of frames): octaves jumped times the octave-jump cost
+    between voiced ones, the voiced/unvoiced cost between a voiced and an unvoiced one, nothing
+    between unvoiced ones; both scaled by ``0.01 s / step``."""
     scale = 0.01 / step
-    a, b = voiced_prev[:, None], voiced_next[None, :]
-    jump = octave_jump_cost * scale * np.abs(log2_prev[:, None] - log2_next[None, :])
+    a, b = voiced_prev[..., :, None], voiced_next[..., None, :]
+    jump = octave_jump_cost * scale * np.abs(log2_prev[..., :, None] - log2_next[..., None, :])
     return np.where(a & b, jump, np.where(a ^ b, voiced_unvoiced_cost * scale, 0.0))
 
 
@@ -84,35 +94,77 @@ def path_scores(prev: np.ndarray | None, costs: np.ndarray | None, local: np.nda
     return total[back, np.arange(total.shape[1])] + local, back
 
 
-def praat_candidates(window: np.ndarray, sample_rate: int, *, step: float, floor: float, ceiling: float,
+@functools.lru_cache(maxsize=16)
+def _peak_geometry(width: int, sample_rate: int, floor: float) -> tuple[slice, int, slice, np.ndarray]:
+    """For :func:`local_peaks`: the local mean's samples and count, the local peak's samples and
+    the Hanning window's values on them (Praat's ``Sound_to_Pitch`` geometry for a frame centred
+    in ``width`` samples)."""
+    n_period = int(math.floor(sample_rate / floor))
+    half_period = n_period // 2 + 1
+    half = int(math.floor(3.0 / floor * sample_rate)) // 2 - 1
+    n_window = 2 * half
+    left = (width + 1) // 2 - 1   # 0-based samples either side of the centre
+    right = left + 1
+    j0, j1 = max(1, half + 1 - half_period), min(n_window, half + half_period)
+    hann = 0.5 - 0.5 * np.cos(np.arange(j0, j1 + 1) * 2.0 * math.pi / (n_window + 1))
+    hann.setflags(write=False)
+    return slice(right - n_period, left + n_period + 1), 2 * n_period, slice(right - half + j0 - 1, right - half + j1), hann
+
+
+def local_peaks(windows: np.ndarray, sample_rate: int, *, floor: float) -> np.ndarray:
+    """Praat's local peak of the one analysis frame centred in each row of ``windows`` ``(n, W)``:
+    the largest ``|x − local mean| · Hanning`` within half a longest period (``1 / floor``) of the
+    centre, the local mean taken over a longest period to each side (Boersma 1993; Praat's
+    ``Sound_to_Pitch``), at most the row's own peak about its mean (as Praat's read of the row
+    alone caps it: its intensity is at most 1).  Row by row, so a frame's value does not depend
+    on the rows read with it."""
+    around, count, centre, hann = _peak_geometry(windows.shape[1], int(sample_rate), float(floor))
+    mean = np.add.reduce(windows[:, around], axis=1) / count
+    local = np.max(np.abs((windows[:, centre] - mean[:, None]) * hann), axis=1)
+    whole = np.add.reduce(windows, axis=1) / windows.shape[1]
+    own = np.maximum(windows.max(axis=1) - whole, whole - windows.min(axis=1))
+    return np.minimum(local, own)
+
+
+def praat_candidates(windows: np.ndarray, sample_rate: int, *, floor: float, ceiling: float,
                      voicing_threshold: float = PRAAT_VOICING, silence_threshold: float = PRAAT_SILENCE):
-    """Praat's candidates of the one analysis frame a read of exactly ``window`` holds: frequencies
-    and strengths (in Praat's order) and the frame's local peak (Praat's intensity of it times the
-    window's peak about its mean)."""
+    """Praat's candidates of the analysis frame centred in each row of ``windows`` ``(n, W)``, all
+    read by **one** Praat call on the rows laid side by side (a time step of one row, so each
+    analysis frame reads exactly its own row).  Returns ``(frequencies, strengths, local peaks)``:
+    ``(n, K)``, ``(n, K)`` and ``(n,)``, each row's candidates sorted by frequency and strength and
+    padded with NaN (frequency 0: the unvoiced candidate; a row without a peak has it alone).
+
+    A frame's candidates depend on its window alone (Praat's ``Sound_into_PitchFrame``); only
+    their order depends on the read (Praat's path search moves its choice to the front), so
+    sorted they are the same bits whether a row is read alone, among a stream's other frames or
+    among other streams' (tests/test_praat_path.py).  The local peak is :func:`local_peaks`."""
     import parselmouth
 
-    if not len(window):
-        return np.zeros(1), np.zeros(1), 0.0
-    mean = float(np.add.reduce(window)) / len(window)
-    peak = max(float(window.max()) - mean, mean - float(window.min()))   # max |window − mean|
-    if peak == 0.0:
-        return np.zeros(1), np.zeros(1), 0.0
-    snd = parselmouth.Sound(window, sampling_frequency=float(sample_rate))
-    try:
-        pitch = snd.to_pitch_ac(time_step=step, pitch_floor=floor, pitch_ceiling=ceiling,
-                                max_number_of_candidates=MAX_CANDIDATES, silence_threshold=silence_threshold,
-                                voicing_threshold=voicing_threshold)
-    except parselmouth.PraatError:  # (cannot happen on a full window; read as unvoiced)
-        return np.zeros(1), np.zeros(1), 0.0
-    if pitch.n_frames < 1:
-        return np.zeros(1), np.zeros(1), 0.0
-    i = (pitch.n_frames - 1) // 2
-    arr = pitch.to_array()[:, i]
-    freq, strength = arr["frequency"], arr["strength"]
-    ok = ~np.isnan(freq)
-    if not ok.all():
-        freq, strength = freq[ok], strength[ok]
-    return freq, strength, float(pitch.get_frame(i + 1).intensity) * peak
+    windows = np.ascontiguousarray(windows, dtype=np.float64)
+    n, W = windows.shape
+    freq, strength = np.full((n, 1), np.nan), np.full((n, 1), np.nan)
+    if n == 0:
+        return freq, strength, np.zeros(0)
+    peaks = local_peaks(windows, sample_rate, floor=floor)
+    silent = peaks == 0   # a constant row or a flat centre: voicelessness alone (Praat: a local peak of 0)
+    if not silent.all():
+        # a quarter of a row of zeros at each end: Praat fits n frames, centred, with room to spare
+        pad = max(1, W // 4)
+        buf = np.zeros(n * W + 2 * pad)
+        buf[pad:pad + n * W] = windows.reshape(-1)
+        pitch = parselmouth.Sound(buf, sampling_frequency=float(sample_rate)).to_pitch_ac(
+            time_step=W / sample_rate, pitch_floor=floor, pitch_ceiling=ceiling,
+            max_number_of_candidates=MAX_CANDIDATES, silence_threshold=silence_threshold,
+            voicing_threshold=voicing_threshold)
+        if pitch.n_frames != n:   # (cannot happen: the padding keeps Praat's frame count off a rounding edge)
+            raise AssertionError(f"Praat fitted {pitch.n_frames} frames in {n} windows")
+        arr = pitch.to_array().T   # (n, K); NaN past a frame's last candidate
+        freq, strength = arr["frequency"].copy(), arr["strength"].copy()
+        freq[silent], strength[silent] = np.nan, np.nan
+        order = np.argsort(freq, axis=1, kind="stable")   # (NaN last; no two candidates share a frequency)
+        freq, strength = np.take_along_axis(freq, order, 1), np.take_along_axis(strength, order, 1)
+    freq[silent, 0], strength[silent, 0], peaks[silent] = 0.0, 0.0, 0.0
+    return freq, strength, peaks
 
 
 class PraatPathF0e(StreamingF0e):
@@ -196,35 +248,55 @@ class PraatPathF0e(StreamingF0e):
             seg[lo - s0:hi - s0] = self._buf[lo - self._buf0:hi - self._buf0]
         return seg
 
-    def _advance_path(self, j: int) -> None:
-        """Read analysis frame ``j`` and take the forward search one frame on."""
-        freq, strength, local_peak = praat_candidates(self._window(self._grid_start(j)), self.sample_rate,
-                                                      step=self.step, floor=self.floor, ceiling=self.ceiling,
-                                                      voicing_threshold=self.costs["voicing_threshold"],
-                                                      silence_threshold=self.costs["silence_threshold"])
-        self._peak = max(self._peak * self._decay, local_peak)
-        ratio = local_peak / self._peak if self._peak > 0 else 0.0
-        local, voiced = local_strengths(freq, strength, ratio, ceiling=self.ceiling, **self.costs)
+    def _advance_path(self, upto: int) -> list[float]:
+        """Read analysis frames ``_n_grid … upto − 1`` (one Praat call per :data:`BLOCK` of them) and
+        take the forward search over them; the frequency each chose (0: unvoiced)."""
+        chosen: list[float] = []
+        for a in range(self._n_grid, upto, BLOCK):
+            b = min(a + BLOCK, upto)
+            freq, strength, peaks = praat_candidates(
+                np.stack([self._window(self._grid_start(j)) for j in range(a, b)]), self.sample_rate,
+                floor=self.floor, ceiling=self.ceiling, voicing_threshold=self.costs["voicing_threshold"],
+                silence_threshold=self.costs["silence_threshold"])
+            chosen.extend(self._search(freq, strength, peaks))
+            self._n_grid = b
+        return chosen
+
+    def _search(self, freq: np.ndarray, strength: np.ndarray, peaks: np.ndarray) -> list[float]:
+        """The forward search over analysis frames read together (:func:`praat_candidates`)."""
+        ratios = np.zeros(len(peaks))
+        for k, p in enumerate(peaks.tolist()):   # the running peak
+            self._peak = max(self._peak * self._decay, p)
+            ratios[k] = p / self._peak if self._peak > 0 else 0.0
+        local, voiced = local_strengths(freq, strength, ratios, ceiling=self.ceiling, **self.costs)
         log2 = np.log2(np.where(voiced, freq, 1.0))
-        costs = None
-        if self._scores is not None:
-            costs = transition_costs(self._log2, self._cand_voiced, log2, voiced, step=self.step, **self.jump_costs)
-        scores, _ = path_scores(self._scores, costs, local)
-        scores -= scores.max()   # (kept near 0 over a long stream; the choice does not change)
-        self._scores, self._log2, self._cand_voiced = scores, log2, voiced
-        best = int(np.argmax(scores))
-        self._best_f = float(freq[best]) if voiced[best] else 0.0
-        self._n_grid = j + 1
+        jumps = transition_costs(log2[:-1], voiced[:-1], log2[1:], voiced[1:], step=self.step, **self.jump_costs)
+        scores, chosen = self._scores, []
+        for k in range(len(peaks)):
+            if scores is None:
+                scores = local[k].copy()
+            else:
+                costs = jumps[k - 1] if k else transition_costs(self._log2, self._cand_voiced, log2[0], voiced[0],
+                                                                  step=self.step, **self.jump_costs)
+                scores = (scores[:, None] - costs).max(axis=0) + local[k]
+            scores -= scores.max()   # (kept near 0 over a long stream; the choice does not change)
+            best = int(np.argmax(scores))
+            chosen.append(float(freq[k, best]) if voiced[k, best] else 0.0)
+        self._scores, self._log2, self._cand_voiced = scores, log2[-1], voiced[-1]
+        return chosen
 
     def _static_frames(self, t0: int, t1: int) -> None:
         energy = self._energy_db(t0, t1)
         logf0, voiced = np.zeros(t1 - t0), np.zeros(t1 - t0, bool)
+        j0, before = self._n_grid, self._best_f
+        chosen = self._advance_path(self._grid_of(t1 - 1) + 1)
         for k, t in enumerate(range(t0, t1)):
-            for j in range(self._n_grid, self._grid_of(t) + 1):
-                self._advance_path(j)
-            f = self._best_f
+            j = self._grid_of(t)
+            f = chosen[j - j0] if j >= j0 else before   # (j0 − 1: the analysis frame read last)
             v = self._hold(t, f > 0 and bool(energy[k] > self.silence_db), math.log(f) if f > 0 else 0.0)
             logf0[k], voiced[k] = self._last_logf0, v
+        if chosen:
+            self._best_f = chosen[-1]
         self._static.extend(np.stack([logf0, energy], axis=1))
         self._voiced.extend(voiced.astype(np.float64))
 
@@ -233,5 +305,5 @@ class PraatPathF0e(StreamingF0e):
 
 
 __all__ = ["PraatPathF0e", "local_strengths", "transition_costs", "path_scores", "praat_candidates",
-           "PRAAT_VOICING", "PRAAT_SILENCE", "OCTAVE_COST", "OCTAVE_JUMP_COST", "VOICED_UNVOICED_COST",
+           "local_peaks", "PRAAT_VOICING", "PRAAT_SILENCE", "OCTAVE_COST", "OCTAVE_JUMP_COST", "VOICED_UNVOICED_COST",
            "PEAK_HALF_LIFE_S"]

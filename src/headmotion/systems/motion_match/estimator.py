@@ -201,11 +201,11 @@ class MotionMatch(Synthesizer):
             return kept[1]
         if self.live:
             back = int(self.context) + self._shift
-            taps = np.unique(np.append(np.arange(-back, 1, max(1, back // 4)), 0))
+            taps = np.array(sorted({*range(-back, 1, max(1, back // 4)), 0}))
         else:
             ahead = int(self.lookahead)
             step = max(1, (int(self.context) + ahead) // 4)
-            taps = np.unique(np.append(np.arange(-int(self.context), ahead + 1, step), ahead))
+            taps = np.array(sorted({*range(-int(self.context), ahead + 1, step), ahead}))
         taps.setflags(write=False)
         self.__dict__["_taps_kept"] = (key, taps)
         return taps
