@@ -82,13 +82,15 @@ def progress_bar(description: str, total: float | None = None, *, min_total: flo
 
     Rendered on stderr only when it is a terminal, so piped output stays clean; with ``min_total``,
     only for work of at least that ``total`` (short work finishes before a bar would say anything)."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn  # (10 ms)
-
     short = min_total is not None and not (total is not None and total >= min_total)
+    if short or not is_terminal(sys.stderr):   # no bar: rich's progress module (~40 ms) is not imported
+        yield lambda done, total=None, description=None: None
+        return
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
     progress = Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
         TimeElapsedColumn(), TimeRemainingColumn(), console=err_console.get(), transient=False,
-        disable=short or not is_terminal(sys.stderr),
     )
     with progress:
         task = progress.add_task(description, total=total)

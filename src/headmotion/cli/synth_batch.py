@@ -12,9 +12,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, ProgressColumn, TextColumn, TimeRemainingColumn
-from rich.text import Text
-
 from ..errors import ParameterError
 from .app import console, err_console, print_error
 from .terminal import is_terminal
@@ -28,21 +25,31 @@ def is_batch(speech: list[Path], output: Path, fmt, jobs, scheduler, force: bool
     return first.startswith("@") or Path(first).is_dir() or output.suffix == "" or output.is_dir()
 
 
-class _FilesPerSecond(ProgressColumn):
-    def render(self, task) -> Text:
-        speed = task.finished_speed or task.speed
-        return Text("" if speed is None else f"{speed:.1f} files/s")
+def _files_per_second():
+    """A progress column of files per second (rich is imported here, by the batch form only: a
+    single ``synth`` does not pay for it)."""
+    from rich.progress import ProgressColumn
+    from rich.text import Text
+
+    class FilesPerSecond(ProgressColumn):
+        def render(self, task) -> Text:
+            speed = task.finished_speed or task.speed
+            return Text("" if speed is None else f"{speed:.1f} files/s")
+
+    return FilesPerSecond()
 
 
 def run_batch(speech: list[Path], output: Path, *, model, fmt, jobs, scheduler, force: bool, seed, samples: int,
               neck_share, controls, video) -> int:
     """Run the batch with a progress bar and a summary; returns the exit code."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
     from ..batch import synthesize_batch
 
     if video is not None:
         raise ParameterError("--video previews one input; give one speech file and an output file to make a video")
     fmt = fmt or "bvh"
-    bar = Progress(TextColumn("[bold]synth"), BarColumn(), MofNCompleteColumn(), _FilesPerSecond(),
+    bar = Progress(TextColumn("[bold]synth"), BarColumn(), MofNCompleteColumn(), _files_per_second(),
                    TimeRemainingColumn(), console=err_console.get(), transient=False, disable=not is_terminal(sys.stderr))
     task = None
 
