@@ -76,6 +76,10 @@ def print_warning(message: str) -> None:
     err_console.print(f"[yellow]warning:[/] {escape(str(message))}", highlight=False, soft_wrap=True)
 
 
+def _no_bar(done: float, total: float | None = None, description: str | None = None) -> None:  # noqa: ARG001
+    """``progress_bar``'s update when no bar is shown."""
+
+
 @contextlib.contextmanager
 def progress_bar(description: str, total: float | None = None, *, min_total: float | None = None):
     """A rich progress bar with the time left; yields ``update(done, total=None, description=None)``.
@@ -84,7 +88,7 @@ def progress_bar(description: str, total: float | None = None, *, min_total: flo
     only for work of at least that ``total`` (short work finishes before a bar would say anything)."""
     short = min_total is not None and not (total is not None and total >= min_total)
     if short or not is_terminal(sys.stderr):   # no bar: rich's progress module (~40 ms) is not imported
-        yield lambda done, total=None, description=None: None
+        yield _no_bar
         return
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
