@@ -193,6 +193,39 @@ def test_streams_through_the_engine_make_the_frames_they_make_alone(stream_model
     assert all(m > 20 for m in made), made
 
 
+def test_the_streams_pitch_is_read_by_one_praat_call_for_all(stream_model, voices, monkeypatch):
+    """Four streams pushed 20 ms at a time together: each round reads every stream's new analysis
+    frames (two per 40 ms frame) by one Praat call, and each stream's frames are the ones it makes
+    alone."""
+    from headmotion.features import praat_path
+
+    calls = []
+    read = praat_path.praat_candidates
+
+    def spy(windows, *a, **kw):
+        calls.append(len(windows))
+        return read(windows, *a, **kw)
+
+    monkeypatch.setattr(praat_path, "praat_candidates", spy)
+    a, b = voices
+    xs = [a[:32000], b[:32000], a[8000:40000], b[8000:40000]]
+    alone = []
+    for k, x in enumerate(xs):
+        core = HeadMotionCore(stream_model, seed=k)
+        alone.append([core.push(x[i:i + 320], 16000) for i in range(0, len(x), 320)])
+    calls_alone = len(calls)
+    calls.clear()
+    cores = [HeadMotionCore(stream_model, seed=k) for k in range(len(xs))]
+    together = [[] for _ in xs]
+    for i in range(0, 32000, 320):
+        for k, value in enumerate(run_together([c.push_steps(x[i:i + 320], 16000) for c, x in zip(cores, xs)])):
+            assert not isinstance(value, Exception), value
+            together[k].append(value)
+    assert all(n % len(xs) == 0 for n in calls) and len(calls) <= calls_alone / len(xs) + 2
+    for w, g in zip(alone, together):
+        _compare(w, g)
+
+
 def test_the_async_engine_gathers_decisions_and_keeps_each_stream_its_own(stream_model, voices):
     a, b = voices
     xs = [a[:16000 * 3], b[:16000 * 3], a[16000:16000 * 4], b[8000:16000 * 3 + 8000]]
@@ -223,7 +256,7 @@ def test_the_async_engine_gathers_decisions_and_keeps_each_stream_its_own(stream
     got, stats = asyncio.run(main())
     for w, g in zip(want, got):
         _compare(w, g)
-    assert stats.decisions > 0 and stats.largest >= 2 and stats.mean_batch > 1.0
+    assert stats.decisions > 0 and stats.largest >= 2 and stats.mean_batch > 1.0 and stats.reads > 0
 
 
 def test_one_cores_calls_run_in_order_and_errors_are_its_own(stream_model, voices):

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -167,6 +168,24 @@ def praat_candidates(windows: np.ndarray, sample_rate: int, *, floor: float, cei
     return freq, strength, peaks
 
 
+@dataclass(frozen=True)
+class Read:
+    """A stream's ask for Praat's candidates of the analysis windows ``windows`` ``(n, W)`` its
+    push made ready (:meth:`PraatPathF0e.push_steps`), read with ``settings`` (sample rate, floor,
+    ceiling, voicing and silence thresholds).  A batched engine reads the windows of every
+    stream's read with the same settings by one call
+    (:func:`~headmotion.systems.decisions.answer_together`); each gets what it gets alone."""
+
+    windows: np.ndarray
+    settings: tuple
+
+    def answer(self, windows: np.ndarray | None = None):
+        """:func:`praat_candidates` of ``windows`` (default: this read's own)."""
+        rate, floor, ceiling, voicing, silence = self.settings
+        return praat_candidates(self.windows if windows is None else windows, rate, floor=floor, ceiling=ceiling,
+                                voicing_threshold=voicing, silence_threshold=silence)
+
+
 class PraatPathF0e(StreamingF0e):
     """:class:`.streaming.StreamingF0e` with F0 and voicing from Praat's candidates, read frame by
     frame, and its path searched forward.
@@ -215,6 +234,7 @@ class PraatPathF0e(StreamingF0e):
         self._log2: np.ndarray | None = None
         self._cand_voiced: np.ndarray | None = None
         self._best_f = 0.0   # the last analysis frame's chosen frequency (0: unvoiced)
+        self._read: tuple | None = None   # (first, end, candidates) sent to push_steps
         self._need_next = self._needed(0)
 
     # -- geometry --------------------------------------------------------------------------------
@@ -248,17 +268,40 @@ class PraatPathF0e(StreamingF0e):
             seg[lo - s0:hi - s0] = self._buf[lo - self._buf0:hi - self._buf0]
         return seg
 
+    # -- step by step ---------------------------------------------------------------------------
+    def push_steps(self, samples):
+        """:meth:`push` step by step: a generator that yields one :class:`Read` of the analysis
+        frames the push makes ready (at most :data:`BLOCK` of them; more are read as ``push`` reads
+        them) and is sent their candidates; returns the new final frames.  A batched engine reads
+        many streams' windows by one Praat call (:mod:`headmotion.live.engine`)."""
+        if not self._take(samples):
+            return self._empty
+        t1 = self._static_ready()
+        if t1 > self._n_static:
+            a, b = self._n_grid, self._grid_of(t1 - 1) + 1
+            if 0 < b - a <= BLOCK:
+                read = Read(self._windows_of(a, b), self._settings)
+                self._read = (a, b, (yield read))
+        return self._advance()
+
+    @property
+    def _settings(self) -> tuple:
+        return (self.sample_rate, self.floor, self.ceiling, self.costs["voicing_threshold"],
+                self.costs["silence_threshold"])
+
+    def _windows_of(self, a: int, b: int) -> np.ndarray:
+        return np.stack([self._window(self._grid_start(j)) for j in range(a, b)])
+
     def _advance_path(self, upto: int) -> list[float]:
-        """Read analysis frames ``_n_grid … upto − 1`` (one Praat call per :data:`BLOCK` of them) and
-        take the forward search over them; the frequency each chose (0: unvoiced)."""
+        """Read analysis frames ``_n_grid … upto − 1`` (one Praat call per :data:`BLOCK` of them, or
+        the candidates :meth:`push_steps` was sent for them) and take the forward search over them;
+        the frequency each chose (0: unvoiced)."""
         chosen: list[float] = []
+        read, self._read = self._read, None
         for a in range(self._n_grid, upto, BLOCK):
             b = min(a + BLOCK, upto)
-            freq, strength, peaks = praat_candidates(
-                np.stack([self._window(self._grid_start(j)) for j in range(a, b)]), self.sample_rate,
-                floor=self.floor, ceiling=self.ceiling, voicing_threshold=self.costs["voicing_threshold"],
-                silence_threshold=self.costs["silence_threshold"])
-            chosen.extend(self._search(freq, strength, peaks))
+            got = read[2] if read is not None and read[:2] == (a, b) else Read(self._windows_of(a, b), self._settings).answer()
+            chosen.extend(self._search(*got))
             self._n_grid = b
         return chosen
 
@@ -304,6 +347,6 @@ class PraatPathF0e(StreamingF0e):
         self._static_frames(t, t + 1)
 
 
-__all__ = ["PraatPathF0e", "local_strengths", "transition_costs", "path_scores", "praat_candidates",
+__all__ = ["PraatPathF0e", "Read", "local_strengths", "transition_costs", "path_scores", "praat_candidates",
            "local_peaks", "PRAAT_VOICING", "PRAAT_SILENCE", "OCTAVE_COST", "OCTAVE_JUMP_COST", "VOICED_UNVOICED_COST",
            "PEAK_HALF_LIFE_S"]

@@ -463,6 +463,10 @@ class StreamingF0e:
     def push(self, samples) -> np.ndarray:
         """Add mono samples (float, [-1, 1], at ``sample_rate``); returns the new final frames
         ``(n, D)`` (possibly ``n = 0``)."""
+        return self._advance() if self._take(samples) else self._empty
+
+    def _take(self, samples) -> bool:
+        """Add ``samples`` to the buffer; whether a frame may be final now."""
         if self._flushed:
             raise ParameterError("push() after flush(): start a new StreamingF0e for a new stream")
         x = np.asarray(samples, dtype=np.float64).reshape(-1)
@@ -479,8 +483,8 @@ class StreamingF0e:
             self._alen += k
             self._n_in += k
             if self._n_in < self._need_next and self._total is None:
-                return self._empty   # no frame's window is complete yet (most pushes of a few ms)
-        return self._advance()
+                return False   # no frame's window is complete yet (most pushes of a few ms)
+        return True
 
     def flush(self) -> np.ndarray:
         """End of stream: the remaining frames, up to ``align.n_frames`` of everything pushed

@@ -18,6 +18,11 @@ alone, a stream waits for nothing but the next turn of the loop), answers them w
 model library (:func:`~headmotion.systems.decisions.answer_together`) and lets each push go on to
 its frames — or to its next decision, answered in the same tick.
 
+A stream that reads pitch with Praat frame by frame (the shipped ``stream``) asks for its reads
+too: a push that makes a 40 ms frame ready asks for Praat's candidates of its analysis windows,
+and the tick reads every stream's windows by one Praat call
+(:class:`~headmotion.features.praat_path.Read`) — so every push that makes a frame ready waits for a tick.
+
 A stream's frames are those it gets alone (the batched costs are the bits of a lone decision's;
 ``tests/test_batched_engine.py``), whatever joins or leaves.  One core's calls run in order: a call
 made while the core's previous call waits for a tick waits behind it.  :func:`run_together` is the
@@ -32,7 +37,7 @@ import weakref
 from dataclasses import dataclass
 
 from ..errors import ParameterError
-from ..systems.decisions import answer_together, run_alone
+from ..systems.decisions import is_read, answer_together, run_alone
 
 
 def run_together(steps: list) -> list:
@@ -83,16 +88,19 @@ def _retrieved(fut: asyncio.Future) -> None:
 
 @dataclass
 class EngineStats:
-    """What an engine has done: ticks run, decisions answered and the largest tick (decisions)."""
+    """What an engine has done: ticks run, decisions answered, the largest tick (asks: decisions
+    and pitch reads), pitch reads answered and the ticks that made a decision."""
 
     ticks: int = 0
     decisions: int = 0
     largest: int = 0
+    reads: int = 0
+    decision_ticks: int = 0
 
     @property
     def mean_batch(self) -> float:
-        """Decisions answered per tick, on average."""
-        return self.decisions / self.ticks if self.ticks else 0.0
+        """Decisions answered per tick that made one, on average."""
+        return self.decisions / self.decision_ticks if self.decision_ticks else 0.0
 
 
 class LiveEngine:
@@ -166,9 +174,14 @@ class LiveEngine:
         st.ticks += 1
         st.largest = max(st.largest, len(pending))
         out: dict = {}
+        decided = False
         while pending:
-            st.decisions += len(pending)
+            reads = sum(1 for _, ask, _ in pending if is_read(ask))
+            st.reads += reads
+            st.decisions += len(pending) - reads
+            decided = decided or len(pending) > reads
             pending = _round(pending, out)
+        st.decision_ticks += decided
         self._busy = {k: f for k, f in self._busy.items() if id(f) not in futures}
         for key, value in out.items():
             fut = futures[key]

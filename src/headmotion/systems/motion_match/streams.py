@@ -7,7 +7,7 @@ import numpy as np
 from ...align import fit_length
 from ...align import n_frames as _n_frames
 from ...types import Motion
-from ..decisions import run_alone
+from ..decisions import run_alone, steps_of
 from .library import FPS, LIVE_NAMES
 from .walk import _Walk
 
@@ -74,12 +74,13 @@ class MotionMatchStream:
 
     def push_steps(self, samples: np.ndarray):
         """:meth:`push` step by step: a generator that yields each decision's
-        :class:`~.walk.Ask` and is sent the library's costs for it (a batched engine answers
-        many streams' asks at once, :func:`~headmotion.systems.decisions.run_alone` each alone); returns the
-        Motion."""
+        :class:`~.walk.Ask` and is sent the library's costs for it, and its pitch reader's
+        :class:`~headmotion.features.praat_path.Read` and is sent the candidates (a batched engine
+        answers many streams' asks at once, :func:`~headmotion.systems.decisions.run_alone` each
+        alone); returns the Motion."""
         x = np.asarray(samples, dtype=np.float64).reshape(-1)
         self.samples += len(x)
-        return (yield from self._frames(self.ex.push(x)))
+        return (yield from self._frames((yield from steps_of(self.ex, "push", x))))
 
     def flush(self) -> Motion:
         """The remaining frames: as many in all as ``predict`` gives for the audio pushed."""
@@ -152,7 +153,7 @@ class WindowStream:
         """:meth:`push` step by step (as :meth:`MotionMatchStream.push_steps`)."""
         x = np.asarray(samples, dtype=np.float64).reshape(-1)
         self.samples += len(x)
-        self._add(self.ex.push(x))
+        self._add((yield from steps_of(self.ex, "push", x)))
         return (yield from self._decide(None))
 
     def flush(self) -> Motion:
