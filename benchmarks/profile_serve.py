@@ -76,17 +76,23 @@ def main() -> None:
           f"load average {load0:.2f} -> {load1:.2f}" + ("" if r["complete"] else f"; errors {r['errors']}"))
     eng = engine_stats(Path(srv.log.name))
     if eng is not None:
-        ticks, decisions, largest = eng
-        print(f"the worker's engine: {decisions} decisions in {ticks} ticks ({decisions / max(ticks, 1):.2f} a tick, "
-              f"at most {largest})")
+        ticks, decisions, largest, *more = eng
+        if more:   # the pitch reads asked of the engine, and the ticks that made a decision
+            reads, decision_ticks = more
+            print(f"the worker's engine: {ticks} ticks; {decisions} decisions in {decision_ticks} of them "
+                  f"({decisions / max(decision_ticks, 1):.2f} a tick); {reads} pitch reads "
+                  f"({reads / max(ticks, 1):.2f} a tick); at most {largest} asks in a tick")
+        else:
+            print(f"the worker's engine: {decisions} decisions in {ticks} ticks ({decisions / max(ticks, 1):.2f} a tick, "
+                  f"at most {largest})")
     if not args.no_profile:
         print(summary(Path(out).read_text()))
         print(f"call tree: {out}")
 
 
 def engine_stats(log: Path):
-    """(ticks, decisions, largest tick) of the worker's live engine, from its last stream log line
-    (None when the log has none)."""
+    """(ticks, decisions, largest tick[, reads, ticks with a decision]) of the worker's live engine,
+    from its last stream log line (None when the log has none)."""
     import json
 
     found = None

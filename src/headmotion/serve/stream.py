@@ -350,11 +350,13 @@ class Session:
             self.st.metrics.requests.labels("/v1/stream", status).inc()
             if status not in ("ok", "client_closed", "server_shutdown"):
                 self.st.metrics.errors.labels(status).inc()
-            eng = getattr(self.st, "live_engine", None)  # the worker's engine so far: ticks, decisions, largest tick
+            # the worker's engine so far: ticks, decisions, largest tick, pitch reads, ticks with a decision
+            eng = getattr(self.st, "live_engine", None)
             log_event("stream", key=None if self.key is None else self.key.name, status=status, reason=reason,
                       frames=self.frames, audio_s=round(self.samples_in / max(1, self.log.get("sr", 1)), 3),
                       wall_s=round(time.perf_counter() - self.t0, 3), **{k: v for k, v in self.log.items() if k != "sr"},
-                      engine=None if eng is None else [eng.stats.ticks, eng.stats.decisions, eng.stats.largest])
+                      engine=None if eng is None else [eng.stats.ticks, eng.stats.decisions, eng.stats.largest,
+                                                                 eng.stats.reads, eng.stats.decision_ticks])
 
     async def _receive(self, timeout: float) -> dict:
         try:
