@@ -1,6 +1,7 @@
 """Praat's candidates read frame by frame with its path searched forward (``f0e-live`` with
-``reader="praat-path"``): the path search reproduces Praat's own path on a whole read, known F0,
-silence, the same bits under any chunking, the latency it states, bounded memory, clear errors."""
+``reader="praat-path"``): the path search reproduces Praat's own path on a whole read, windows
+read together get what they get alone, the local peak is Praat's, known F0, silence, the same bits
+under any chunking, the latency it states, bounded memory, clear errors."""
 
 from __future__ import annotations
 
