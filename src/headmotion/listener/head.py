@@ -42,12 +42,12 @@ from .nods import nod_bank
 HEAR_RATE = 8000
 #: analysis frames per second (10 ms frames, Ward & Tsukahara's pitch step)
 ANALYSIS_FPS = 100.0
-#: how the other party's pitch is read: Praat's candidates of each analysis frame read once and its
-#: path searched forward, as the shipped stream reads its own speech (a frame is final 40 ms after its
-#: start; the cues are due 0.59 s after they are found, so none comes late).  Per-frame YIN missed the
-#: voice on a telephone line and half the cues of several voices; Praat in 0.25 s blocks followed
-#: fewer cues at more cost (docs/decisions/listen-to-anyone.md)
-HEARD_READER = {"reader": "praat-path"}
+#: how the other party's pitch is read: Praat, as the shipped models read their own speech, here in
+#: blocks of 0.25 s each read with the 0.3 s before it (a frame is final at most 0.28 s after it;
+#: the cues are due 0.59 s after they are found, so none comes late).  Per-frame YIN missed the
+#: voice on a telephone line and half the cues of several voices; the stream's own reader, each
+#: frame read once, cost more per push while the other speaks (docs/decisions/listen-to-anyone.md)
+HEARD_READER = {"reader": "praat", "praat_block": 25, "praat_back_s": 0.3}
 #: the attentive posture at listening 1: chin 2° down, the head 3° towards the right shoulder —
 #: a design choice (no recorded listener is reachable here), eased in while listening
 POSTURE_DEG = (2.0, 0.0, 3.0)

@@ -20,8 +20,10 @@ its frames — or to its next decision, answered in the same tick.
 
 A stream that reads pitch with Praat frame by frame (the shipped ``stream``) asks for its reads
 too: a push that makes a 40 ms frame ready asks for Praat's candidates of its analysis windows,
-and the tick reads every stream's windows by one Praat call
-(:class:`~headmotion.features.praat_path.Read`) — so every push that makes a frame ready waits for a tick.
+and a tick reads every stream's windows by one Praat call
+(:class:`~headmotion.features.praat_path.Read`).  A read asked while no tick is due is read at once
+in the caller's task (a lone stream never waits for a tick to read); one asked while a tick is due
+joins it.
 
 A stream's frames are those it gets alone (the batched costs are the bits of a lone decision's;
 ``tests/test_batched_engine.py``), whatever joins or leaves.  One core's calls run in order: a call
@@ -37,7 +39,7 @@ import weakref
 from dataclasses import dataclass
 
 from ..errors import ParameterError
-from ..systems.decisions import is_read, answer_together, run_alone
+from ..systems.decisions import answer_alone, answer_together, is_read, run_alone
 
 
 def run_together(steps: list) -> list:
@@ -150,6 +152,11 @@ class LiveEngine:
         out: dict = {}
         pending: list = []
         _advance(steps, None, 0, out, pending, first=True)
+        while pending and self._tick is None and is_read(pending[0][1]):
+            # a pitch read while no tick is due (no other stream waits): read at once, in the
+            # caller's task (the same bits as in a tick), so a lone stream never waits for one
+            s, ask, k = pending.pop()
+            _advance(s, answer_alone(ask), k, out, pending)
         if not pending:  # no decision due: done at once, in the caller's task
             value = out[0]
             if isinstance(value, Exception):
