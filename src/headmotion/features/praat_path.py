@@ -84,15 +84,16 @@ def transition_costs(log2_prev: np.ndarray, voiced_prev: np.ndarray, log2_next: 
     return np.where(a & b, jump, np.where(a ^ b, voiced_unvoiced_cost * scale, 0.0))
 
 
-def path_scores(prev: np.ndarray | None, costs: np.ndarray | None, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def path_scores(prev: np.ndarray | None, costs: np.ndarray | None, local: np.ndarray, *,
+                back: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """One forward step of the path search: each candidate's best score (the best predecessor's
-    score less the transition cost, plus its own strength) and that predecessor.  ``prev`` None:
-    the first frame (the scores are its strengths)."""
+    score less the transition cost, plus its own strength) and that predecessor (None with
+    ``back=False``: a forward search that needs no backtrace).  ``prev`` None: the first frame (the
+    scores are its strengths)."""
     if prev is None:
-        return local.copy(), np.zeros(len(local), np.int64)
+        return local.copy(), (np.zeros(len(local), np.int64) if back else None)
     total = prev[:, None] - costs
-    back = np.argmax(total, axis=0)
-    return total[back, np.arange(total.shape[1])] + local, back
+    return total.max(axis=0) + local, (np.argmax(total, axis=0) if back else None)
 
 
 @functools.lru_cache(maxsize=16)
@@ -172,18 +173,31 @@ def praat_candidates(windows: np.ndarray, sample_rate: int, *, floor: float, cei
 class Read:
     """A stream's ask for Praat's candidates of the analysis windows ``windows`` ``(n, W)`` its
     push made ready (:meth:`PraatPathF0e.push_steps`), read with ``settings`` (sample rate, floor,
-    ceiling, voicing and silence thresholds).  A batched engine reads the windows of every
-    stream's read with the same settings by one call
-    (:func:`~headmotion.systems.decisions.answer_together`); each gets what it gets alone."""
+    ceiling, voicing and silence thresholds).  Reads with the same settings are answered together
+    (:mod:`headmotion.systems.decisions`): :meth:`answer_many` reads all their windows by one
+    call, and each gets what it gets alone."""
 
     windows: np.ndarray
     settings: tuple
 
-    def answer(self, windows: np.ndarray | None = None):
-        """:func:`praat_candidates` of ``windows`` (default: this read's own)."""
-        rate, floor, ceiling, voicing, silence = self.settings
-        return praat_candidates(self.windows if windows is None else windows, rate, floor=floor, ceiling=ceiling,
-                                voicing_threshold=voicing, silence_threshold=silence)
+    @property
+    def batch(self) -> tuple:
+        return (Read, self.settings)
+
+    @staticmethod
+    def answer_many(reads: "list[Read]") -> list:
+        """Each read's ``(frequencies, strengths, local peaks)`` (:func:`praat_candidates`), all
+        read by one Praat call."""
+        rate, floor, ceiling, voicing, silence = reads[0].settings
+        windows = reads[0].windows if len(reads) == 1 else np.concatenate([r.windows for r in reads])
+        got = praat_candidates(windows, rate, floor=floor, ceiling=ceiling, voicing_threshold=voicing,
+                               silence_threshold=silence)
+        out, o = [], 0
+        for r in reads:
+            n = len(r.windows)
+            out.append(tuple(x[o:o + n] for x in got))
+            o += n
+        return out
 
 
 class PraatPathF0e(StreamingF0e):
@@ -223,6 +237,8 @@ class PraatPathF0e(StreamingF0e):
         self.costs = {"voicing_threshold": float(voicing_threshold), "silence_threshold": float(silence_threshold),
                       "octave_cost": float(octave_cost)}
         self.jump_costs = {"octave_jump_cost": float(octave_jump_cost), "voiced_unvoiced_cost": float(voiced_unvoiced_cost)}
+        #: what a :class:`Read` of this reader reads with
+        self._settings = (self.sample_rate, self.floor, self.ceiling, float(voicing_threshold), float(silence_threshold))
         # Praat's window: 3 periods of the floor, one analysis frame centred in it
         self.praat_win = int(math.ceil(3.0 / self.floor * self.sample_rate))
         self.step_samples = step * self.sample_rate
@@ -282,12 +298,7 @@ class PraatPathF0e(StreamingF0e):
             if 0 < b - a <= BLOCK:
                 read = Read(self._windows_of(a, b), self._settings)
                 self._read = (a, b, (yield read))
-        return self._advance()
-
-    @property
-    def _settings(self) -> tuple:
-        return (self.sample_rate, self.floor, self.ceiling, self.costs["voicing_threshold"],
-                self.costs["silence_threshold"])
+        return self._advance(t1)
 
     def _windows_of(self, a: int, b: int) -> np.ndarray:
         return np.stack([self._window(self._grid_start(j)) for j in range(a, b)])
@@ -300,7 +311,8 @@ class PraatPathF0e(StreamingF0e):
         read, self._read = self._read, None
         for a in range(self._n_grid, upto, BLOCK):
             b = min(a + BLOCK, upto)
-            got = read[2] if read is not None and read[:2] == (a, b) else Read(self._windows_of(a, b), self._settings).answer()
+            got = read[2] if read is not None and read[:2] == (a, b) else \
+                Read.answer_many([Read(self._windows_of(a, b), self._settings)])[0]
             chosen.extend(self._search(*got))
             self._n_grid = b
         return chosen
@@ -316,12 +328,9 @@ class PraatPathF0e(StreamingF0e):
         jumps = transition_costs(log2[:-1], voiced[:-1], log2[1:], voiced[1:], step=self.step, **self.jump_costs)
         scores, chosen = self._scores, []
         for k in range(len(peaks)):
-            if scores is None:
-                scores = local[k].copy()
-            else:
-                costs = jumps[k - 1] if k else transition_costs(self._log2, self._cand_voiced, log2[0], voiced[0],
-                                                                  step=self.step, **self.jump_costs)
-                scores = (scores[:, None] - costs).max(axis=0) + local[k]
+            costs = jumps[k - 1] if k else None if scores is None else transition_costs(
+                self._log2, self._cand_voiced, log2[0], voiced[0], step=self.step, **self.jump_costs)
+            scores, _ = path_scores(scores, costs, local[k], back=False)
             scores -= scores.max()   # (kept near 0 over a long stream; the choice does not change)
             best = int(np.argmax(scores))
             chosen.append(float(freq[k, best]) if voiced[k, best] else 0.0)

@@ -408,9 +408,10 @@ class StreamingF0e:
             t += 1
         return t
 
-    def _advance(self) -> np.ndarray:
+    def _advance(self, ready: int | None = None) -> np.ndarray:
+        """The frames final now; ``ready``: :meth:`_static_ready`, when the caller has it."""
         total = self._total
-        t1 = self._static_ready()
+        t1 = self._static_ready() if ready is None else ready
         if t1 > self._n_static:
             self._static_frames(self._n_static, t1)
             self._n_static = t1

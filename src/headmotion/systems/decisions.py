@@ -1,22 +1,20 @@
 """A stream's decisions as questions to a shared search: what lets one engine advance many streams.
 
 A stream that searches a library at each decision (motion-match's streams) can be pushed *step by
-step*: ``push_steps(samples)`` (and ``flush_steps()``) is a generator that yields an *ask* — an
-object with the ``library`` searched and the decision's ``query`` — and is sent the library's
-costs for that query (``library.costs_many([query])[0]``); its value is what ``push`` returns.
-:func:`run_alone` answers each ask on its own (``push`` is ``run_alone(push_steps(...))``);
-:func:`answer_together` answers the asks of many streams with one ``costs_many`` per library (one
-matrix product per table), which gives each ask the row it gets alone, so a stream decides the
-same among others as alone.  A stream whose pitch reader reads Praat frame by frame
-(:class:`~headmotion.features.praat_path.PraatPathF0e`) also asks for its reads
-(:class:`~headmotion.features.praat_path.Read`): :func:`answer_together` reads the windows of many
-streams by one Praat call, each read given the candidates it gets alone.  A stream without steps
-is pushed as it is (:func:`steps_of`).
+step*: ``push_steps(samples)`` (and ``flush_steps()``) is a generator that yields an *ask* and is
+sent its answer; its value is what ``push`` returns.  An ask says how it is answered together with
+others: ``ask.batch`` — the asks with the same key are answered together (None: nothing to answer)
+— and ``type(ask).answer_many(asks)``, which gives each ask the answer it gets alone.  A decision
+(:class:`~headmotion.systems.motion_match.walk.Ask`) is answered with its library's costs for its
+query, many by one ``costs_many`` (one matrix product per table); a stream whose pitch reader reads
+Praat frame by frame (:class:`~headmotion.features.praat_path.PraatPathF0e`) also asks for its reads
+(:class:`~headmotion.features.praat_path.Read`), many read by one Praat call.  :func:`run_alone`
+answers each ask on its own (``push`` is ``run_alone(push_steps(...))``); :func:`answer_together`
+answers the asks of many streams, so a stream decides the same among others as alone.  A stream
+without steps is pushed as it is (:func:`steps_of`).
 """
 
 from __future__ import annotations
-
-import numpy as np
 
 
 def is_read(ask) -> bool:
@@ -25,36 +23,21 @@ def is_read(ask) -> bool:
 
 
 def answer_alone(ask):
-    """The library's costs for ``ask`` alone (None for an ask without a query); for a pitch read
-    (:class:`headmotion.features.praat_path.Read`), its candidates."""
-    if is_read(ask):
-        return ask.answer()
-    return None if ask.query is None else ask.library.costs_many([ask.query])[0]
+    """``ask``'s answer on its own (None for an ask without one)."""
+    return None if ask.batch is None else type(ask).answer_many([ask])[0]
 
 
 def answer_together(asks: list) -> list:
-    """The library's costs for each of ``asks`` (None where an ask has no query): one
-    ``costs_many`` per library, each row the one its ask gets alone; and the candidates of every
-    pitch read, one Praat call per reading's settings, each read's rows those it gets alone."""
+    """Each of ``asks``'s answer (None where an ask has none): the asks with the same ``batch``
+    answered by one ``answer_many``, each given what it gets alone."""
     out: list = [None] * len(asks)
-    groups: dict[int, list[int]] = {}
-    reads: dict[tuple, list[int]] = {}
+    groups: dict = {}
     for i, a in enumerate(asks):
-        if is_read(a):
-            reads.setdefault(a.settings, []).append(i)
-        elif a.query is not None:
-            groups.setdefault(id(a.library), []).append(i)
+        if a.batch is not None:
+            groups.setdefault(a.batch, []).append(i)
     for idx in groups.values():
-        rows = asks[idx[0]].library.costs_many([asks[i].query for i in idx])
-        for i, r in zip(idx, rows):
+        for i, r in zip(idx, type(asks[idx[0]]).answer_many([asks[i] for i in idx])):
             out[i] = r
-    for idx in reads.values():
-        got = asks[idx[0]].answer(np.concatenate([asks[i].windows for i in idx]))
-        o = 0
-        for i in idx:
-            n = len(asks[i].windows)
-            out[i] = tuple(x[o:o + n] for x in got)
-            o += n
     return out
 
 

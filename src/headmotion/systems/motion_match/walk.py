@@ -28,6 +28,18 @@ class Ask:
     repeat: float = 0.0
     switch: float = 0.0
 
+    @property
+    def batch(self):
+        """The asks answered together with this one (:mod:`..decisions`): those of its library;
+        None without a query."""
+        return None if self.query is None else (Ask, id(self.library))
+
+    @staticmethod
+    def answer_many(asks: "list[Ask]") -> list:
+        """The library's costs for each ask's query, by one ``costs_many``: each row the one its
+        ask gets alone."""
+        return list(asks[0].library.costs_many([a.query for a in asks]))
+
 
 class _Walk:
     """The decisions of one take (:meth:`MotionMatch.generate`, :class:`MotionMatchStream`): the
