@@ -231,14 +231,18 @@ def test_the_layer_analyses_in_batches_and_gives_the_frames_of_analysis_on_arriv
             super().hear(samples)
             self._analyse_heard()
 
+    when = []  # the sample at which each analysis of the last run came
+
     def run(cls, lag, own=own, heard=heard):
         layer = cls(model, fps=model.frame_rate, speech_rate=16000, heard_rate=16000, seed=1)
-        calls = []
+        calls, at = [], [0]
+        when.clear()
         push = layer._pitch.push
-        layer._pitch.push = lambda x: calls.append(len(x)) or push(x)
+        layer._pitch.push = lambda x: calls.append(len(x)) or when.append(at[0]) or push(x)
         s = model.stream(seed=1)
         x, y, made, out, raw = own.samples, heard.samples, 0, [], []
         for i in range(0, len(x), 160):
+            at[0] = i
             if i >= lag:
                 layer.hear(y[i - lag:i - lag + 160])
             layer.speech(x[i:i + 160])
@@ -250,11 +254,16 @@ def test_the_layer_analyses_in_batches_and_gives_the_frames_of_analysis_on_arriv
 
     for lag in (0, 3200, 8000):
         batched, calls, _ = run(ListeningLayer, lag)
+        first = sum(1 for w in when if w < 5 * 16000)
         arrival, each, _ = run(OnArrival, lag)
         np.testing.assert_array_equal(batched, arrival)
         assert len(calls) <= len(each)
         if lag == 0:  # heard on time: while the other speaks, up to ~0.5 s is analysed at once
             assert max(calls) > 5 * max(each) and len(calls) < 0.6 * len(each)
+            # while this head speaks and the other is silent (its first 5 s), the silence heard is
+            # analysed once its frames reach the heard time the frames use (0.3 s back): about every
+            # 0.26 s, not at every push
+            assert 10 <= first <= 25, first
     assert np.abs(run(ListeningLayer, 0)[0] - run(ListeningLayer, 8000)[0]).max() > 0  # lateness shows
     # the other speaking from its first sample, this head silent: the first second listens as well
     voice = Audio(heard.samples[int(5.5 * 16000):], 16000)

@@ -22,7 +22,8 @@ gives the frames of the offline :func:`listen`.
 The analysis of both inputs waits until frames are asked for (:meth:`ListeningLayer.apply`), and
 the heard audio's until those frames could reach it (:meth:`ListeningLayer._heard_needed`: while
 the other speaks, a frame depends on the heard pitch only through the cues due by then, found
-0.59 s before), then runs on all the audio given since, in one batch: a live stream hands the
+0.59 s before; while the other is silent, only through the voicing of the heard frames up to
+``hear_delay_s`` before it), then runs on all the audio given since, in one batch: a live stream hands the
 layer 10 ms at a time, and the pitch tracker's per-call work cost more than the pitch itself.  The
 frames are those of analysing each chunk as it comes, however the audio was chunked.
 """
@@ -42,12 +43,12 @@ from .nods import nod_bank
 HEAR_RATE = 8000
 #: analysis frames per second (10 ms frames, Ward & Tsukahara's pitch step)
 ANALYSIS_FPS = 100.0
-#: how the other party's pitch is read: Praat, as the shipped models read their own speech, here in
-#: blocks of 0.25 s each read with the 0.3 s before it (a frame is final at most 0.28 s after it;
-#: the cues are due 0.59 s after they are found, so none comes late).  Per-frame YIN missed the
-#: voice on a telephone line and half the cues of several voices; the stream's own reader, each
-#: frame read once, cost more per push while the other speaks (docs/decisions/listen-to-anyone.md)
-HEARD_READER = {"reader": "praat", "praat_block": 25, "praat_back_s": 0.3}
+#: how the other party's pitch is read: as the shipped ``stream`` reads its own speech — Praat's
+#: candidates of each 10 ms analysis frame read once, their path searched forward over everything
+#: heard (a frame is final 40 ms after its start).  Per-frame YIN missed the voice on a telephone
+#: line and half the cues of several voices; Praat in 0.25 s blocks, each read with the 0.3 s
+#: before it, followed fewer cues (docs/decisions/listen-to-anyone.md)
+HEARD_READER = {"reader": "praat-path"}
 #: the attentive posture at listening 1: chin 2° down, the head 3° towards the right shoulder —
 #: a design choice (no recorded listener is reachable here), eased in while listening
 POSTURE_DEG = (2.0, 0.0, 3.0)
@@ -179,13 +180,14 @@ class ListeningLayer:
         held analysed now: it may hold a cue due by ``tau`` (a cue is found ``min_region`` frames
         after its region starts, and is due ``delay_s`` after that start: at the defaults 0.59 s
         after it is found), or, when no voiced frame analysed so far lies within ``HOLD_S`` of the
-        heard time the frame uses, a voiced frame that would make the other count as speaking."""
+        heard time the frame uses and the frames analysed do not reach that time yet, a voiced frame
+        that would make the other count as speaking."""
         n = len(self._heard.flags)
         cue_found_by = math.floor((tau - self.cues.rule.delay_s) * ANALYSIS_FPS) + self.cues._min_region + 1
         if n <= cue_found_by:
             return True
         h = int(math.floor((tau - HEAR_DELAY_S) * ANALYSIS_FPS))
-        return self._heard.last_true < max(h - int(HOLD_S * ANALYSIS_FPS), 0)  # (-1: none voiced yet)
+        return n <= h and self._heard.last_true < max(h - int(HOLD_S * ANALYSIS_FPS), 0)  # (-1: none voiced yet)
 
     def _analyse(self, x: np.ndarray, flush: bool = False) -> None:
         rows = self._pitch.push(x) if len(x) else np.zeros((0, 7))
