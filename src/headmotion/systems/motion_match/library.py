@@ -156,26 +156,33 @@ class Query:
     pause_weight: float | None = None
 
 
-#: :func:`products` computes ``table · queriesᵀ`` below this many queries, ``queries · tableᵀ`` from it
-#: (the faster on this machine's OpenBLAS either side: 0.2 against 0.39 ms per query for 2, 0.04
-#: against 0.15 for 64, the library of the shipped ``stream``)
-WIDE = 24
+#: queries per matrix product in :func:`products`: every product is of exactly this many (the last
+#: block padded with zeros), so that a query is computed by the same kernel, in the same place of
+#: its tile, alone and among any others
+QUERY_BLOCK = 8
 
 
 def products(table: np.ndarray, queries: np.ndarray) -> np.ndarray:
-    """``(n, N)`` float64: ``queries (n, D) · table (N, D)ᵀ`` as one matrix product (float32, BLAS gemm).
+    """``(n, N)`` float64: ``queries (n, D) · table (N, D)ᵀ`` as BLAS matrix products (float32 gemm)
+    of :data:`QUERY_BLOCK` queries each.
 
-    A lone query is paired with itself, so that one stream's decision and many streams' decisions
-    take the same kernel: a BLAS matrix product computes each element of the result in the same
-    order whatever the number of queries and either way round (OpenBLAS does;
-    ``tests/test_batched_engine.py`` checks the BLAS installed), while a matrix-vector product
-    (gemv) rounds differently.  So a stream's costs are the same bits alone and among others, and
-    so are its decisions."""
-    n = len(queries)
-    q = queries if n >= 2 else np.concatenate([queries, queries])
-    if n < WIDE:
-        return (table @ q.T).T[:n].astype(np.float64, order="C")
-    return (q @ table.T).astype(np.float64)
+    A stream's costs must be the same bits alone and among others, or its decisions could differ.
+    A BLAS matrix product does not promise that: OpenBLAS's Haswell kernels (AMD Zen 3 runs them)
+    round a query's row differently by where it falls among 16 or more queries and by how many there
+    are, and a matrix–vector product (gemv) differently again.  Products of a fixed block of
+    :data:`QUERY_BLOCK` queries, ``table · blockᵀ``, give each query the same bits at every place in
+    the block whatever the others there (OpenBLAS 0.3.31; on the Intel Xeons where the engine was
+    built any number of queries did); ``tests/test_batched_engine.py`` checks the BLAS installed.
+    So a lone decision is a block of one query and seven zeros."""
+    q = np.ascontiguousarray(queries, dtype=np.float32)
+    n, width = len(q), QUERY_BLOCK
+    out = np.empty((n, len(table)))
+    for a in range(0, n, width):
+        block = q[a:a + width]
+        if len(block) < width:
+            block = np.concatenate([block, np.zeros((width - len(block), q.shape[1]), np.float32)])
+        out[a:a + width] = (table @ block.T).T[:n - a]
+    return out
 
 
 class Library:
