@@ -15,6 +15,7 @@ import asyncio
 import numpy as np
 import pytest
 import soundfile as sf
+from threadpoolctl import threadpool_limits
 
 from headmotion.live.core import FrameBatch, HeadMotionCore, UtteranceEnd
 from headmotion.live.engine import LiveEngine, run_together
@@ -42,7 +43,7 @@ def voices():
 def test_blas_products_do_not_depend_on_the_other_queries(stream_model):
     """The property the engine's exactness rests on: a query's row of :func:`products` is the same
     bits alone and among any others, at any place (the products are of fixed blocks of queries;
-    a BLAS product of a varying number rounds differently on some CPUs)."""
+    a BLAS product of a varying number, or split between threads, rounds differently on some CPUs)."""
     lib = stream_model.library_
     rng = np.random.default_rng(0)
     for name in ("S", "P", "V", "G"):
@@ -57,6 +58,10 @@ def test_blas_products_do_not_depend_on_the_other_queries(stream_model):
             others = rng.standard_normal((23, table.shape[1])).astype(np.float32)
             mixed = np.insert(others, 3 + 7 * k, q[5], axis=0)
             assert np.array_equal(products(table, mixed)[3 + 7 * k], whole[5]), (name, k)
+        for threads in (1, 2):  # and whatever the process's BLAS threads (predict runs on one)
+            with threadpool_limits(limits=threads, user_api="blas"):
+                assert np.array_equal(products(table, q), whole), (name, threads)
+                assert np.array_equal(products(table, q[5:6])[0], whole[5]), (name, threads)
 
 
 def test_costs_many_rows_are_the_costs_of_each_query_alone(stream_model):

@@ -160,28 +160,37 @@ class Query:
 #: block padded with zeros), so that a query is computed by the same kernel, in the same place of
 #: its tile, alone and among any others
 QUERY_BLOCK = 8
+#: library frames per matrix product in :func:`products`: few enough that OpenBLAS computes each
+#: product on one thread (it splits one of more than 2¹⁸ multiply-adds between threads, which rounds
+#: differently), so the costs are the same bits whatever the process's BLAS threads
+ROW_BLOCK = 768
 
 
 def products(table: np.ndarray, queries: np.ndarray) -> np.ndarray:
     """``(n, N)`` float64: ``queries (n, D) · table (N, D)ᵀ`` as BLAS matrix products (float32 gemm)
-    of :data:`QUERY_BLOCK` queries each.
+    of :data:`QUERY_BLOCK` queries by :data:`ROW_BLOCK` library frames each.
 
-    A stream's costs must be the same bits alone and among others, or its decisions could differ.
-    A BLAS matrix product does not promise that: OpenBLAS's Haswell kernels (AMD Zen 3 runs them)
-    round a query's row differently by where it falls among 16 or more queries and by how many there
-    are, and a matrix–vector product (gemv) differently again.  Products of a fixed block of
-    :data:`QUERY_BLOCK` queries, ``table · blockᵀ``, give each query the same bits at every place in
-    the block whatever the others there (OpenBLAS 0.3.31; on the Intel Xeons where the engine was
-    built any number of queries did); ``tests/test_batched_engine.py`` checks the BLAS installed.
-    So a lone decision is a block of one query and seven zeros."""
+    A stream's costs must be the same bits alone and among others, and as ``predict`` makes them,
+    or its decisions could differ.  A BLAS matrix product does not promise that: OpenBLAS's Haswell
+    kernels (AMD Zen 3 runs them) round a query's row differently by where it falls among 16 or
+    more queries and by how many there are, a matrix–vector product (gemv) differently again, and
+    a product split between two threads differently from one on one.  Products of fixed blocks,
+    ``table rows · blockᵀ``, give each query the same bits at every place in the block whatever the
+    others and whatever the threads there (OpenBLAS 0.3.31; on the Intel Xeons where the engine
+    was built any number of queries did); ``tests/test_batched_engine.py`` checks the BLAS
+    installed.  So a lone decision is a block of one query and seven zeros."""
     q = np.ascontiguousarray(queries, dtype=np.float32)
-    n, width = len(q), QUERY_BLOCK
-    out = np.empty((n, len(table)))
+    n, width, N = len(q), QUERY_BLOCK, len(table)
+    out = np.empty((n, N))
+    part = np.empty((N, width), np.float32)
     for a in range(0, n, width):
         block = q[a:a + width]
         if len(block) < width:
             block = np.concatenate([block, np.zeros((width - len(block), q.shape[1]), np.float32)])
-        out[a:a + width] = (table @ block.T).T[:n - a]
+        bt = block.T
+        for r in range(0, N, ROW_BLOCK):
+            np.matmul(table[r:r + ROW_BLOCK], bt, out=part[r:r + ROW_BLOCK])
+        out[a:a + width] = part.T[:n - a]
     return out
 
 
