@@ -59,8 +59,6 @@ def run(model, own, heard, sr: int, chunk: int, half: int):
 def paired(model, speech, other, sr: int, repeats: int) -> None:
     """Process CPU per 10 ms chunk of a stream speaking alone and of one hearing ``other`` with each
     reader, the three pushed in turn."""
-    import time
-
     from threadpoolctl import threadpool_limits
 
     import headmotion.listener.head as head

@@ -91,7 +91,8 @@ def _retrieved(fut: asyncio.Future) -> None:
 @dataclass
 class EngineStats:
     """What an engine has done: ticks run, decisions answered, the largest tick (asks: decisions
-    and pitch reads), pitch reads answered and the ticks that made a decision."""
+    and pitch reads), pitch reads answered in ticks (not those read at once while no tick was due)
+    and the ticks that made a decision."""
 
     ticks: int = 0
     decisions: int = 0
@@ -155,7 +156,7 @@ class LiveEngine:
         while pending and self._tick is None and is_read(pending[0][1]):
             # a pitch read while no tick is due (no other stream waits): read at once, in the
             # caller's task (the same bits as in a tick), so a lone stream never waits for one
-            s, ask, k = pending.pop()
+            s, ask, k = pending.pop(0)
             _advance(s, answer_alone(ask), k, out, pending)
         if not pending:  # no decision due: done at once, in the caller's task
             value = out[0]

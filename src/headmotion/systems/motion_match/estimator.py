@@ -272,7 +272,7 @@ class MotionMatch(Synthesizer):
             motions = [clean_clips(m, s, float(self.lowpass)) for m, s in
                        zip(motions, np.split(self.lib_starts_, np.cumsum([len(m) for m in motions])[:-1]))]
         self.lib_motion_ = np.concatenate(motions)
-        self.lib_feats_ = ((allf - self.feat_mean_) / self.feat_std_).astype(np.float32)
+        self.lib_feats_ = self.standardised(allf)
         self.lib_lengths_ = np.array([len(m) for m in motions], dtype=np.int64)
         self.mean_pose_ = mean_pose_of([r.motion.rotvec for r in recs])
         # f0e-live: the features analyse (and the stream takes) audio at the analysis rate
@@ -395,12 +395,18 @@ class MotionMatch(Synthesizer):
         pyr = np.radians(x) + self.mean_pose_
         return Motion(pitch_yaw_roll_to_rotvec(pyr[:, 0], pyr[:, 1], pyr[:, 2]), FPS)
 
+    def standardised(self, raw: np.ndarray) -> np.ndarray:
+        """Raw prosody columns (:meth:`_prosody`'s, or a stream's rows of them) as the library
+        matches them: rounded to float32 first, then standardised, as float32 — the same bits
+        offline and on a stream, whatever precision the extractor gave."""
+        return ((np.asarray(raw, dtype=np.float32) - self.feat_mean_) / self.feat_std_).astype(np.float32)
+
     def _predict(self, audio: Audio, *, seed: int) -> Motion:
         n = _n_frames(len(audio.samples), audio.sample_rate, FPS)
         if n == 0:
             return Motion(np.zeros((0, 3)), FPS)
-        f = ((self._prosody(audio, n) - self.feat_mean_) / self.feat_std_).astype(np.float32)
-        with inference_threads(1):  # the search is matrix-vector products: fastest on one BLAS thread
+        f = self.standardised(self._prosody(audio, n))
+        with inference_threads(1):  # the goals' small products: fastest on one BLAS thread
             return self._degrees_to_motion(self.generate(f, seed))
 
     def _stream(self, *, seed: int) -> "MotionMatchStream | WindowStream":

@@ -54,7 +54,7 @@ class MotionMatchStream:
         out = np.zeros((len(raw), 3))
         n = 0
         for row in raw:
-            f = ((row[self.cols].astype(np.float32) - m.feat_mean_) / m.feat_std_).astype(np.float32)  # as predict: float32 prosody
+            f = m.standardised(row[self.cols])
             self.past = np.concatenate([self.past, f[None]])[-self.back:]
             self.rows += 1
             if self.rows <= self.ahead:  # frame 0's decision reads this far ahead
@@ -122,7 +122,7 @@ class WindowStream:
     def _add(self, raw: np.ndarray) -> None:
         if len(raw):
             m = self.m
-            f = ((np.asarray(raw)[:, self.cols].astype(np.float32) - m.feat_mean_) / m.feat_std_).astype(np.float32)
+            f = m.standardised(np.asarray(raw)[:, self.cols])
             self.rows = np.concatenate([self.rows, f])
             self.raw_last = raw[-1]
 
