@@ -202,6 +202,33 @@ def test_the_listening_head_nods_while_the_other_speaks_and_never_jumps():
     np.testing.assert_array_equal(none.rotvec, base.rotvec)
 
 
+def test_the_waiting_heads_slow_sways_are_calmed_while_it_listens():
+    """A waiting head that sways 5° up and down once every 2 s (the kind of sway the ruler reads as
+    a nod) keeps at most a fifth of it while the other speaks: the calm is about a slow course that
+    does not follow sways this slow.  Its yaw is left as it was."""
+    from headmotion.listener.head import ListeningLayer
+    from headmotion.synthesis import load_model
+
+    model = load_model("stream")
+    own, heard, (b0, b1) = _conversation()
+    fps = model.frame_rate
+    t = np.arange(int(len(heard.samples) / 16000 * fps)) / fps
+    sway = np.radians(5.0) * np.sin(2 * np.pi * 0.5 * t)
+    rv = np.stack([sway, 0.5 * sway, np.zeros_like(t)], axis=1)
+    layer = ListeningLayer(model, fps=fps, speech_rate=16000, heard_rate=16000, seed=1)
+    layer.hear(heard.samples)
+    layer.speech(np.zeros(len(heard.samples), np.float32))  # this head is silent throughout
+    out = np.asarray(layer.apply(rv, 0)).reshape(-1, 3)
+    span = np.zeros(len(t), bool)
+    span[int((b0 + 2.0) * fps):int(b1 * fps)] = True  # listening at full weight
+    for a, b in layer.nod_spans:
+        span[max(0, a - 5):b + 5] = False
+    assert span.sum() > 4 * fps
+    wave = lambda x: x[span] - np.convolve(x, np.ones(50) / 50, mode="same")[span]  # about a 2 s mean
+    assert np.ptp(wave(out[:, 0])) < 0.2 * np.ptp(wave(rv[:, 0]))
+    np.testing.assert_allclose(np.ptp(wave(out[:, 1])), np.ptp(wave(rv[:, 1])), rtol=0.1)
+
+
 def test_the_stream_hears_as_the_offline_head_does():
     from headmotion.synthesis import open_stream, synthesize
 

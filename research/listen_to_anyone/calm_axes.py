@@ -3,12 +3,13 @@
 
 The listening ruler (``headmotion evaluate-listening``'s measures: nods read from the output motion,
 cues read by Praat, hits against circularly shifted nods) on one set of conversations, for each
-variant of CALM given as ``NAME=P,Y,R``; one line per variant, voices and condition: nods per minute
+variant of CALM given as ``NAME=P,Y,R`` (``NAME=P,Y,R@TAU`` sets the slow course's time constant
+``CALM_TAU_S`` too); one line per variant, voices and condition: nods per minute
 of heard speech, the share of nods after a cue against the shifted nods', p per seed, and the head's
 speed in the other's turns (°/s).
 
     python research/listen_to_anyone/calm_axes.py --corpus ~/.cache/headmotion/corpus/talking_video \\
-        --shared ../shared/data --set choice -m default --seeds 1-3 now=0.8,0.8,0.8 pitch=0.95,0.6,0.6
+        --shared ../shared/data --set choice -m default --seeds 1-3 now=0.8,0.8,0.8 pitch=0.95,0.6,0.6 tau3=0.8,0,0@3
 """
 
 from __future__ import annotations
@@ -25,7 +26,8 @@ def main(argv=None) -> int:
     from headmotion.synthesis import load_model
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("variants", nargs="+", help="NAME=PITCH,YAW,ROLL (shares of the movement calmed)")
+    ap.add_argument("variants", nargs="+", help="NAME=PITCH,YAW,ROLL[@TAU] (shares of the movement calmed; "
+                    "the slow course's time constant in seconds)")
     ap.add_argument("--corpus", type=Path)
     ap.add_argument("--shared", type=Path)
     ap.add_argument("--set", default="choice")
@@ -40,9 +42,12 @@ def main(argv=None) -> int:
     model, seeds = load_model(a.model), parse_seeds(a.seeds)
     print("| variant | voices | condition | nods/min | hits vs shifted | p per seed | speed °/s |")
     print("|---|---|---|---|---|---|---|")
+    tau0 = head.CALM_TAU_S
     for spec in a.variants:
         name, values = spec.split("=")
+        values, _, tau = values.partition("@")
         head.CALM = tuple(float(v) for v in values.split(","))
+        head.CALM_TAU_S = float(tau) if tau else tau0
         runs = [run_conversation(c, model, seeds=seeds, levels=False) for c in convs]
         for r in group_rows(runs):
             res = r.result

@@ -63,8 +63,10 @@ PENDING_S = 1.0          # audio held for analysis is analysed once this much ha
 #: out, per axis (pitch, yaw, roll): of the pitch, so that the waiting head's sways do not read as
 #: nods and the nods stand out; not of the turns and tilts, which no one reads as a nod and which
 #: keep the listening head as lively as people in their pauses
-CALM = (0.8, 0.0, 0.0)
-CALM_TAU_S = 1.0         # the slow course: a one-pole low-pass of this time constant, from where listening begins
+CALM = (0.9, 0.0, 0.0)
+#: the slow course: a one-pole low-pass of this time constant, from where listening begins; long
+#: enough that the waiting head's slow sways (a second or two each) are calmed too, not kept in it
+CALM_TAU_S = 6.0
 #: a recorded nod shallower than this (degrees of pitch) is scaled up to it, one deeper scaled down
 NOD_MIN_DEG, NOD_MAX_DEG = 2.5, 5.0
 #: the recorded nods a listener makes: those at least this long (a speaker's quick nods do not read
