@@ -522,3 +522,20 @@ def test_cheapest_are_the_k_smallest_in_cost_then_library_order():
     cost = np.full(1000, np.inf)
     cost[[7, 500, 999]] = [2.0, 1.0, 2.0]  # fewer finite costs than every STRIDE-th entry shows
     np.testing.assert_array_equal(cheapest(cost, 3), [500, 7, 999])
+
+
+def test_the_librarys_percentiles_are_numpys_bit_for_bit_without_importing_numpy_ma():
+    import subprocess
+    import sys
+
+    from headmotion.systems.motion_match.library import percentiles
+
+    rng = np.random.default_rng(0)
+    for n in (1, 2, 3, 5, 100, 101, 21014):
+        for x in (rng.standard_normal((n, 3)) * 7.0, np.round(rng.standard_normal((n, 3)), 1)):
+            for qs in ((1.0, 99.0), (0.0, 100.0), (50.0,), (12.5, 99.9)):
+                np.testing.assert_array_equal(percentiles(x, qs), np.percentile(x, qs, axis=0))
+    code = ("import sys, numpy as np; from headmotion.systems.motion_match.library import percentiles; "
+            "percentiles(np.arange(30.0).reshape(10, 3), (1.0, 99.0)); print('numpy.ma' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
