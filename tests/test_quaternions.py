@@ -53,3 +53,21 @@ def test_euler_conversions_equal_scipy(order):
 def test_bad_order_is_an_error():
     with pytest.raises(ValueError, match="Euler order"):
         Q.rotvec_to_euler(np.zeros((1, 3)), "xYz")
+
+
+def test_the_heads_own_order_written_out_gives_the_general_steps_bits():
+    """``"YXZ"`` (yaw, pitch, roll) goes through its written-out functions, which must give the
+    bits of the general steps, including at gimbal lock, tiny angles and angles that wrap."""
+    rv = _rotvecs()
+    np.testing.assert_array_equal(Q.rotvec_to_yxz(rv), Q.quat_to_euler(Q.rotvec_to_quat(rv), "YXZ"))
+    rng = np.random.default_rng(1)
+    angles = np.concatenate([rng.uniform(-3.0, 3.0, (2000, 3)), 1e-5 * rng.standard_normal((20, 3)),
+                             [[0.3, np.pi / 2, 0.2], [0.3, -np.pi / 2, 0.2], [0.1, np.pi / 2 - 1e-8, 0.4],
+                              [0.0, 0.0, 0.0], [3.1, 0.2, -3.1]]])
+    general = Q.quat_to_rotvec(Q.euler_to_quat("YXZ", angles))
+    np.testing.assert_array_equal(Q.yxz_to_rotvec(angles), general)
+    np.testing.assert_array_equal(Q.euler_to_rotvec(angles, "YXZ"), general)
+    for k in (0, 1, 2, len(angles) - 1):  # one frame at a time, as a stream converts them
+        np.testing.assert_array_equal(Q.yxz_to_rotvec(angles[k:k + 1]), general[k:k + 1])
+        np.testing.assert_array_equal(Q.rotvec_to_yxz(general[k:k + 1]),
+                                      Q.quat_to_euler(Q.rotvec_to_quat(general[k:k + 1]), "YXZ"))
