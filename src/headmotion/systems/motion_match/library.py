@@ -157,39 +157,46 @@ class Query:
 
 
 #: queries per matrix product in :func:`products`: every product is of exactly this many (the last
-#: block padded with zeros), so that a query is computed by the same kernel, in the same place of
-#: its tile, alone and among any others
+#: block padded with zeros to the fewest of :data:`QUERY_WIDTHS` that hold it), so that a query is
+#: computed by the same kernel, in the same place of its tile, alone and among any others
 QUERY_BLOCK = 8
-#: library frames per matrix product in :func:`products`: few enough that OpenBLAS computes each
-#: product on one thread (it splits one of more than 2¹⁸ multiply-adds between threads, which rounds
-#: differently), so the costs are the same bits whatever the process's BLAS threads
+#: the widths a block of queries may have: a lone decision is a block of 2 (the query and a row of
+#: zeros), a quarter of the arithmetic of a block of 8, with the same bits (a block of 1 is a
+#: matrix–vector product, which rounds differently)
+QUERY_WIDTHS = (2, 4, 8)
+#: library frames per matrix product of a block of :data:`QUERY_BLOCK` queries (a narrower block
+#: takes proportionally more): few enough that OpenBLAS computes each product on one thread (it
+#: splits one of more than 2¹⁸ multiply-adds between threads, which rounds differently), so the
+#: costs are the same bits whatever the process's BLAS threads
 ROW_BLOCK = 768
 
 
 def products(table: np.ndarray, queries: np.ndarray) -> np.ndarray:
     """``(n, N)`` float64: ``queries (n, D) · table (N, D)ᵀ`` as BLAS matrix products (float32 gemm)
-    of :data:`QUERY_BLOCK` queries by :data:`ROW_BLOCK` library frames each.
+    of blocks of :data:`QUERY_BLOCK` queries (the last of 2, 4 or 8) by at most
+    ``ROW_BLOCK · QUERY_BLOCK / width`` library frames each.
 
     A stream's costs must be the same bits alone and among others, and as ``predict`` makes them,
     or its decisions could differ.  A BLAS matrix product does not promise that: OpenBLAS's Haswell
     kernels (AMD Zen 3 runs them) round a query's row differently by where it falls among 16 or
     more queries and by how many there are, a matrix–vector product (gemv) differently again, and
-    a product split between two threads differently from one on one.  Products of fixed blocks,
-    ``table rows · blockᵀ``, give each query the same bits at every place in the block whatever the
-    others and whatever the threads there (OpenBLAS 0.3.31; on the Intel Xeons where the engine
-    was built any number of queries did); ``tests/test_batched_engine.py`` checks the BLAS
-    installed.  So a lone decision is a block of one query and seven zeros."""
+    a product split between two threads differently from one on one.  Products of blocks of 2, 4
+    or 8 queries, ``table rows · blockᵀ``, give each query the same bits at every place in the block,
+    whatever the block's width, the others and the threads there (OpenBLAS 0.3.31; on the Intel
+    Xeons where the engine was built any number of queries did); ``tests/test_batched_engine.py``
+    checks the BLAS installed.  So a lone decision is a block of one query and a row of zeros."""
     q = np.ascontiguousarray(queries, dtype=np.float32)
-    n, width, N = len(q), QUERY_BLOCK, len(table)
+    n, N = len(q), len(table)
     out = np.empty((n, N))
-    part = np.empty((N, width), np.float32)
-    for a in range(0, n, width):
-        block = q[a:a + width]
+    for a in range(0, n, QUERY_BLOCK):
+        block = q[a:a + QUERY_BLOCK]
+        width = next(w for w in QUERY_WIDTHS if w >= len(block))
         if len(block) < width:
             block = np.concatenate([block, np.zeros((width - len(block), q.shape[1]), np.float32)])
-        bt = block.T
-        for r in range(0, N, ROW_BLOCK):
-            np.matmul(table[r:r + ROW_BLOCK], bt, out=part[r:r + ROW_BLOCK])
+        bt, rows = block.T, ROW_BLOCK * QUERY_BLOCK // width
+        part = np.empty((N, width), np.float32)
+        for r in range(0, N, rows):
+            np.matmul(table[r:r + rows], bt, out=part[r:r + rows])
         out[a:a + width] = part.T[:n - a]
     return out
 
