@@ -27,7 +27,8 @@ sys.path.insert(0, str(HERE))
 
 #: the parts of the path the summary counts, by function names in the call tree
 PARTS = (("Praat pitch (to_pitch_ac)", ("to_pitch_ac",)),
-         ("Praat reader, all (Praat's call included)", ("StreamingPraatF0e.push", "PraatPathF0e.push")),
+         ("Praat reader, all (Praat's call included)", ("StreamingPraatF0e.push", "PraatPathF0e.push",
+                                                         "PraatPathF0e.push_steps", "answer_many")),
          ("the live core's push, in the stream's task", ("HeadMotionCore.push", "HeadMotionCore.push_steps")),
          ("the engine's ticks (decisions answered)", ("LiveEngine._run_tick",)),
          ("the stream's session (all its work)", ("Session.run",)),
