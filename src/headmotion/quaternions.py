@@ -135,7 +135,7 @@ def euler_to_rotvec(angles: np.ndarray, order: str) -> np.ndarray:
 # 100–220 µs a call there, mostly numpy's per-call overhead on tiny arrays.  The two functions below
 # are those steps written out for this order: the same operations on the same values in the same
 # order (the products with the elementary quaternions' zeros, which add or subtract exact zeros,
-# left out), so the same bits, at a fifth of the cost (``tests/test_quaternions.py``).
+# left out), so the same bits, at a third to a half of the cost (``tests/test_quaternions.py``).
 
 def yxz_to_rotvec(angles: np.ndarray) -> np.ndarray:
     """Intrinsic ``"YXZ"`` angles ``(T, 3)`` (yaw, pitch, roll; radians) → rotation vectors:

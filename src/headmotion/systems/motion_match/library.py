@@ -156,9 +156,9 @@ class Query:
     pause_weight: float | None = None
 
 
-#: queries per matrix product in :func:`products`: every product is of exactly this many (the last
-#: block padded with zeros to the fewest of :data:`QUERY_WIDTHS` that hold it), so that a query is
-#: computed by the same kernel, in the same place of its tile, alone and among any others
+#: queries per matrix product in :func:`products`: blocks of this many, the last padded with zeros
+#: to the fewest of :data:`QUERY_WIDTHS` that hold it, so that a query is computed by the same
+#: kernel, in the same place of its tile, alone and among any others
 QUERY_BLOCK = 8
 #: the widths a block of queries may have: a lone decision is a block of 2 (the query and a row of
 #: zeros), a quarter of the arithmetic of a block of 8, with the same bits (a block of 1 is a
