@@ -21,24 +21,34 @@ _AXIS = {"x": 0, "y": 1, "z": 2}
 def rotvec_to_quat(rotvec: np.ndarray) -> np.ndarray:
     """``(T, 3)`` rotation vectors → ``(T, 4)`` unit quaternions ``(x, y, z, w)``."""
     r = np.asarray(rotvec, dtype=np.float64).reshape(-1, 3)
-    angle = np.linalg.norm(r, axis=1)
-    a2 = angle * angle
+    angle = np.sqrt(np.add.reduce(r * r, axis=1))  # np.linalg.norm(r, axis=1), without its call overhead
     small = angle <= 1e-3
     with np.errstate(invalid="ignore", divide="ignore"):
-        scale = np.where(small, 0.5 - a2 / 48.0 + a2 * a2 / 3840.0, np.sin(0.5 * angle) / np.where(small, 1.0, angle))
+        if small.any():  # (the series only where needed: a live head converts a frame or two at a time)
+            a2 = angle * angle
+            scale = np.where(small, 0.5 - a2 / 48.0 + a2 * a2 / 3840.0,
+                             np.sin(0.5 * angle) / np.where(small, 1.0, angle))
+        else:
+            scale = np.sin(0.5 * angle) / angle
     return np.column_stack([scale[:, None] * r, np.cos(0.5 * angle)])
 
 
 def quat_to_rotvec(quat: np.ndarray) -> np.ndarray:
     """``(T, 4)`` quaternions ``(x, y, z, w)`` → ``(T, 3)`` rotation vectors (angle in [0, π])."""
     q = np.asarray(quat, dtype=np.float64).reshape(-1, 4)
-    q = np.where(q[:, 3:4] < 0, -q, q)
-    angle = 2.0 * np.arctan2(np.linalg.norm(q[:, :3], axis=1), q[:, 3])
-    a2 = angle * angle
+    neg = q[:, 3] < 0
+    if neg.any():
+        q = np.where(neg[:, None], -q, q)
+    v = q[:, :3]
+    angle = 2.0 * np.arctan2(np.sqrt(np.add.reduce(v * v, axis=1)), q[:, 3])
     small = angle <= 1e-3
-    scale = np.where(small, 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0,
-                     angle / np.sin(0.5 * np.where(small, 1.0, angle)))
-    return scale[:, None] * q[:, :3]
+    if small.any():
+        a2 = angle * angle
+        scale = np.where(small, 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0,
+                         angle / np.sin(0.5 * np.where(small, 1.0, angle)))
+    else:
+        scale = angle / np.sin(0.5 * angle)
+    return scale[:, None] * v
 
 
 def compose(p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -131,15 +141,15 @@ def euler_to_rotvec(angles: np.ndarray, order: str) -> np.ndarray:
 
 
 # The head's own order, intrinsic "YXZ" (yaw, pitch, roll: headmotion.rotations), is converted for
-# every frame a live head sends, one or two frames at a time; the general steps above cost
+# every frame a live head sends, one or two frames at a time; the general Euler steps above cost
 # 100–220 µs a call there, mostly numpy's per-call overhead on tiny arrays.  The two functions below
-# are those steps written out for this order: the same operations on the same values in the same
+# write the Euler steps out for this order: the same operations on the same values in the same
 # order (the products with the elementary quaternions' zeros, which add or subtract exact zeros,
 # left out), so the same bits, at a third to a half of the cost (``tests/test_quaternions.py``).
 
 def yxz_to_rotvec(angles: np.ndarray) -> np.ndarray:
     """Intrinsic ``"YXZ"`` angles ``(T, 3)`` (yaw, pitch, roll; radians) → rotation vectors:
-    :func:`euler_to_quat` then :func:`quat_to_rotvec`, written out."""
+    :func:`euler_to_quat`, written out for this order, then :func:`quat_to_rotvec`."""
     a = np.asarray(angles, dtype=np.float64).reshape(-1, 3)
     h = 0.5 * a
     s, c = np.sin(h), np.cos(h)
@@ -151,36 +161,15 @@ def yxz_to_rotvec(angles: np.ndarray) -> np.ndarray:
     q[:, 1] = cz * y1 - x1 * sz
     q[:, 2] = w1 * sz + cz * z1
     q[:, 3] = w1 * cz - z1 * sz
-    # quat_to_rotvec
-    neg = q[:, 3] < 0
-    if neg.any():
-        q[neg] = -q[neg]
-    x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    angle = 2.0 * np.arctan2(np.sqrt(x * x + y * y + z * z), w)
-    small = angle <= 1e-3
-    if small.any():
-        a2 = angle * angle
-        scale = np.where(small, 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0,
-                         angle / np.sin(0.5 * np.where(small, 1.0, angle)))
-    else:
-        scale = angle / np.sin(0.5 * angle)
-    return scale[:, None] * q[:, :3]
+    return quat_to_rotvec(q)
 
 
 def rotvec_to_yxz(rotvec: np.ndarray) -> np.ndarray:
     """Rotation vectors ``(T, 3)`` → intrinsic ``"YXZ"`` angles ``(T, 3)`` (yaw, pitch, roll;
-    radians): :func:`rotvec_to_quat` then :func:`quat_to_euler`, written out for this order."""
-    r = np.asarray(rotvec, dtype=np.float64).reshape(-1, 3)
-    x, y, z = r[:, 0], r[:, 1], r[:, 2]
-    angle = np.sqrt(x * x + y * y + z * z)
-    small = angle <= 1e-3
-    half = 0.5 * angle
-    if small.any():
-        a2 = angle * angle
-        scale = np.where(small, 0.5 - a2 / 48.0 + a2 * a2 / 3840.0, np.sin(half) / np.where(small, 1.0, angle))
-    else:
-        scale = np.sin(half) / angle
-    qx, qy, qz, qw = scale * x, scale * y, scale * z, np.cos(half)
+    radians): :func:`rotvec_to_quat` then :func:`quat_to_euler`, the latter written out for this
+    order."""
+    q = rotvec_to_quat(rotvec)
+    qx, qy, qz, qw = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     # quat_to_euler for "YXZ": the reversed sequence z, x, y (i, j, k), sign +1
     a, b, c, d = qw - qx, qz + qy, qx + qw, qy - qz
     mid = 2.0 * np.arctan2(np.hypot(c, d), np.hypot(a, b))
@@ -189,7 +178,7 @@ def rotvec_to_yxz(rotvec: np.ndarray) -> np.ndarray:
     lock0 = np.abs(mid) <= eps
     lockpi = np.abs(mid - np.pi) <= eps
     lock = lock0 | lockpi
-    out = np.empty((len(r), 3))
+    out = np.empty((len(q), 3))
     if lock.any():
         locked = np.where(lock0, 2.0 * half_sum, 2.0 * half_diff)
         out[:, 0] = np.where(lock, locked, half_sum + half_diff)

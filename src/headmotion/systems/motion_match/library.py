@@ -188,13 +188,16 @@ def products(table: np.ndarray, queries: np.ndarray) -> np.ndarray:
     q = np.ascontiguousarray(queries, dtype=np.float32)
     n, N = len(q), len(table)
     out = np.empty((n, N))
+    parts = {}  # a product's output per width, made once a call
     for a in range(0, n, QUERY_BLOCK):
         block = q[a:a + QUERY_BLOCK]
         width = next(w for w in QUERY_WIDTHS if w >= len(block))
         if len(block) < width:
             block = np.concatenate([block, np.zeros((width - len(block), q.shape[1]), np.float32)])
         bt, rows = block.T, ROW_BLOCK * QUERY_BLOCK // width
-        part = np.empty((N, width), np.float32)
+        part = parts.get(width)
+        if part is None:
+            part = parts[width] = np.empty((N, width), np.float32)
         for r in range(0, N, rows):
             np.matmul(table[r:r + rows], bt, out=part[r:r + rows])
         out[a:a + width] = part.T[:n - a]
